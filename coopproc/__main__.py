@@ -1,0 +1,3 @@
+from coopproc.cli import main
+
+main()

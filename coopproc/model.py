@@ -1,0 +1,278 @@
+"""Typed containers passed between coopproc's layers.
+
+Everything here is in ONE time base (the session's, seconds) and ONE local level frame
+(ENU, metres, at the session origin): readers normalize, stages never convert.
+Containers are frozen; stages return new objects and never mutate their inputs.
+
+Output tables (``Result``) are pandas DataFrames whose columns are fixed by the data
+contract (``shared/design/DATA.md``, mirrored in ``docs/formats.md``); the column tuples
+below are the single source of those names.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+__all__ = [
+    "DI_COLUMNS",
+    "METHODS",
+    "METRICS_COLUMNS",
+    "NLOS_ESTIMATE_COLUMNS",
+    "NLOS_EVENT_COLUMNS",
+    "POSITIONS_COLUMNS",
+    "POSITION_METRICS_COLUMNS",
+    "RANGES_OUT_COLUMNS",
+    "RANGE_COLUMNS",
+    "ROLES",
+    "FloatArray",
+    "Platform",
+    "RangeTable",
+    "Result",
+    "Session",
+    "SessionConfig",
+    "Trajectory",
+    "pair_members",
+    "pair_name",
+]
+
+FloatArray = NDArray[np.float64]
+
+Role = Literal["follower", "leader", "anchor"]
+ROLES: tuple[str, ...] = ("follower", "leader", "anchor")
+TimeBase = Literal["gps_tow", "unix", "relative"]
+
+#: Range-processing methods, in the order tables list them.
+METHODS: tuple[str, ...] = ("observed", "rn", "di")
+
+#: Columns of the in-memory range table (``RangeTable.frame``); extra columns follow.
+RANGE_COLUMNS: tuple[str, ...] = ("time", "pair", "from", "to", "range", "sigma")
+
+# Output tables (DATA.md "Output").
+RANGES_OUT_COLUMNS: tuple[str, ...] = (
+    "time",
+    "pair",
+    "observed",
+    "rn",
+    "di",
+    "reference",
+    "nlos_flag",
+    "nlos_estimate",
+)
+DI_COLUMNS: tuple[str, ...] = ("time", "pair", "di_dr", "di_cp", "di_smoothed", "di_reference")
+NLOS_EVENT_COLUMNS: tuple[str, ...] = ("pair", "method", "start", "end", "epochs", "estimate")
+#: Extension of DATA.md: the NLOS estimate after each step of eq. (11) (paper 000 fig. 10).
+NLOS_ESTIMATE_COLUMNS: tuple[str, ...] = ("pair", "method", "event", "step", "time", "estimate")
+POSITIONS_COLUMNS: tuple[str, ...] = (
+    "time",
+    "platform",
+    "method",
+    "east",
+    "north",
+    "up",
+    "error_h",
+)
+METRICS_COLUMNS: tuple[str, ...] = (
+    "pair",
+    "method",
+    "max",
+    "mean",
+    "rmse",
+    "snr_db",
+    "smoothness",
+    "n",
+)
+POSITION_METRICS_COLUMNS: tuple[str, ...] = ("platform", "method", "max", "mean", "rmse", "n")
+
+
+def pair_name(a: str, b: str) -> str:
+    """The unordered pair of two platform ids, ``A-B`` with the ids in sorted order."""
+    first, second = sorted((a, b))
+    return f"{first}-{second}"
+
+
+def pair_members(pair: str) -> tuple[str, str]:
+    """The two platform ids of a pair name made by :func:`pair_name`.
+
+    Ids may contain ``-``; the split is the one whose halves are in sorted order, which
+    is unique for names made by :func:`pair_name` when ids have no ``-`` and the first
+    such split otherwise.
+    """
+    parts = pair.split("-")
+    for i in range(1, len(parts)):
+        a, b = "-".join(parts[:i]), "-".join(parts[i:])
+        if a <= b:
+            return a, b
+    raise ValueError(f"not a pair name: {pair!r}")
+
+
+@dataclass(frozen=True)
+class Platform:
+    """One moving body (or a fixed anchor) with its own navigation and a UWB unit."""
+
+    id: str
+    role: Role = "follower"
+    #: Position drift, metres per second, 1-sigma (sigma_k of paper 000 eq. (7)); None: default.
+    drift_sigma_mps: float | None = None
+    #: Anchors only: known ENU position, metres.
+    position_enu_m: tuple[float, float, float] | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """Time-indexed positions of one platform in the session frame.
+
+    ``time_s`` is strictly increasing; ``enu_m`` is (n, 3) east, north, up in metres.
+    Optional per-epoch arrays have the same length; ``sigma_enu_m`` is (n, 3) 1-sigma.
+    """
+
+    platform: str
+    time_s: FloatArray
+    enu_m: FloatArray
+    sigma_enu_m: FloatArray | None = None
+    vel_enu_mps: FloatArray | None = None
+    heading_deg: FloatArray | None = None
+    #: Solution quality per epoch where the source has one (RTKLIB Q: 1 fix, 2 float, ...).
+    quality: NDArray[np.int64] | None = None
+    #: The file (or MCAP channel) it was read from, for messages.
+    source: str = ""
+
+    def __len__(self) -> int:
+        return int(self.time_s.shape[0])
+
+    @property
+    def span_s(self) -> tuple[float, float]:
+        """First and last time."""
+        return float(self.time_s[0]), float(self.time_s[-1])
+
+    def interpolate(self, time_s: FloatArray) -> FloatArray:
+        """Positions (m, 3) linearly interpolated at ``time_s``; NaN outside the span."""
+        t = np.asarray(time_s, dtype=np.float64)
+        out = np.empty((t.shape[0], 3), dtype=np.float64)
+        for axis in range(3):
+            out[:, axis] = np.interp(t, self.time_s, self.enu_m[:, axis])
+        outside = (t < self.time_s[0]) | (t > self.time_s[-1])
+        out[outside] = np.nan
+        return out
+
+    def frame(self) -> pd.DataFrame:
+        """The trajectory as a DataFrame with the nav CSV column names."""
+        data: dict[str, FloatArray | NDArray[np.int64]] = {
+            "time": self.time_s,
+            "east": self.enu_m[:, 0],
+            "north": self.enu_m[:, 1],
+            "up": self.enu_m[:, 2],
+        }
+        if self.sigma_enu_m is not None:
+            for i, axis in enumerate(("east", "north", "up")):
+                data[f"sigma_{axis}"] = self.sigma_enu_m[:, i]
+        if self.vel_enu_mps is not None:
+            for i, axis in enumerate(("east", "north", "up")):
+                data[f"vel_{axis}"] = self.vel_enu_mps[:, i]
+        if self.heading_deg is not None:
+            data["heading"] = self.heading_deg
+        if self.quality is not None:
+            data["quality"] = self.quality
+        return pd.DataFrame(data)
+
+
+@dataclass(frozen=True, eq=False)
+class RangeTable:
+    """All UWB ranges of a session.
+
+    ``frame`` has the columns of :data:`RANGE_COLUMNS` (``sigma`` NaN where the file
+    gives none) followed by any extra columns of the input, carried through unchanged.
+    Rows are sorted by time (stable), ``pair`` is :func:`pair_name` of from/to.
+    """
+
+    frame: pd.DataFrame
+    source: str = ""
+
+    @property
+    def extra_columns(self) -> tuple[str, ...]:
+        return tuple(c for c in self.frame.columns if c not in RANGE_COLUMNS)
+
+    @property
+    def pairs(self) -> tuple[str, ...]:
+        """Pairs with at least one range, sorted."""
+        return tuple(sorted(self.frame["pair"].unique()))
+
+    def for_pair(self, pair: str) -> pd.DataFrame:
+        """The rows of one pair, in time order."""
+        return self.frame[self.frame["pair"] == pair]
+
+    def __len__(self) -> int:
+        return len(self.frame)
+
+
+@dataclass(frozen=True)
+class SessionConfig:
+    """What ``session.toml`` says (every key optional; see docs/formats.md)."""
+
+    name: str = ""
+    time_base: TimeBase = "gps_tow"
+    gps_week: int | None = None
+    #: ENU origin (lat deg, lon deg, height m); None: derived as DATA.md says.
+    origin_llh: tuple[float, float, float] | None = None
+    platforms: Mapping[str, Platform] = field(default_factory=dict)
+    #: UWB ranging 1-sigma, metres; None: estimated adaptively.
+    uwb_sigma_m: float | None = None
+    #: RTKLIB Q values accepted as reference (1 = fix).
+    reference_quality: tuple[int, ...] = (1,)
+    #: Other file names: key (``ranges``, ``nav.A``, ``ref.A``, ``mcap``) -> relative path.
+    files: Mapping[str, str] = field(default_factory=dict)
+    #: MCAP topic / field mapping (``[mcap]`` table), as given.
+    mcap: Mapping[str, object] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, eq=False)
+class Session:
+    """One recording, read and validated: the input of every stage."""
+
+    config: SessionConfig
+    #: Every platform that has navigation (or is an anchor), by id.
+    platforms: Mapping[str, Platform]
+    nav: Mapping[str, Trajectory]
+    reference: Mapping[str, Trajectory]
+    ranges: RangeTable
+    #: ENU origin actually used (lat deg, lon deg, height m).
+    origin_llh: tuple[float, float, float]
+    #: Where the session was read from (directory or .mcap file).
+    root: Path
+    #: Every input file read, for run.json hashes.
+    inputs: tuple[Path, ...] = ()
+    #: What the readers decided that a user should know (defaults used, rows sorted, ...).
+    notes: tuple[str, ...] = ()
+
+    @property
+    def name(self) -> str:
+        return self.config.name or self.root.name
+
+    @property
+    def platform_ids(self) -> tuple[str, ...]:
+        return tuple(sorted(self.platforms))
+
+    def moving_platforms(self) -> tuple[str, ...]:
+        """Ids of platforms that are not anchors, sorted."""
+        return tuple(p for p in self.platform_ids if self.platforms[p].role != "anchor")
+
+
+@dataclass(frozen=True, eq=False)
+class Result:
+    """Everything ``coopproc run`` computes; each table maps to one output CSV."""
+
+    ranges: pd.DataFrame  # RANGES_OUT_COLUMNS -> ranges.csv
+    di: pd.DataFrame  # DI_COLUMNS -> di.csv
+    nlos_events: pd.DataFrame  # NLOS_EVENT_COLUMNS -> nlos_events.csv
+    nlos_estimates: pd.DataFrame  # NLOS_ESTIMATE_COLUMNS -> nlos_estimates.csv
+    positions: pd.DataFrame  # POSITIONS_COLUMNS -> positions.csv
+    metrics: pd.DataFrame  # METRICS_COLUMNS -> metrics.csv
+    position_metrics: pd.DataFrame  # POSITION_METRICS_COLUMNS -> position_metrics.csv
+    #: Per-pair facts of the run (sigma used and where it came from, ...), for run.json.
+    facts: Mapping[str, object] = field(default_factory=dict)
