@@ -144,7 +144,8 @@ def describe(cls: type) -> list[tuple[str, Any, str]]:
     rows = []
     for f in dataclasses.fields(cls):
         default: Any = f.default
-        if default is dataclasses.MISSING and f.default_factory is not dataclasses.MISSING:
-            default = f.default_factory()
+        factory: Any = f.default_factory
+        if default is dataclasses.MISSING and factory is not dataclasses.MISSING:
+            default = factory()
         rows.append((f.name, default, str(f.metadata.get("help", ""))))
     return rows
