@@ -1,0 +1,78 @@
+"""``coopproc config``: print the effective run configuration, every key with its help."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import click
+
+__all__ = ["config"]
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, tuple | list):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if value is None:
+        return '"auto"'
+    return repr(value)
+
+
+def _section_lines(name: str, obj: Any) -> list[str]:
+    lines = [f"[{name}]"]
+    subsections = []
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if dataclasses.is_dataclass(value):
+            subsections.append((f"{name}.{f.name}", value))
+            continue
+        help_text = str(f.metadata.get("help", ""))
+        if help_text:
+            lines.append(f"# {help_text}")
+        if value is None:
+            lines.append(f"# {f.name} = (not set: {help_text or 'default'})")
+        else:
+            lines.append(f"{f.name} = {_toml_value(value)}")
+    out = [*lines, ""]
+    for sub_name, sub in subsections:
+        out.extend(_section_lines(sub_name, sub))
+    return out
+
+
+def render_config(cfg: Any) -> str:
+    """The configuration as commented TOML that ``--config`` reads back."""
+    lines: list[str] = []
+    for f in dataclasses.fields(cfg):
+        value = getattr(cfg, f.name)
+        nested = [
+            g for g in dataclasses.fields(value) if dataclasses.is_dataclass(getattr(value, g.name))
+        ]
+        if nested and len(nested) == len(dataclasses.fields(value)):
+            for g in nested:  # a group of sections (e.g. the ranging stage's)
+                lines.extend(_section_lines(g.name, getattr(value, g.name)))
+        else:
+            lines.extend(_section_lines(f.name, value))
+    return "\n".join(lines).rstrip() + "\n"
+
+
+@click.command("config")
+@click.option(
+    "-c",
+    "--config",
+    "config_path",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    help="A run configuration to merge over the defaults.",
+)
+def config(config_path: Path | None) -> None:
+    """Print the effective run configuration as TOML, each key with its help.
+
+    Save it, edit it, and pass it to `coopproc run --config FILE`.
+    """
+    from coopproc.config import load_run_config
+
+    click.echo(render_config(load_run_config(config_path)), nl=False)

@@ -1,0 +1,109 @@
+"""``coopproc run SESSION -o OUT``: readers -> stage chain -> tables, figures, report."""
+
+from __future__ import annotations
+
+import datetime as dt
+import sys
+from pathlib import Path
+
+import click
+
+__all__ = ["run"]
+
+#: The pipeline's steps, for the progress display.
+_STEPS = 6
+
+
+@click.command()
+@click.argument("session", type=click.Path(exists=True, path_type=Path))
+@click.option(
+    "-o",
+    "--output",
+    "out_dir",
+    type=click.Path(path_type=Path),
+    default=Path("out"),
+    show_default=True,
+    help="Output directory (replaced only with --force).",
+)
+@click.option(
+    "-c",
+    "--config",
+    "config_path",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    help="Run configuration TOML (see `coopproc config`).",
+)
+@click.option("--force", is_flag=True, help="Replace an existing output directory.")
+@click.option("--pdf", is_flag=True, help="Also write figures as PDF.")
+@click.option("--svg", is_flag=True, help="Also write figures as SVG.")
+@click.option("--no-figures", is_flag=True, help="Write the tables only (no figures/ or HTML).")
+@click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
+def run(
+    session: Path,
+    out_dir: Path,
+    config_path: Path | None,
+    force: bool,
+    pdf: bool,
+    svg: bool,
+    no_figures: bool,
+    quiet: bool,
+) -> None:
+    """Process a recorded session: clean the ranges, detect and estimate NLOS errors,
+    fuse the positions, and write the tables, figures and report to OUT.
+
+    SESSION is a session directory (nav_<ID>.csv, ranges.csv, ref_<ID>.pos, ...) or a
+    .mcap file; see docs/formats.md.
+    """
+    import dataclasses
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from tqdm import tqdm
+
+    from coopproc.config import load_run_config
+    from coopproc.io import read_session
+    from coopproc.output import write_run
+    from coopproc.pipeline import run_pipeline
+    from coopproc.summary import summarize
+
+    started = dt.datetime.now(dt.UTC)
+    say = (lambda text: None) if quiet else (lambda text: click.echo(text, err=True))
+    config = load_run_config(config_path)
+    if no_figures:
+        config = dataclasses.replace(config, run=dataclasses.replace(config.run, figures=False))
+    data = read_session(session)
+    say(
+        f"session {data.name}: {len(data.platforms)} platforms, "
+        f"{len(data.ranges.pairs)} pairs, {len(data.ranges)} ranges"
+    )
+    for note in data.notes:
+        say(f"note: {note}")
+
+    show_bar = not quiet and sys.stderr.isatty()
+    with tqdm(total=_STEPS, disable=not show_bar, unit="step", leave=False) as bar:
+
+        def progress(label: str) -> None:
+            bar.set_description(label)
+            bar.update(1)
+
+        output = run_pipeline(data, config, progress=progress)
+        progress("writing outputs")
+        for pair, (sigma, source) in sorted(output.sigma.items()):
+            say(f"UWB sigma {pair}: {sigma:.3f} m ({source})")
+        summary = summarize(output)
+        formats = ("png",) + (("pdf",) if pdf else ()) + (("svg",) if svg else ())
+        files = write_run(
+            output,
+            data,
+            config,
+            out_dir,
+            force=force,
+            figure_formats=formats,
+            started=started,
+            summary=summary.facts,
+        )
+    for line in summary.lines:
+        say(line)
+    say(f"tables: {files.out_dir}/ ({len(files.tables)} CSV), figures: {len(files.figures)}")
+    if files.html is not None:
+        say(f"report: {files.html}")

@@ -1,0 +1,153 @@
+"""Write a finished run to its output directory (DATA.md "Output"), atomically.
+
+CSV tables with fixed columns and float format (byte-identical for the same inputs and
+config), ``nlos_scores.csv``, ``figures/``, ``report.html`` and ``run.json``.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+import json
+import platform
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from coopproc import __version__
+from coopproc.config import RunConfig
+from coopproc.model import (
+    DI_COLUMNS,
+    METRICS_COLUMNS,
+    NLOS_ESTIMATE_COLUMNS,
+    NLOS_EVENT_COLUMNS,
+    POSITION_METRICS_COLUMNS,
+    POSITIONS_COLUMNS,
+    RANGES_OUT_COLUMNS,
+    Session,
+)
+from coopproc.outdir import atomic_output_dir, write_csv
+from coopproc.pipeline import PipelineOutput
+from coopproc.report.figures import write_figures
+from coopproc.report.html import write_html
+from coopproc.report.rundir import RunTables
+
+__all__ = ["RunFiles", "run_tables", "sha256_of", "write_run"]
+
+#: (file name, attribute of Result, contract columns) of every table, in writing order.
+TABLES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
+    ("ranges.csv", "ranges", RANGES_OUT_COLUMNS),
+    ("di.csv", "di", DI_COLUMNS),
+    ("nlos_events.csv", "nlos_events", NLOS_EVENT_COLUMNS),
+    ("nlos_estimates.csv", "nlos_estimates", NLOS_ESTIMATE_COLUMNS),
+    ("positions.csv", "positions", POSITIONS_COLUMNS),
+    ("metrics.csv", "metrics", METRICS_COLUMNS),
+    ("position_metrics.csv", "position_metrics", POSITION_METRICS_COLUMNS),
+)
+
+
+@dataclass(frozen=True)
+class RunFiles:
+    """What was written."""
+
+    out_dir: Path
+    tables: tuple[Path, ...]
+    figures: tuple[Path, ...]
+    html: Path | None
+    run_json: Path
+
+
+def sha256_of(path: Path) -> str:
+    """SHA-256 of a file's bytes, hex."""
+    digest = hashlib.sha256()
+    with path.open("rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def run_tables(output: PipelineOutput, info: Mapping[str, Any]) -> RunTables:
+    """The reporters' view of a run, from the in-memory result."""
+    r = output.result
+    return RunTables(
+        ranges=r.ranges,
+        di=r.di,
+        nlos_events=r.nlos_events,
+        nlos_estimates=r.nlos_estimates,
+        positions=r.positions,
+        metrics=r.metrics,
+        position_metrics=r.position_metrics,
+        nlos_scores=output.nlos_scores,
+        info=dict(info),
+    )
+
+
+def write_run(
+    output: PipelineOutput,
+    session: Session,
+    config: RunConfig,
+    out_dir: str | Path,
+    *,
+    force: bool = False,
+    figure_formats: Sequence[str] = ("png",),
+    started: dt.datetime,
+    summary: Mapping[str, Any] | None = None,
+) -> RunFiles:
+    """Write every output of a run into ``out_dir`` (atomically; see coopproc.outdir)."""
+    result = output.result
+    info: dict[str, Any] = {
+        "coopproc_version": __version__,
+        "python": platform.python_version(),
+        "session": {"name": session.name, "path": str(session.root)},
+        "config": config.to_dict(),
+        "inputs": [
+            {"file": _relative(p, session.root), "sha256": sha256_of(p)} for p in session.inputs
+        ],
+        "notes": list(session.notes),
+        "sigma": dict(result.facts.get("sigma", {})),  # type: ignore[call-overload]
+        "timings_s": dict(output.timings_s),
+        "start_time": started.isoformat(timespec="seconds"),
+    }
+    with atomic_output_dir(out_dir, force=force, protect=[session.root, *session.inputs]) as tmp:
+        tables = [
+            write_csv(getattr(result, attr), tmp / name, columns) for name, attr, columns in TABLES
+        ]
+        tables.append(write_csv(output.nlos_scores, tmp / "nlos_scores.csv"))
+        figures: list[Path] = []
+        html = None
+        if config.run.figures:
+            run = run_tables(output, info)
+            figures = write_figures(run, tmp / "figures", formats=figure_formats)
+        finished = dt.datetime.now(dt.UTC)
+        info["duration_s"] = round((finished - started).total_seconds(), 3)
+        info["figures"] = [str(p.relative_to(tmp)) for p in figures]
+        info["summary"] = dict(summary or {})
+        run_json = tmp / "run.json"
+        run_json.write_text(json.dumps(info, indent=2, default=_json_default) + "\n")
+        if config.run.figures:
+            html = write_html(tmp, run_tables(output, info))
+    final = Path(out_dir)
+    return RunFiles(
+        out_dir=final,
+        tables=tuple(final / p.name for p in tables),
+        figures=tuple(final / p.relative_to(tmp) for p in figures),
+        html=None if html is None else final / html.name,
+        run_json=final / "run.json",
+    )
+
+
+def _relative(path: Path, root: Path) -> str:
+    base = root if root.is_dir() else root.parent
+    try:
+        return str(path.resolve().relative_to(base.resolve()))
+    except ValueError:
+        return str(path)
+
+
+def _json_default(value: Any) -> Any:
+    if hasattr(value, "item"):
+        return value.item()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"not JSON serializable: {type(value).__name__}")

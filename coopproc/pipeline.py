@@ -1,0 +1,201 @@
+"""The stage chain of ``coopproc run`` (paper 000's processing, figure 5).
+
+1. cooperative fusion with the observed ranges (the CP solution, paper 000 sec. 3.1.1);
+2. DI smoothing, distance filtering, NLOS detection and estimation, DI- and RN-Based
+   (paper 000 sec. 3.1-3.3), fed with the CP solution of step 1 (two passes: the whole
+   session is fused first, then the ranges are processed; the CP increments are those of
+   the causal forward filter unless ``[run] cp_solution = "smoothed"``);
+3. fusion again with each processed range set (``rn``, ``di``);
+4. positions of every method against the reference, and the statistics of Tables 2 and 3.
+
+The pipeline reads no files and prints nothing; ``progress`` is called with a short label
+before each step so that the CLI can show where it is.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+
+from coopproc.config import RunConfig
+from coopproc.model import (
+    POSITIONS_COLUMNS,
+    FloatArray,
+    Result,
+    Session,
+    Trajectory,
+    pair_members,
+)
+from coopproc.report.metrics import distance_metrics, nlos_scores, position_metrics
+from coopproc.stages.fusion import FusionOutput, fuse
+from coopproc.stages.ranging import run_ranging
+
+__all__ = ["PipelineOutput", "reference_at", "run_pipeline"]
+
+#: Processed range methods that are fused again (the observed fusion is step 1).
+PROCESSED_METHODS: tuple[str, ...] = ("rn", "di")
+
+
+@dataclass(frozen=True, eq=False)
+class PipelineOutput:
+    """The result tables plus what run.json and the closing summary report."""
+
+    result: Result
+    nlos_scores: pd.DataFrame
+    timings_s: Mapping[str, float]
+    sigma: Mapping[str, tuple[float, str]]
+
+
+def reference_at(traj: Trajectory, time_s: FloatArray, max_gap_s: float) -> FloatArray:
+    """Reference positions (m, 3) at ``time_s``; NaN outside the span or inside a gap.
+
+    A gap is two consecutive reference epochs more than ``max_gap_s`` apart (epochs
+    dropped by the RTKLIB Q filter leave such gaps): nothing is invented across it.
+    """
+    pos = traj.interpolate(time_s)
+    idx = np.searchsorted(traj.time_s, time_s, side="right")
+    idx = np.clip(idx, 1, len(traj) - 1)
+    gap = traj.time_s[idx] - traj.time_s[idx - 1]
+    exact = np.isin(time_s, traj.time_s)
+    pos[(gap > max_gap_s) & ~exact] = np.nan
+    return pos
+
+
+def _ranges_for(method_table: pd.DataFrame, method: str, sigma: pd.Series) -> pd.DataFrame:
+    """The processed distances of one method in the shape :func:`fuse` takes."""
+    rows = method_table[["time", "pair", method]].rename(columns={method: "range"})
+    members = {p: pair_members(p) for p in rows["pair"].unique()}
+    out = pd.DataFrame(
+        {
+            "time": rows["time"].to_numpy(),
+            "from": [members[p][0] for p in rows["pair"]],
+            "to": [members[p][1] for p in rows["pair"]],
+            "range": rows["range"].to_numpy(),
+            "sigma": sigma.to_numpy(),
+        }
+    )
+    return out[np.isfinite(out["range"].to_numpy())].reset_index(drop=True)
+
+
+def _positions_rows(
+    session: Session,
+    method: str,
+    trajectories: Mapping[str, Trajectory],
+    max_gap_s: float,
+) -> pd.DataFrame:
+    frames = []
+    for platform in sorted(trajectories):
+        traj = trajectories[platform]
+        error_h = np.full(len(traj), np.nan)
+        ref = session.reference.get(platform)
+        if ref is not None and len(ref) >= 2:
+            truth = reference_at(ref, traj.time_s, max_gap_s)
+            error_h = np.hypot(traj.enu_m[:, 0] - truth[:, 0], traj.enu_m[:, 1] - truth[:, 1])
+        frames.append(
+            pd.DataFrame(
+                {
+                    "time": traj.time_s,
+                    "platform": platform,
+                    "method": method,
+                    "east": traj.enu_m[:, 0],
+                    "north": traj.enu_m[:, 1],
+                    "up": traj.enu_m[:, 2],
+                    "error_h": error_h,
+                }
+            )
+        )
+    if not frames:
+        return pd.DataFrame(columns=list(POSITIONS_COLUMNS))
+    return pd.concat(frames, ignore_index=True)
+
+
+def _nav_at(session: Session, like: Mapping[str, Trajectory]) -> dict[str, Trajectory]:
+    """Each platform's own solution at the epochs of the fused output."""
+    out = {}
+    for platform, traj in like.items():
+        nav = session.nav[platform]
+        out[platform] = Trajectory(platform, traj.time_s, nav.interpolate(traj.time_s))
+    return out
+
+
+def run_pipeline(
+    session: Session,
+    config: RunConfig,
+    progress: Callable[[str], None] | None = None,
+) -> PipelineOutput:
+    """Run the whole stage chain on a session (see the module docstring)."""
+    step = progress or (lambda label: None)
+    timings: dict[str, float] = {}
+
+    @contextlib.contextmanager
+    def timed(label: str) -> Iterator[None]:
+        step(label)
+        start = time.perf_counter()
+        yield
+        timings[label] = round(time.perf_counter() - start, 3)
+
+    observed = session.ranges.frame[["time", "from", "to", "range", "sigma"]]
+    output: Literal["ranges", "nav"] = config.run.positions_at
+    fused: dict[str, FusionOutput] = {}
+    with timed("fusion (observed)"):
+        fused["observed"] = fuse(session, observed, config.fusion, output=output)
+        cp_fusion = fused["observed"]
+        if output != "ranges":
+            cp_fusion = fuse(session, observed, config.fusion, output="ranges")
+    cp = cp_fusion.forward if config.run.cp_solution == "forward" else cp_fusion.smoothed
+
+    with timed("ranging (DI, RN, NLOS)"):
+        ranging = run_ranging(session, cp, config.ranging)
+    table = ranging.ranges
+    sigma_by_row = _row_sigma(session, table)
+    for method in PROCESSED_METHODS:
+        with timed(f"fusion ({method})"):
+            ranges = _ranges_for(table, method, sigma_by_row)
+            fused[method] = fuse(session, ranges, config.fusion, output=output)
+
+    with timed("metrics"):
+        max_gap = config.run.reference_max_gap_s
+        nav = _nav_at(session, fused["observed"].smoothed)
+        parts = [_positions_rows(session, "nav", nav, max_gap)]
+        for method in ("observed", *PROCESSED_METHODS):
+            parts.append(_positions_rows(session, method, fused[method].smoothed, max_gap))
+        positions = pd.concat(parts, ignore_index=True)
+        positions = positions.sort_values(["platform", "method", "time"], kind="stable")
+        positions = positions.reset_index(drop=True)[list(POSITIONS_COLUMNS)]
+        sigma = dict(ranging.sigma)
+        scores = nlos_scores(table, ranging.nlos_events, {p: s for p, (s, _) in sigma.items()})
+        result = Result(
+            ranges=table,
+            di=ranging.di,
+            nlos_events=ranging.nlos_events,
+            nlos_estimates=ranging.nlos_estimates,
+            positions=positions,
+            metrics=distance_metrics(table),
+            position_metrics=position_metrics(positions),
+            facts={"sigma": {p: {"sigma_m": s, "source": src} for p, (s, src) in sigma.items()}},
+        )
+    return PipelineOutput(result=result, nlos_scores=scores, timings_s=timings, sigma=sigma)
+
+
+def _row_sigma(session: Session, table: pd.DataFrame) -> pd.Series:
+    """The UWB sigma of each row of the output range table (for the processed fusions).
+
+    Processed ranges keep the sigma of the observed range they came from (the ranging
+    stage reduces the noise, but weighting them as the raw ranges keeps the fusion
+    conservative); rows without one get the session's ``[uwb] sigma`` or NaN (the fusion
+    default).
+    """
+    obs = session.ranges.frame[["time", "pair", "sigma"]]
+    merged = table[["time", "pair"]].merge(
+        obs.drop_duplicates(["time", "pair"]), on=["time", "pair"], how="left"
+    )
+    sigma = merged["sigma"].astype(float)
+    if session.config.uwb_sigma_m is not None:
+        sigma = sigma.fillna(session.config.uwb_sigma_m)
+    return sigma.reset_index(drop=True)
