@@ -1,0 +1,381 @@
+"""Cooperative positioning: a centralized EKF over every moving platform (paper 000 3.1.1).
+
+The processing centre of paper 000 section 3.1.1 fuses each platform's own navigation
+with the ranges between platforms. Model (see ``fusion_ekf`` for the compiled loops):
+
+- state: the ENU positions of all moving platforms, horizontal by default (``dims = 2``,
+  heights taken from each platform's own navigation), or 3D;
+- prediction: each platform's dead-reckoning increment between epochs (its own ``nav``
+  interpolated to the epochs) with process noise (drift_sigma * dt)^2 per axis
+  (paper 000 eq. (7): sigma_k is the drift in a given interval);
+- observations: every range of the epoch (any subset, none is fine), between two moving
+  platforms or to an anchor at its known position; each leader's own fix (its nav
+  position, with the nav sigma or ``leader_sigma_m``);
+- robust update: IGG-III factor on the standardized innovation with the MAD sigma,
+  paper 002 eq. (14)-(20) (``filters.robust_factors``);
+- RTS fixed-interval smoother over the forward pass (paper 003 section 2.8), on by
+  default because coopproc post-processes recorded logs: every epoch may use the whole
+  record.
+
+Epochs are the distinct range times (optionally merged, ``epoch_merge_s``) inside the
+span where every moving platform has navigation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+
+from coopproc.configtools import from_table
+from coopproc.errors import StageError
+from coopproc.model import FloatArray, Session, Trajectory
+from coopproc.stages.fusion_data import anchor_positions, clean_ranges, epoch_groups
+from coopproc.stages.fusion_data import range_sigma_default as _range_sigma_default
+from coopproc.stages.fusion_ekf import (
+    OBS_ANCHOR,
+    OBS_POSITION,
+    OBS_RANGE,
+    ekf_forward,
+    rts_backward,
+)
+from coopproc.stages.lsq import LsqParams, robust_lsq_positions
+
+__all__ = ["FusionOutput", "FusionParams", "fuse", "fusion_params_from_toml"]
+
+
+@dataclass(frozen=True)
+class FusionParams:
+    """Cooperative fusion (run config ``[fusion]``)."""
+
+    robust: bool = field(
+        default=True,
+        metadata={"help": "IGG-III robust factor on the innovations (paper 002 eq. (18))"},
+    )
+    k0: float = field(
+        default=3.0,
+        metadata={"help": "IGG-III k0, full weight up to |s| = k0 (paper: 2.5..3.5)"},
+    )
+    k1: float = field(
+        default=4.0,
+        metadata={"help": "IGG-III k1, rejected beyond |s| = k1 (paper: 3.5..4.5)"},
+    )
+    mad_floor: float = field(
+        default=1.0,
+        metadata={"help": "lower bound of the MAD unit-weight sigma of eq. (20)"},
+    )
+    smoother: bool = field(
+        default=True, metadata={"help": "RTS fixed-interval smoother (paper 003 sec. 2.8)"}
+    )
+    dims: int = field(
+        default=2,
+        metadata={"help": "2: estimate east/north (height from nav); 3: east/north/up"},
+    )
+    range_sigma_m: float = field(
+        default=0.15,
+        metadata={"help": "range 1-sigma (m) for rows without one when session.toml has none"},
+    )
+    drift_sigma_mps: float = field(
+        default=0.02,
+        metadata={"help": "dead-reckoning drift 1-sigma (m/s) of platforms without one"},
+    )
+    leader_sigma_m: float = field(
+        default=0.05,
+        metadata={"help": "1-sigma (m) of a leader's own fix when its nav has no sigma"},
+    )
+    initial_sigma_m: float = field(
+        default=1.0,
+        metadata={"help": "1-sigma (m) of a follower's first nav position"},
+    )
+    init_from_anchors: bool = field(
+        default=True,
+        metadata={"help": "start tags from a robust LSQ fix at the first epoch if anchors allow"},
+    )
+    epoch_merge_s: float = field(
+        default=0.0,
+        metadata={"help": "successive range times closer than this (s) form one epoch"},
+    )
+    lsq: LsqParams = field(
+        default_factory=LsqParams,
+        metadata={"help": "robust LSQ from anchors ([fusion.lsq])"},
+    )
+
+    def __post_init__(self) -> None:
+        if not 2.5 <= self.k0 <= 3.5:
+            raise ValueError(f"k0 = {self.k0} is outside 2.5..3.5 (paper 002 eq. (18))")
+        if not 3.5 <= self.k1 <= 4.5 or self.k1 <= self.k0:
+            raise ValueError(f"k1 = {self.k1} must be in 3.5..4.5 and above k0 = {self.k0}")
+        if self.dims not in (2, 3):
+            raise ValueError(f"dims = {self.dims}, expected 2 or 3")
+        for name in ("range_sigma_m", "drift_sigma_mps", "leader_sigma_m", "initial_sigma_m"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} = {getattr(self, name)}, expected > 0")
+        if self.mad_floor < 0 or self.epoch_merge_s < 0:
+            raise ValueError("mad_floor and epoch_merge_s must be >= 0")
+
+
+def fusion_params_from_toml(table: Mapping[str, Any]) -> FusionParams:
+    """FusionParams from a whole run-config TOML table (only ``[fusion]`` is read)."""
+    return from_table(FusionParams, table.get("fusion"), "run config [fusion]")
+
+
+@dataclass(frozen=True, eq=False)
+class FusionOutput:
+    """The fused trajectories of every moving platform.
+
+    ``smoothed`` is the RTS solution when the smoother is on, else the forward one;
+    ``forward`` the causal filter. ``observations`` has one row per range used: time
+    (epoch), from, to, range, innovation (at the prior, m) and gamma (robust factor).
+    """
+
+    smoothed: Mapping[str, Trajectory]
+    forward: Mapping[str, Trajectory]
+    epochs_s: FloatArray
+    observations: pd.DataFrame
+
+
+def fuse(
+    session: Session,
+    ranges: pd.DataFrame,
+    params: FusionParams,
+    *,
+    output: Literal["ranges", "nav"] = "ranges",
+) -> FusionOutput:
+    """Fuse every moving platform's navigation with the ranges.
+
+    Parameters
+    ----------
+    session : platforms, their navigation (``session.nav``) and anchors.
+    ranges : columns time, from, to, range[, sigma] (sigma NaN: session.toml ``[uwb]
+        sigma``, else ``params.range_sigma_m``); observed or processed ranges.
+    params : FusionParams.
+    output : ``"ranges"``: trajectories at the range epochs; ``"nav"``: at each
+        platform's own navigation times inside the fused span (dead reckoning between
+        epochs: the forward correction is held, the smoothed one interpolated).
+    """
+    dim = params.dims
+    moving = list(session.moving_platforms())
+    if not moving:
+        raise StageError("fusion: the session has no moving platform")
+    for pid in moving:
+        if pid not in session.nav or len(session.nav[pid]) < 2:
+            raise StageError(f"fusion: platform '{pid}' has no navigation (needs 2+ epochs)")
+    anchors = anchor_positions(session)
+    rows = clean_ranges(session, ranges, _range_sigma_default(session, params.range_sigma_m))
+    start = max(session.nav[p].time_s[0] for p in moving)
+    stop = min(session.nav[p].time_s[-1] for p in moving)
+    inside = (rows["time"] >= start) & (rows["time"] <= stop)
+    rows = rows[inside.to_numpy()].reset_index(drop=True)
+    epochs, ep_idx = epoch_groups(rows["time"].to_numpy(), params.epoch_merge_s)
+    if epochs.shape[0] == 0:
+        raise StageError(
+            f"fusion: no range epoch inside the span every platform has navigation "
+            f"({start:.3f} .. {stop:.3f} s)"
+        )
+    nav = np.stack([session.nav[p].interpolate(epochs) for p in moving])  # (P, K, 3)
+    n_plat, n_ep = len(moving), epochs.shape[0]
+    n = n_plat * dim
+    u = np.zeros((n_ep, n))
+    u[1:] = np.diff(nav[:, :, :dim], axis=1).transpose(1, 0, 2).reshape(n_ep - 1, n)
+    dt = np.diff(epochs, prepend=epochs[0])
+    drift = np.array([_drift(session, p, params) for p in moving])
+    q = ((drift[:, None] * dt[None, :]) ** 2).T.repeat(dim, axis=1)  # (K, n)
+    x0, c0 = _initial_state(session, rows, ep_idx, epochs, nav, moving, params)
+    obs = _observations(session, rows, ep_idx, epochs, nav, moving, anchors, params)
+    order = np.lexsort((obs["order"], obs["epoch"]))
+    obs = {k: v[order] for k, v in obs.items()}
+    obs_ptr = np.searchsorted(obs["epoch"], np.arange(n_ep + 1)).astype(np.int64)
+    smooth = params.smoother and n_ep > 1
+    xs_f, var_f, covs, gamma, innov = ekf_forward(
+        x0, c0, u, q, obs_ptr, obs["kind"], obs["a"], obs["b"], obs["anchor"], obs["dz2"],
+        obs["z"], obs["var"], dim, params.robust, params.k0, params.k1, params.mad_floor,
+        smooth,
+    )  # fmt: skip
+    if smooth:
+        xs_s, var_s = rts_backward(xs_f, covs, u, q)
+    else:
+        xs_s, var_s = xs_f, var_f
+    del covs
+    forward = _trajectories(session, moving, epochs, nav, xs_f, var_f, dim, output, hold=True)
+    smoothed = _trajectories(session, moving, epochs, nav, xs_s, var_s, dim, output, hold=False)
+    is_range = obs["kind"] != OBS_POSITION
+    row_of = obs["row"][is_range]
+    table = pd.DataFrame(
+        {
+            "time": epochs[obs["epoch"][is_range]],
+            "from": rows["from"].to_numpy()[row_of],
+            "to": rows["to"].to_numpy()[row_of],
+            "range": obs["z"][is_range],
+            "innovation": innov[is_range],
+            "gamma": gamma[is_range],
+        }
+    )
+    return FusionOutput(smoothed=smoothed, forward=forward, epochs_s=epochs, observations=table)
+
+
+def _drift(session: Session, pid: str, params: FusionParams) -> float:
+    value = session.platforms[pid].drift_sigma_mps
+    return float(value) if value is not None and value > 0 else params.drift_sigma_mps
+
+
+def _leader_sigma(
+    session: Session, pid: str, times: FloatArray, params: FusionParams
+) -> FloatArray:
+    """1-sigma (K, 3) of a leader's own fix at ``times``."""
+    traj = session.nav[pid]
+    out = np.full((times.shape[0], 3), params.leader_sigma_m)
+    if traj.sigma_enu_m is not None:
+        for axis in range(3):
+            col = traj.sigma_enu_m[:, axis]
+            good = np.isfinite(col) & (col > 0)
+            if good.any():
+                out[:, axis] = np.interp(times, traj.time_s[good], col[good])
+    return out
+
+
+def _initial_state(
+    session: Session,
+    rows: pd.DataFrame,
+    ep_idx: np.ndarray,
+    epochs: FloatArray,
+    nav: FloatArray,
+    moving: list[str],
+    params: FusionParams,
+) -> tuple[FloatArray, FloatArray]:
+    """First nav position of each platform; a robust LSQ fix where anchors give one."""
+    dim = params.dims
+    x0 = nav[:, 0, :dim].reshape(-1).copy()
+    sig = np.full(x0.shape[0], params.initial_sigma_m)
+    for p, pid in enumerate(moving):
+        if session.platforms[pid].role == "leader":
+            sig[p * dim : (p + 1) * dim] = _leader_sigma(session, pid, epochs[:1], params)[0, :dim]
+    has_anchor = any(pl.role == "anchor" for pl in session.platforms.values())
+    if params.init_from_anchors and has_anchor:
+        lsq = LsqParams(
+            robust=params.lsq.robust, c=params.lsq.c, dims=dim,
+            min_anchors=params.lsq.min_anchors, iterations=params.lsq.iterations,
+            range_sigma_m=params.range_sigma_m, epoch_merge_s=0.0,
+        )  # fmt: skip
+        first = rows[ep_idx == 0].assign(time=epochs[0])
+        fixes = robust_lsq_positions(session, first, lsq)
+        for p, pid in enumerate(moving):
+            fix = fixes.get(pid)
+            if fix is None or session.platforms[pid].role == "leader":
+                continue
+            x0[p * dim : (p + 1) * dim] = fix.enu_m[0, :dim]
+            assert fix.sigma_enu_m is not None
+            sig[p * dim : (p + 1) * dim] = np.maximum(fix.sigma_enu_m[0, :dim], 1e-3)
+    return x0, np.diag(sig * sig)
+
+
+def _observations(
+    session: Session,
+    rows: pd.DataFrame,
+    ep_idx: np.ndarray,
+    epochs: FloatArray,
+    nav: FloatArray,
+    moving: list[str],
+    anchors: Mapping[str, FloatArray],
+    params: FusionParams,
+) -> dict[str, np.ndarray]:
+    """Flat observation arrays (ranges, then leader fixes), unsorted."""
+    dim = params.dims
+    index = {pid: i for i, pid in enumerate(moving)}
+    a_from = rows["from"].map(index).to_numpy(dtype=np.float64, na_value=np.nan)
+    a_to = rows["to"].map(index).to_numpy(dtype=np.float64, na_value=np.nan)
+    from_moving = np.isfinite(a_from)
+    to_moving = np.isfinite(a_to)
+    both = from_moving & to_moving
+    a = np.where(from_moving, a_from, a_to).astype(np.int64)
+    b = np.where(both, a_to, -1).astype(np.int64)
+    anchor_id = np.where(from_moving, rows["to"].to_numpy(), rows["from"].to_numpy())
+    anchor = np.zeros((len(rows), 3))
+    for aid, xyz in anchors.items():
+        anchor[anchor_id == aid] = xyz
+    up_a = nav[a, ep_idx, 2]
+    up_b = np.where(both, nav[np.maximum(b, 0), ep_idx, 2], anchor[:, 2])
+    dz2 = (up_a - up_b) ** 2 if dim == 2 else np.zeros(len(rows))
+    parts = [
+        {
+            "epoch": ep_idx.astype(np.int64),
+            "order": np.arange(len(rows), dtype=np.int64) + 1_000_000_000,
+            "kind": np.where(both, OBS_RANGE, OBS_ANCHOR).astype(np.int64),
+            "a": a,
+            "b": b,
+            "anchor": anchor,
+            "dz2": dz2,
+            "z": rows["range"].to_numpy(np.float64),
+            "var": rows["var"].to_numpy(np.float64),
+            "row": np.arange(len(rows), dtype=np.int64),
+        }
+    ]
+    n_ep = nav.shape[1]
+    epochs_idx = np.arange(n_ep, dtype=np.int64)
+    for pid in moving:
+        if session.platforms[pid].role != "leader":
+            continue
+        sig = _leader_sigma(session, pid, epochs, params)
+        for axis in range(dim):
+            parts.append(
+                {
+                    "epoch": epochs_idx,
+                    "order": np.full(n_ep, index[pid] * 3 + axis, dtype=np.int64),
+                    "kind": np.full(n_ep, OBS_POSITION, dtype=np.int64),
+                    "a": np.full(n_ep, index[pid], dtype=np.int64),
+                    "b": np.full(n_ep, axis, dtype=np.int64),
+                    "anchor": np.zeros((n_ep, 3)),
+                    "dz2": np.zeros(n_ep),
+                    "z": nav[index[pid], :, axis].copy(),
+                    "var": sig[:, axis] ** 2,
+                    "row": np.full(n_ep, -1, dtype=np.int64),
+                }
+            )
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+def _trajectories(
+    session: Session,
+    moving: list[str],
+    epochs: FloatArray,
+    nav: FloatArray,
+    xs: FloatArray,
+    var: FloatArray,
+    dim: int,
+    output: str,
+    *,
+    hold: bool,
+) -> dict[str, Trajectory]:
+    """One Trajectory per platform at the epochs, or at its nav times (``output="nav"``).
+
+    At nav rate the correction (fused minus nav) is carried between epochs: held from the
+    last epoch for the causal ``forward`` solution, linearly interpolated for the smoothed.
+    """
+    out: dict[str, Trajectory] = {}
+    for p, pid in enumerate(moving):
+        est = xs[:, p * dim : (p + 1) * dim]
+        sig = np.full((epochs.shape[0], 3), np.nan)
+        sig[:, :dim] = np.sqrt(np.maximum(var[:, p * dim : (p + 1) * dim], 0.0))
+        if output == "ranges":
+            enu = nav[p].copy()
+            enu[:, :dim] = est
+            out[pid] = Trajectory(pid, epochs.copy(), enu, sigma_enu_m=sig, source="fusion")
+            continue
+        traj = session.nav[pid]
+        sel = (traj.time_s >= epochs[0]) & (traj.time_s <= epochs[-1])
+        times = traj.time_s[sel]
+        enu = traj.enu_m[sel].copy()
+        corr = est - nav[p, :, :dim]
+        if hold:
+            k = np.clip(np.searchsorted(epochs, times, side="right") - 1, 0, None)
+            enu[:, :dim] += corr[k]
+            sig_t = sig[k]
+        else:
+            sig_t = np.full((times.shape[0], 3), np.nan)
+            for axis in range(dim):
+                enu[:, axis] += np.interp(times, epochs, corr[:, axis])
+                sig_t[:, axis] = np.interp(times, epochs, sig[:, axis])
+        out[pid] = Trajectory(pid, times, enu, sigma_enu_m=sig_t, source="fusion")
+    return out

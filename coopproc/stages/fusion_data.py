@@ -1,0 +1,99 @@
+"""Input checks and array preparation shared by the fusion EKF and the anchor LSQ."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from coopproc.errors import StageError
+from coopproc.model import FloatArray, Session
+
+__all__ = ["anchor_positions", "clean_ranges", "epoch_groups", "range_sigma_default"]
+
+_REQUIRED = ("time", "from", "to", "range")
+
+
+def range_sigma_default(session: Session, fallback_m: float) -> float:
+    """Ranging 1-sigma for rows without one: session.toml ``[uwb] sigma`` or ``fallback_m``."""
+    sigma = session.config.uwb_sigma_m
+    return float(sigma) if sigma is not None and sigma > 0 else float(fallback_m)
+
+
+def anchor_positions(session: Session) -> dict[str, FloatArray]:
+    """ENU position (3,) of every anchor: its configured position, else its mean nav fix."""
+    out: dict[str, FloatArray] = {}
+    for pid, platform in session.platforms.items():
+        if platform.role != "anchor":
+            continue
+        if platform.position_enu_m is not None:
+            out[pid] = np.asarray(platform.position_enu_m, dtype=np.float64)
+        elif pid in session.nav and len(session.nav[pid]) > 0:
+            out[pid] = np.asarray(session.nav[pid].enu_m.mean(axis=0), dtype=np.float64)
+        else:
+            raise StageError(
+                f"fusion: anchor '{pid}' has no position (set [platforms.{pid}] position "
+                "in session.toml) and no navigation file"
+            )
+    return out
+
+
+def clean_ranges(session: Session, ranges: pd.DataFrame, default_sigma_m: float) -> pd.DataFrame:
+    """The usable range rows: columns time, from, to, range, var (m^2), in time order.
+
+    Rows with a missing time or range (dropouts) and rows between two anchors are
+    dropped; a missing or non-positive ``sigma`` becomes ``default_sigma_m``. A platform id
+    that the session does not know is an error.
+    """
+    missing = [c for c in _REQUIRED if c not in ranges.columns]
+    if missing:
+        raise StageError(
+            f"fusion: range table has no column '{missing[0]}' "
+            "(expected columns time, from, to, range[, sigma]; found "
+            f"{', '.join(map(str, ranges.columns))})"
+        )
+    frame = pd.DataFrame(
+        {
+            "time": pd.to_numeric(ranges["time"], errors="coerce").to_numpy(np.float64),
+            "from": ranges["from"].astype(str).to_numpy(),
+            "to": ranges["to"].astype(str).to_numpy(),
+            "range": pd.to_numeric(ranges["range"], errors="coerce").to_numpy(np.float64),
+        }
+    )
+    if "sigma" in ranges.columns:
+        sigma = pd.to_numeric(ranges["sigma"], errors="coerce").to_numpy(np.float64)
+    else:
+        sigma = np.full(len(frame), np.nan)
+    sigma = np.where(np.isfinite(sigma) & (sigma > 0), sigma, default_sigma_m)
+    frame["var"] = sigma * sigma
+    frame = frame[np.isfinite(frame["time"]) & np.isfinite(frame["range"])]
+    known = set(session.platforms)
+    for column in ("from", "to"):
+        unknown = sorted(set(frame[column].unique()) - known)
+        if unknown:
+            raise StageError(
+                f"fusion: range rows name platform '{unknown[0]}' in column '{column}', which "
+                f"the session does not have (platforms: {', '.join(sorted(known))})"
+            )
+    if (frame["from"] == frame["to"]).any():
+        row = frame[frame["from"] == frame["to"]].iloc[0]
+        raise StageError(f"fusion: range from '{row['from']}' to itself at time {row['time']}")
+    role = {pid: p.role for pid, p in session.platforms.items()}
+    both_anchor = (frame["from"].map(role) == "anchor") & (frame["to"].map(role) == "anchor")
+    frame = frame[~both_anchor.to_numpy()]
+    return frame.sort_values("time", kind="stable").reset_index(drop=True)
+
+
+def epoch_groups(time_s: FloatArray, merge_s: float) -> tuple[FloatArray, np.ndarray]:
+    """Epoch times and the epoch index of each (sorted) time.
+
+    Equal times form one epoch; successive distinct times closer than ``merge_s`` join the
+    epoch of the first of them (the epoch keeps that first time).
+    """
+    if time_s.shape[0] == 0:
+        return np.empty(0), np.empty(0, dtype=np.int64)
+    unique, inverse = np.unique(time_s, return_inverse=True)
+    if merge_s > 0 and unique.shape[0] > 1:
+        starts = np.concatenate(([True], np.diff(unique) > merge_s))
+        group = np.cumsum(starts) - 1
+        return unique[starts], group[inverse].astype(np.int64)
+    return unique, inverse.astype(np.int64)
