@@ -1,0 +1,258 @@
+"""The paper's figures from a run's tables: one panel per pair, platform or NLOS event.
+
+``make_figures`` builds matplotlib Figures (no pyplot, no global state: the style of
+:mod:`coopproc.report.style` is applied with ``rc_context``); ``write_figures`` saves them
+as PNG (300 dpi by default), PDF and/or SVG with fixed metadata, so the same run gives the
+same files. Figures whose data are missing (no reference, no NLOS estimates) are skipped.
+
+| file | content | paper 000 |
+|---|---|---|
+| ``distance_errors`` | distance error per method over time, NLOS events shaded | fig. 9, 11 |
+| ``di_errors`` | DI error of dead reckoning, cooperative positioning, smoothed DI | fig. 8 |
+| ``position_errors`` | horizontal position error per method | fig. 12 |
+| ``nlos_convergence`` | NLOS estimate after each step of eq. (11) per event | fig. 10 |
+| ``trajectories`` | tracks in the east-north plane with the reference | fig. 7 |
+"""
+
+from __future__ import annotations
+
+import math
+import string
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import matplotlib as mpl
+import numpy as np
+import pandas as pd
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+
+from coopproc.errors import ConfigError
+from coopproc.model import METHODS
+from coopproc.report.plots import (
+    plot_di_errors,
+    plot_distance_errors,
+    plot_nlos_convergence,
+    plot_position_errors,
+    plot_trajectory,
+)
+from coopproc.report.rundir import RunTables
+from coopproc.report.scores import event_bias
+from coopproc.report.style import COLUMN_WIDTH_IN, PANEL_HEIGHT_IN, RC, WIDE_WIDTH_IN
+
+__all__ = ["FIGURE_NAMES", "FORMATS", "make_figures", "write_figures"]
+
+FORMATS: tuple[str, ...] = ("png", "pdf", "svg")
+#: Metadata that would change from run to run (tool versions, dates) left out.
+_METADATA: dict[str, dict[str, Any]] = {
+    "png": {"Software": None},
+    "pdf": {"Creator": None, "Producer": None, "CreationDate": None},
+    "svg": {"Creator": None, "Date": None},
+}
+#: Method whose events are shaded and whose estimates get one convergence panel each.
+_PRIMARY = "di"
+
+
+def _label(i: int, text: str) -> str:
+    letter = string.ascii_lowercase[i] if i < 26 else str(i + 1)
+    return f"({letter}) {text}"
+
+
+def _stack(n: int) -> tuple[Figure, list[Axes]]:
+    fig = Figure(figsize=(COLUMN_WIDTH_IN, 0.55 + PANEL_HEIGHT_IN * n), layout="constrained")
+    axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
+    return fig, list(axes)
+
+
+def _grid(n: int, row_height_in: float) -> tuple[Figure, list[Axes]]:
+    ncols = min(n, 3)
+    nrows = math.ceil(n / ncols)
+    width = COLUMN_WIDTH_IN if ncols == 1 else WIDE_WIDTH_IN * (0.67 if ncols == 2 else 1.0)
+    fig = Figure(figsize=(width, 0.45 + row_height_in * nrows), layout="constrained")
+    grid = fig.subplots(nrows, ncols, squeeze=False)
+    axes = list(grid.ravel())
+    for ax in axes[n:]:
+        fig.delaxes(ax)
+    return fig, axes[:n]
+
+
+def _legend(fig: Figure, axes: Sequence[Axes]) -> None:
+    seen: dict[str, Any] = {}
+    for ax in axes:
+        handles, labels = ax.get_legend_handles_labels()
+        for handle, label in zip(handles, labels, strict=True):
+            seen.setdefault(label, handle)
+    if seen:
+        fig.legend(
+            list(seen.values()), list(seen), loc="outside upper center", ncols=min(len(seen), 3)
+        )
+
+
+def _time_label(ax: Axes, origin_s: float) -> None:
+    ax.set_xlabel(f"Time since t0 = {origin_s:.1f} (s)" if origin_s else "Time (s)")
+
+
+def _has(frame: pd.DataFrame, column: str) -> pd.Series:
+    return frame[column].notna()
+
+
+def distance_errors_figure(run: RunTables) -> Figure | None:
+    """Paper 000 fig. 9/11: one panel per pair that has a reference distance."""
+    ranges = run.ranges[_has(run.ranges, "reference")]
+    pairs = sorted(ranges["pair"].unique())
+    if not pairs:
+        return None
+    t0 = run.time_origin_s
+    events = run.nlos_events
+    if _PRIMARY in set(events["method"]):
+        events = events[events["method"] == _PRIMARY]
+    fig, axes = _stack(len(pairs))
+    for i, (ax, pair) in enumerate(zip(axes, pairs, strict=True)):
+        plot_distance_errors(
+            ax, ranges[ranges["pair"] == pair], events[events["pair"] == pair], time_origin_s=t0
+        )
+        ax.set_title(_label(i, pair), loc="left")
+    _time_label(axes[-1], t0)
+    _legend(fig, axes)
+    return fig
+
+
+def di_errors_figure(run: RunTables) -> Figure | None:
+    """Paper 000 fig. 8: one panel per pair that has a reference DI."""
+    di = run.di[_has(run.di, "di_reference")]
+    pairs = sorted(di["pair"].unique())
+    if not pairs:
+        return None
+    t0 = run.time_origin_s
+    fig, axes = _stack(len(pairs))
+    for i, (ax, pair) in enumerate(zip(axes, pairs, strict=True)):
+        plot_di_errors(ax, di[di["pair"] == pair], time_origin_s=t0)
+        ax.set_title(_label(i, pair), loc="left")
+    _time_label(axes[-1], t0)
+    _legend(fig, axes)
+    return fig
+
+
+def position_errors_figure(run: RunTables) -> Figure | None:
+    """Paper 000 fig. 12: one panel per platform with a horizontal error."""
+    pos = run.positions[_has(run.positions, "error_h") & run.positions["method"].isin(METHODS)]
+    platforms = sorted(pos["platform"].unique())
+    if not platforms:
+        return None
+    t0 = run.time_origin_s
+    fig, axes = _stack(len(platforms))
+    for i, (ax, platform) in enumerate(zip(axes, platforms, strict=True)):
+        plot_position_errors(ax, pos[pos["platform"] == platform], time_origin_s=t0)
+        ax.set_title(_label(i, f"Platform {platform}"), loc="left")
+    _time_label(axes[-1], t0)
+    _legend(fig, axes)
+    return fig
+
+
+def convergence_panels(run: RunTables) -> list[tuple[str, pd.DataFrame, float | None]]:
+    """(title, estimate rows of every method, reference bias) per event of the primary method.
+
+    Events of other methods of the same pair join the panel whose time span they overlap
+    (spans widened by one step spacing).
+    """
+    est = run.nlos_estimates
+    if est is None or not len(est):
+        return []
+    primary = _PRIMARY if _PRIMARY in set(est["method"]) else sorted(est["method"].unique())[0]
+    spans = {
+        key: (float(g["time"].min()), float(g["time"].max()), g)
+        for key, g in est.groupby(["pair", "method", "event"], sort=True)
+    }
+    panels = []
+    for (pair, method, event), (lo, hi, rows) in spans.items():
+        if method != primary:
+            continue
+        dt = float(np.median(np.diff(np.sort(rows["time"].to_numpy())))) if len(rows) > 1 else 1.0
+        parts = [rows]
+        for (p2, m2, _), (lo2, hi2, rows2) in spans.items():
+            if p2 == pair and m2 != primary and lo2 <= hi + dt and hi2 >= lo - dt:
+                parts.append(rows2)
+        bias = _event_reference_bias(run, str(pair), str(method), lo)
+        panels.append(
+            (f"{pair}, event {event} (t = {lo - run.time_origin_s:.0f} s)", pd.concat(parts), bias)
+        )
+    return panels
+
+
+def _event_reference_bias(run: RunTables, pair: str, method: str, first_s: float) -> float | None:
+    events = run.nlos_events[
+        (run.nlos_events["pair"] == pair) & (run.nlos_events["method"] == method)
+    ]
+    if not len(events):
+        return None
+    nearest = events.iloc[int(np.argmin(np.abs(events["start"].to_numpy(float) - first_s)))]
+    pair_ranges = run.ranges[run.ranges["pair"] == pair]
+    bias, n = event_bias(pair_ranges, float(nearest["start"]), float(nearest["end"]))
+    return bias if n else None
+
+
+def nlos_convergence_figure(run: RunTables) -> Figure | None:
+    """Paper 000 fig. 10: one panel per NLOS event."""
+    panels = convergence_panels(run)
+    if not panels:
+        return None
+    fig, axes = _grid(len(panels), 1.55)
+    for i, (ax, (title, rows, bias)) in enumerate(zip(axes, panels, strict=True)):
+        plot_nlos_convergence(ax, rows, reference_bias_m=bias)
+        ax.set_title(_label(i, title), loc="left")
+    _legend(fig, axes)
+    return fig
+
+
+def trajectories_figure(run: RunTables) -> Figure | None:
+    """Tracks in the east-north plane, one panel per moving platform (paper 000 fig. 7)."""
+    platforms = sorted(run.positions["platform"].unique())
+    if not platforms:
+        return None
+    fig, axes = _grid(len(platforms), 2.3)
+    for i, (ax, platform) in enumerate(zip(axes, platforms, strict=True)):
+        plot_trajectory(ax, run.positions[run.positions["platform"] == platform])
+        ax.set_title(_label(i, f"Platform {platform}"), loc="left")
+    _legend(fig, axes)
+    return fig
+
+
+_BUILDERS: dict[str, Callable[[RunTables], Figure | None]] = {
+    "distance_errors": distance_errors_figure,
+    "di_errors": di_errors_figure,
+    "position_errors": position_errors_figure,
+    "nlos_convergence": nlos_convergence_figure,
+    "trajectories": trajectories_figure,
+}
+FIGURE_NAMES: tuple[str, ...] = tuple(_BUILDERS)
+
+
+def make_figures(run: RunTables) -> dict[str, Figure]:
+    """Every figure the run's data allow, by name (see the module table)."""
+    out = {}
+    with mpl.rc_context(RC):
+        for name, build in _BUILDERS.items():
+            fig = build(run)
+            if fig is not None:
+                out[name] = fig
+    return out
+
+
+def write_figures(
+    run: RunTables, fig_dir: Path, *, formats: Sequence[str] = ("png",), dpi: int = 300
+) -> list[Path]:
+    """Save every figure as ``fig_dir/<name>.<format>``; returns the paths written, in order."""
+    bad = [f for f in formats if f not in FORMATS]
+    if bad:
+        raise ConfigError(f"unknown figure format {bad[0]!r}; expected one of {', '.join(FORMATS)}")
+    fig_dir = Path(fig_dir)
+    fig_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    with mpl.rc_context(RC):
+        for name, fig in make_figures(run).items():
+            for fmt in formats:
+                path = fig_dir / f"{name}.{fmt}"
+                fig.savefig(path, format=fmt, dpi=dpi, metadata=_METADATA[fmt])
+                written.append(path)
+    return written

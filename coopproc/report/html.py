@@ -1,0 +1,166 @@
+"""``OUT/report.html``: one self-contained page with the tables, the figures and the run facts.
+
+Figures are embedded as base64 PNG: the ``OUT/figures/<name>.png`` files where they exist,
+else rendered in memory from the tables. The page has no external resources, so it opens
+in any browser and can be mailed as one file.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import matplotlib as mpl
+
+from coopproc.report.figures import FIGURE_NAMES, make_figures
+from coopproc.report.formats import render_table
+from coopproc.report.rundir import RunTables
+from coopproc.report.scores import NLOS_EVENT_SCORE_COLUMNS
+from coopproc.report.style import RC
+from coopproc.report.tables import POSITION_ALL, distance_table, nlos_table, position_table
+
+__all__ = ["FIGURE_CAPTIONS", "render_html", "write_html"]
+
+FIGURE_CAPTIONS: dict[str, str] = {
+    "distance_errors": "Distance error per pair and method; detected NLOS spans shaded "
+    "(paper 000 fig. 9 and 11).",
+    "di_errors": "Distance-increment error of dead reckoning, cooperative positioning and "
+    "the smoothed DI against the reference DI (paper 000 fig. 8).",
+    "position_errors": "Horizontal position error per platform and method (paper 000 fig. 12).",
+    "nlos_convergence": "NLOS estimate after each step of eq. (11) per event (paper 000 fig. 10).",
+    "trajectories": "Tracks in the east-north plane with the reference.",
+}
+
+_CSS = """
+body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1100px; color: #222; }
+h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 2em; border-bottom: 1px solid #ccc; }
+table { border-collapse: collapse; margin: 1em 0; font-size: 0.85em; }
+caption { text-align: left; font-weight: bold; padding-bottom: 0.4em; }
+th, td { padding: 0.2em 0.7em; border-bottom: 1px solid #e5e5e5; }
+thead th { border-bottom: 2px solid #444; text-align: right; }
+thead th:first-child, thead th:nth-child(2) { text-align: left; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; }
+.chg { color: #777; font-size: 0.9em; } .note { color: #555; font-size: 0.8em; }
+figure { margin: 1.5em 0; } figure img { max-width: 100%; border: 1px solid #eee; }
+figcaption { color: #444; font-size: 0.9em; } dt { font-weight: bold; }
+"""
+
+
+def _png_bytes(out_dir: Path, run: RunTables) -> dict[str, bytes]:
+    found = {n: out_dir / "figures" / f"{n}.png" for n in FIGURE_NAMES}
+    out = {n: p.read_bytes() for n, p in found.items() if p.is_file()}
+    if out:
+        return out
+    rendered = {}
+    with mpl.rc_context(RC):
+        for name, fig in make_figures(run).items():
+            buf = io.BytesIO()
+            fig.savefig(buf, format="png", dpi=150, metadata={"Software": None})
+            rendered[name] = buf.getvalue()
+    return rendered
+
+
+def _facts(info: Mapping[str, Any]) -> str:
+    items: list[tuple[str, str]] = []
+    session = info.get("session")
+    if isinstance(session, Mapping):
+        items.append(("Session", f"{session.get('name', '')} ({session.get('path', '')})"))
+    for key, label in (
+        ("coopproc_version", "coopproc"),
+        ("version", "coopproc"),
+        ("start_time", "Started"),
+        ("duration_s", "Duration (s)"),
+    ):
+        if key in info:
+            items.append((label, str(info[key])))
+    sigma = info.get("sigma")
+    if isinstance(sigma, Mapping) and sigma:
+        parts = []
+        for pair, value in sorted(sigma.items()):
+            if isinstance(value, Mapping):
+                parts.append(f"{pair}: {value.get('sigma_m')} m ({value.get('source', '')})")
+            else:
+                parts.append(f"{pair}: {value} m")
+        items.append(("UWB sigma", "; ".join(parts)))
+    out = ["<dl>"]
+    out += [f"<dt>{html.escape(k)}</dt><dd>{html.escape(v)}</dd>" for k, v in items]
+    out.append("</dl>")
+    inputs = info.get("inputs")
+    if isinstance(inputs, list) and inputs:
+        out.append('<table class="inputs"><caption>Inputs</caption>')
+        out.append("<thead><tr><th>File</th><th>SHA-256</th></tr></thead><tbody>")
+        for item in inputs:
+            if isinstance(item, Mapping):
+                out.append(
+                    f"<tr><td>{html.escape(str(item.get('file', '')))}</td>"
+                    f"<td><code>{html.escape(str(item.get('sha256', '')))}</code></td></tr>"
+                )
+        out.append("</tbody></table>")
+    if "config" in info:
+        config = json.dumps(info["config"], indent=2, sort_keys=True, default=str)
+        out.append(
+            "<details><summary>Effective configuration</summary>"
+            f"<pre>{html.escape(config)}</pre></details>"
+        )
+    return "\n".join(out)
+
+
+def _event_table(run: RunTables) -> str:
+    frame = run.nlos_event_scores
+    if frame is None or not len(frame):
+        return ""
+    cols = list(NLOS_EVENT_SCORE_COLUMNS)
+    out = ['<table class="nlos_events"><caption>NLOS events against the reference</caption>']
+    out.append("<thead><tr>" + "".join(f"<th>{c}</th>" for c in cols) + "</tr></thead><tbody>")
+    for rec in frame[cols].to_dict("records"):
+        cells = []
+        for c in cols:
+            v = rec[c]
+            text = f"{v:.4f}" if isinstance(v, float) else html.escape(str(v))
+            cells.append(f'<td class="num">{text}</td>')
+        out.append("<tr>" + "".join(cells) + "</tr>")
+    out.append("</tbody></table>")
+    return "\n".join(out)
+
+
+def render_html(out_dir: Path, run: RunTables) -> str:
+    """The page as a string (see :func:`write_html`)."""
+    session = run.info.get("session")
+    name = session.get("name", "") if isinstance(session, Mapping) else ""
+    title = f"coopproc report {name}".strip()
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>",
+        f"<h1>{html.escape(title)}</h1>",
+        "<h2>Run</h2>",
+        _facts(run.info),
+        "<h2>Tables</h2>",
+        render_table(distance_table(run.metrics), "html"),
+        render_table(position_table(run.position_metrics, POSITION_ALL), "html"),
+    ]
+    if run.nlos_scores is not None and len(run.nlos_scores):
+        parts.append(render_table(nlos_table(run.nlos_scores), "html"))
+    parts.append(_event_table(run))
+    parts.append("<h2>Figures</h2>")
+    for fig_name, png in _png_bytes(Path(out_dir), run).items():
+        data = base64.b64encode(png).decode("ascii")
+        caption = html.escape(FIGURE_CAPTIONS.get(fig_name, fig_name))
+        parts.append(
+            f'<figure id="fig-{fig_name}"><img alt="{fig_name}" '
+            f'src="data:image/png;base64,{data}"><figcaption>{caption}</figcaption></figure>'
+        )
+    parts.append("</body></html>")
+    return "\n".join(p for p in parts if p) + "\n"
+
+
+def write_html(out_dir: Path, run: RunTables) -> Path:
+    """Write ``out_dir/report.html`` and return its path."""
+    path = Path(out_dir) / "report.html"
+    path.write_text(render_html(Path(out_dir), run), encoding="utf-8")
+    return path

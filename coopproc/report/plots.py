@@ -1,0 +1,173 @@
+"""Axes-level plots of the output tables: each draws one panel on the Axes it is given.
+
+Every function takes the rows of ONE pair / platform / event, draws on ``ax`` with the
+styles of :mod:`coopproc.report.style` and returns ``ax``. Each line's ``gid`` is its
+series key (``observed``, ``rn``, ``di``, ``di_dr``, ``reference``...), so tests and users
+can read the plotted data back. Times are shown relative to ``time_origin_s``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+from matplotlib.axes import Axes
+from matplotlib.ticker import MaxNLocator
+
+from coopproc.model import METHODS
+from coopproc.report.style import DI_STYLES, METHOD_STYLES, NLOS_SPAN, method_style
+
+__all__ = [
+    "plot_di_errors",
+    "plot_distance_errors",
+    "plot_nlos_convergence",
+    "plot_position_errors",
+    "plot_trajectory",
+]
+
+
+def _values(frame: pd.DataFrame, column: str) -> np.ndarray:
+    return frame[column].to_numpy(dtype=np.float64, na_value=np.nan)
+
+
+def plot_distance_errors(
+    ax: Axes,
+    pair_ranges: pd.DataFrame,
+    pair_events: pd.DataFrame | None = None,
+    *,
+    methods: Sequence[str] = METHODS,
+    time_origin_s: float = 0.0,
+) -> Axes:
+    """Distance error (method - reference) over time per method, NLOS events shaded.
+
+    Paper 000 fig. 9 and 11. Epochs without a reference are left out; ``pair_events``
+    (rows of ``nlos_events`` for this pair, any method) are shaded from start to end.
+    """
+    rows = pair_ranges.sort_values("time", kind="stable")
+    t = _values(rows, "time") - time_origin_s
+    ref = _values(rows, "reference")
+    for method in methods:
+        if method not in rows.columns:
+            continue
+        err = _values(rows, method) - ref
+        keep = np.isfinite(err)
+        ax.plot(t[keep], err[keep], gid=method, **method_style(method).kwargs())
+    if pair_events is not None:
+        for i, (start, end) in enumerate(
+            zip(_values(pair_events, "start"), _values(pair_events, "end"), strict=True)
+        ):
+            ax.axvspan(
+                start - time_origin_s,
+                end - time_origin_s,
+                gid="nlos_span",
+                label="NLOS detected" if i == 0 else "_nolegend_",
+                **NLOS_SPAN,
+            )
+    ax.axhline(0.0, color="0.3", linewidth=0.5, zorder=0)
+    ax.set_ylabel("Distance error (m)")
+    return ax
+
+
+def plot_di_errors(ax: Axes, pair_di: pd.DataFrame, *, time_origin_s: float = 0.0) -> Axes:
+    """DI error against the reference DI: dead reckoning, cooperative positioning, smoothed.
+
+    Paper 000 fig. 8 (the distance increments of eq. (1) and the filter of eq. (4)-(7)).
+    """
+    rows = pair_di.sort_values("time", kind="stable")
+    t = _values(rows, "time") - time_origin_s
+    ref = _values(rows, "di_reference")
+    for column, style in DI_STYLES.items():
+        err = _values(rows, column) - ref
+        keep = np.isfinite(err)
+        ax.plot(t[keep], err[keep], gid=column, **style.kwargs())
+    ax.axhline(0.0, color="0.3", linewidth=0.5, zorder=0)
+    ax.set_ylabel("DI error (m)")
+    return ax
+
+
+def plot_position_errors(
+    ax: Axes,
+    platform_positions: pd.DataFrame,
+    *,
+    methods: Sequence[str] = METHODS,
+    time_origin_s: float = 0.0,
+) -> Axes:
+    """Horizontal position error over time per method (paper 000 fig. 12)."""
+    for method in methods:
+        rows = platform_positions[platform_positions["method"] == method]
+        rows = rows.sort_values("time", kind="stable")
+        err = _values(rows, "error_h")
+        keep = np.isfinite(err)
+        if not keep.any():
+            continue
+        t = _values(rows, "time") - time_origin_s
+        ax.plot(t[keep], err[keep], gid=method, **method_style(method).kwargs())
+    ax.set_ylabel("Horizontal error (m)")
+    ax.set_ylim(bottom=0.0)
+    return ax
+
+
+def plot_nlos_convergence(
+    ax: Axes, event_estimates: pd.DataFrame, *, reference_bias_m: float | None = None
+) -> Axes:
+    """NLOS estimate after each step of eq. (11) per method (paper 000 fig. 10).
+
+    ``event_estimates``: rows of ``nlos_estimates`` for one event (one or several methods);
+    ``reference_bias_m``: the mean of observed - reference over the event, drawn dotted.
+    """
+    for method, rows in event_estimates.groupby("method", sort=False):
+        rows = rows.sort_values("step", kind="stable")
+        style = method_style(str(method))
+        ax.plot(
+            _values(rows, "step"),
+            _values(rows, "estimate"),
+            gid=str(method),
+            marker="o",
+            markersize=2.2,
+            **style.kwargs(),
+        )
+    if reference_bias_m is not None and np.isfinite(reference_bias_m):
+        ax.axhline(
+            reference_bias_m,
+            gid="reference_bias",
+            label="Reference bias",
+            color="black",
+            linestyle=":",
+            linewidth=0.9,
+        )
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.set_xlabel("Estimation step")
+    ax.set_ylabel("NLOS estimate (m)")
+    return ax
+
+
+def plot_trajectory(
+    ax: Axes,
+    platform_positions: pd.DataFrame,
+    *,
+    methods: Sequence[str] = ("reference", "nav", *METHODS),
+) -> Axes:
+    """The platform's track in the east-north plane per method, start marked by a circle."""
+    for method in methods:
+        rows = platform_positions[platform_positions["method"] == method]
+        rows = rows.sort_values("time", kind="stable")
+        east, north = _values(rows, "east"), _values(rows, "north")
+        keep = np.isfinite(east) & np.isfinite(north)
+        if not keep.any():
+            continue
+        style = METHOD_STYLES.get(method, method_style(method))
+        ax.plot(east[keep], north[keep], gid=method, **style.kwargs())
+        ax.plot(
+            east[keep][:1],
+            north[keep][:1],
+            "o",
+            color=style.color,
+            markersize=3,
+            gid=f"{method}_start",
+            label="_nolegend_",
+        )
+    ax.set_xlabel("East (m)")
+    ax.set_ylabel("North (m)")
+    ax.set_aspect("equal", adjustable="datalim")
+    return ax

@@ -1,0 +1,214 @@
+"""NLOS detection scored against the reference (beyond paper 000; issue 6 item 7).
+
+Truth label: a range epoch of a pair is NLOS when ``observed - reference > 3 sigma`` (one
+sided: NLOS only lengthens a range), the same 3-sigma rule as the detector's gamma_max
+(paper 000, eq. (9)). Only epochs with a reference distance are scored.
+
+Detection: an epoch is detected by a method when its time lies in ``[start, end]``
+(both inclusive) of one of that method's events of that pair in ``nlos_events``.
+
+Per pair and method: tp, fp, fn over the scored epochs, precision = tp / (tp + fp),
+recall = tp / (tp + fn), F1 = 2 tp / (2 tp + fp + fn) (= 2 P R / (P + R)); each NaN where
+its denominator is 0.
+Per event: the reference-derived bias is the mean of ``observed - reference`` over the
+event's epochs that have a reference; the event's error is ``estimate - bias`` (signed).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from coopproc.model import METHODS, NLOS_EVENT_COLUMNS, FloatArray
+
+__all__ = [
+    "NLOS_EVENT_SCORE_COLUMNS",
+    "NLOS_SCORE_COLUMNS",
+    "detection_methods",
+    "event_bias",
+    "nlos_event_scores",
+    "nlos_scores",
+    "robust_sigma",
+    "true_nlos",
+]
+
+NLOS_SCORE_COLUMNS: tuple[str, ...] = (
+    "pair",
+    "method",
+    "sigma",
+    "epochs",
+    "nlos_true",
+    "detected",
+    "tp",
+    "fp",
+    "fn",
+    "precision",
+    "recall",
+    "f1",
+    "events",
+    "estimate_mae",
+    "estimate_max_error",
+)
+NLOS_EVENT_SCORE_COLUMNS: tuple[str, ...] = (
+    "pair",
+    "method",
+    "start",
+    "end",
+    "epochs",
+    "estimate",
+    "reference_bias",
+    "error",
+)
+
+#: Consistency constant of the median absolute deviation for a normal distribution.
+_MAD_TO_SIGMA = 1.4826
+
+
+def robust_sigma(residual_m: FloatArray) -> float:
+    """1.4826 x the median absolute deviation of the finite residuals (NaN if none)."""
+    x = np.asarray(residual_m, dtype=np.float64)
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        return float("nan")
+    return float(_MAD_TO_SIGMA * np.median(np.abs(x - np.median(x))))
+
+
+def true_nlos(observed_m: FloatArray, reference_m: FloatArray, sigma_m: float) -> FloatArray:
+    """1.0 where observed - reference > 3 sigma, 0.0 where not, NaN without a reference."""
+    e = np.asarray(observed_m, dtype=np.float64) - np.asarray(reference_m, dtype=np.float64)
+    out = np.where(e > 3.0 * sigma_m, 1.0, 0.0)
+    out[~np.isfinite(e)] = np.nan
+    return out
+
+
+def detection_methods(ranges: pd.DataFrame, nlos_events: pd.DataFrame) -> list[str]:
+    """Methods that detect NLOS: :data:`METHODS` but ``observed``, then others with events."""
+    known = [m for m in METHODS if m != "observed" and m in ranges.columns]
+    extra = sorted(set(nlos_events["method"].astype(str)) - set(known) - {"observed"})
+    return known + extra
+
+
+def _in_events(time_s: FloatArray, events: pd.DataFrame) -> NDArray[np.bool_]:
+    inside = np.zeros(time_s.shape[0], dtype=bool)
+    for start, end in zip(
+        events["start"].to_numpy(float), events["end"].to_numpy(float), strict=True
+    ):
+        inside |= (time_s >= start) & (time_s <= end)
+    return inside
+
+
+def event_bias(pair_ranges: pd.DataFrame, start_s: float, end_s: float) -> tuple[float, int]:
+    """Mean of observed - reference over ``[start_s, end_s]`` and the epochs it used."""
+    t = pair_ranges["time"].to_numpy(dtype=np.float64)
+    e = pair_ranges["observed"].to_numpy(dtype=np.float64, na_value=np.nan) - pair_ranges[
+        "reference"
+    ].to_numpy(dtype=np.float64, na_value=np.nan)
+    keep = (t >= start_s) & (t <= end_s) & np.isfinite(e)
+    n = int(np.count_nonzero(keep))
+    return (float(np.mean(e[keep])) if n else float("nan")), n
+
+
+def _ratio(num: int, den: int) -> float:
+    return num / den if den else float("nan")
+
+
+def _pair_sigma(pair: str, sigma: Mapping[str, float], residual: FloatArray) -> float:
+    given = sigma.get(pair)
+    if given is not None and np.isfinite(given) and given > 0:
+        return float(given)
+    return robust_sigma(residual)
+
+
+def nlos_event_scores(ranges: pd.DataFrame, nlos_events: pd.DataFrame) -> pd.DataFrame:
+    """Every NLOS event's estimate against the reference-derived bias (NLOS_EVENT_SCORE_COLUMNS)."""
+    rows: list[dict[str, object]] = []
+    events = nlos_events.sort_values(["pair", "method", "start"], kind="stable")
+    by_pair = {str(p): g.sort_values("time", kind="stable") for p, g in ranges.groupby("pair")}
+    starts, ends = events["start"].to_numpy(float), events["end"].to_numpy(float)
+    estimates = events["estimate"].to_numpy(float)
+    for i, (pair, method) in enumerate(zip(events["pair"], events["method"], strict=True)):
+        pair_ranges = by_pair.get(str(pair))
+        bias, n = (float("nan"), 0)
+        if pair_ranges is not None:
+            bias, n = event_bias(pair_ranges, float(starts[i]), float(ends[i]))
+        estimate = float(estimates[i])
+        rows.append(
+            {
+                "pair": str(pair),
+                "method": str(method),
+                "start": float(starts[i]),
+                "end": float(ends[i]),
+                "epochs": n,
+                "estimate": estimate,
+                "reference_bias": bias,
+                "error": estimate - bias,
+            }
+        )
+    out = pd.DataFrame(rows, columns=list(NLOS_EVENT_SCORE_COLUMNS))
+    out["epochs"] = out["epochs"].astype(np.int64)
+    return out
+
+
+def nlos_scores(
+    ranges: pd.DataFrame, nlos_events: pd.DataFrame, sigma: Mapping[str, float]
+) -> pd.DataFrame:
+    """Precision, recall and F1 of NLOS detection per pair and method (``nlos_scores.csv``).
+
+    ``sigma``: ranging 1-sigma (m) per pair, the one the detector used; a pair missing
+    from it (or with a non-positive value) gets 1.4826 MAD of observed - reference.
+    Also the count of events and the mean absolute / maximum absolute error of their
+    estimates against the reference-derived bias (:func:`nlos_event_scores`).
+    Columns :data:`NLOS_SCORE_COLUMNS`; a pair with no reference has epochs = 0.
+    """
+    missing = [c for c in NLOS_EVENT_COLUMNS if c not in nlos_events.columns]
+    if missing:
+        raise ValueError(f"nlos_events table lacks columns {missing}")
+    methods = detection_methods(ranges, nlos_events)
+    event_scores = nlos_event_scores(ranges, nlos_events)
+    rows: list[dict[str, object]] = []
+    for pair, group in ranges.sort_values(["pair", "time"], kind="stable").groupby("pair"):
+        t = group["time"].to_numpy(dtype=np.float64)
+        obs = group["observed"].to_numpy(dtype=np.float64, na_value=np.nan)
+        ref = group["reference"].to_numpy(dtype=np.float64, na_value=np.nan)
+        s = _pair_sigma(str(pair), sigma, obs - ref)
+        label = true_nlos(obs, ref, s)
+        scored = np.isfinite(label)
+        truth = np.asarray(label[scored] == 1.0, dtype=bool)
+        for method in methods:
+            mine = nlos_events[(nlos_events["pair"] == pair) & (nlos_events["method"] == method)]
+            detected = np.asarray(_in_events(t, mine)[scored], dtype=bool)
+            tp = int(np.count_nonzero(truth & detected))
+            fp = int(np.count_nonzero(~truth & detected))
+            fn = int(np.count_nonzero(truth & ~detected))
+            precision, recall = _ratio(tp, tp + fp), _ratio(tp, tp + fn)
+            f1 = _ratio(2 * tp, 2 * tp + fp + fn)  # = 2 P R / (P + R); 0 when tp = 0
+            errs = event_scores[
+                (event_scores["pair"] == pair) & (event_scores["method"] == method)
+            ]["error"].to_numpy(dtype=np.float64)
+            errs = np.abs(errs[np.isfinite(errs)])
+            rows.append(
+                {
+                    "pair": str(pair),
+                    "method": method,
+                    "sigma": s,
+                    "epochs": int(np.count_nonzero(scored)),
+                    "nlos_true": int(np.count_nonzero(truth)),
+                    "detected": int(np.count_nonzero(detected)),
+                    "tp": tp,
+                    "fp": fp,
+                    "fn": fn,
+                    "precision": precision,
+                    "recall": recall,
+                    "f1": f1,
+                    "events": len(mine),
+                    "estimate_mae": float(np.mean(errs)) if errs.size else float("nan"),
+                    "estimate_max_error": float(np.max(errs)) if errs.size else float("nan"),
+                }
+            )
+    out = pd.DataFrame(rows, columns=list(NLOS_SCORE_COLUMNS))
+    for col in ("epochs", "nlos_true", "detected", "tp", "fp", "fn", "events"):
+        out[col] = out[col].astype(np.int64)
+    return out

@@ -1,0 +1,98 @@
+"""The one place that fixes how each method and series looks in every figure.
+
+Colours follow paper 000 where its captions say (fig. 11/12: observed blue solid, RN-Based
+green dashed, DI-Based orange dash-dotted; fig. 8: cooperative positioning blue dashed,
+dead reckoning orange solid, smoothed green dash-dotted). ``RC`` is applied with
+``matplotlib.rc_context`` around figure making only; nothing here changes global state.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = [
+    "COLUMN_WIDTH_IN",
+    "DI_STYLES",
+    "METHOD_STYLES",
+    "NLOS_SPAN",
+    "PANEL_HEIGHT_IN",
+    "RC",
+    "WIDE_WIDTH_IN",
+    "LineStyle",
+    "method_style",
+]
+
+#: One journal column (MDPI Sensors, IEEE: about 3.5 in) and the full text width.
+COLUMN_WIDTH_IN = 3.5
+WIDE_WIDTH_IN = 7.0
+#: Height of one panel of a stacked figure.
+PANEL_HEIGHT_IN = 1.45
+
+
+@dataclass(frozen=True)
+class LineStyle:
+    """Label, colour, line style and width of one series."""
+
+    label: str
+    color: str
+    #: A matplotlib line style: name or (offset, dash sequence).
+    linestyle: Any = "-"
+    linewidth: float = 0.9
+
+    def kwargs(self) -> dict[str, Any]:
+        """Keyword arguments for ``Axes.plot``."""
+        return {
+            "label": self.label,
+            "color": self.color,
+            "linestyle": self.linestyle,
+            "linewidth": self.linewidth,
+        }
+
+
+METHOD_STYLES: dict[str, LineStyle] = {
+    "observed": LineStyle("Observed", "#1f77b4", "-", 0.8),
+    "rn": LineStyle("RN-Based", "#2ca02c", "--"),
+    "di": LineStyle("DI-Based", "#ff7f0e", "-."),
+    "nav": LineStyle("Own nav", "#7f7f7f", ":"),
+    "reference": LineStyle("Reference", "#000000", "-", 1.2),
+}
+
+DI_STYLES: dict[str, LineStyle] = {
+    "di_dr": LineStyle("Dead reckoning", "#ff7f0e", "-"),
+    "di_cp": LineStyle("Cooperative positioning", "#1f77b4", "--"),
+    "di_smoothed": LineStyle("Smoothed (DI filter)", "#2ca02c", "-."),
+}
+
+#: Shading of detected NLOS spans.
+NLOS_SPAN: dict[str, Any] = {"color": "#d62728", "alpha": 0.12, "linewidth": 0}
+
+_EXTRA_COLORS = ("#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
+
+
+def method_style(method: str) -> LineStyle:
+    """The style of a method; methods beyond the known ones get a stable extra colour."""
+    if method in METHOD_STYLES:
+        return METHOD_STYLES[method]
+    index = sum(ord(c) for c in method) % len(_EXTRA_COLORS)
+    return LineStyle(method, _EXTRA_COLORS[index], (0, (3, 1, 1, 1)))
+
+
+RC: dict[Any, Any] = {
+    "font.size": 7.5,
+    "axes.titlesize": 7.5,
+    "axes.labelsize": 7.5,
+    "legend.fontsize": 7,
+    "xtick.labelsize": 7,
+    "ytick.labelsize": 7,
+    "axes.grid": True,
+    "grid.linewidth": 0.4,
+    "grid.alpha": 0.5,
+    "axes.linewidth": 0.6,
+    "lines.linewidth": 0.9,
+    "legend.frameon": False,
+    "savefig.bbox": "tight",
+    "savefig.pad_inches": 0.03,
+    "svg.hashsalt": "coopproc",
+    "pdf.compression": 6,
+}

@@ -1,0 +1,268 @@
+"""The paper's tables as data: Table 2 (pair x method), Table 3 (platform x method), NLOS scores.
+
+A :class:`Table` holds the numbers, the relative change against ``observed`` in % (as the
+text of paper 000 quotes it) and which cell is the best of its column within each group
+(pair or platform); :mod:`coopproc.report.formats` renders it as terminal text, CSV,
+Markdown, LaTeX or HTML.
+
+Relative change of a method's value v against the observed value o of the same group:
+``100 (v - o) / |o|``; for the signed ``mean`` it compares magnitudes,
+``100 (|v| - |o|) / |o|`` (paper 000: "the mean error ... fell by 17.07%").
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+
+from coopproc.errors import ConfigError
+from coopproc.model import METRICS_COLUMNS
+from coopproc.report.metrics import POSITION_METRICS_EXTRA_COLUMNS
+from coopproc.report.rundir import RunTables
+
+__all__ = [
+    "METHOD_LABELS",
+    "METRIC_SPECS",
+    "POSITION_ALL",
+    "MetricSpec",
+    "Row",
+    "Table",
+    "build_tables",
+    "distance_table",
+    "nlos_table",
+    "position_table",
+]
+
+Better = Literal["min", "max", "absmin", "one"]
+
+#: Display names of methods (paper 000 names RN-Based and DI-Based).
+METHOD_LABELS: dict[str, str] = {
+    "observed": "Observed",
+    "rn": "RN-Based",
+    "di": "DI-Based",
+    "nav": "Own nav",
+}
+
+
+@dataclass(frozen=True)
+class MetricSpec:
+    """How one statistic is shown: header label, unit, decimals, which value is best."""
+
+    label: str
+    unit: str = ""
+    decimals: int = 4
+    #: min / max: smallest / largest; absmin: smallest magnitude; one: closest to 1.
+    better: Better | None = "min"
+
+
+METRIC_SPECS: dict[str, MetricSpec] = {
+    "max": MetricSpec("Max", "m"),
+    "mean": MetricSpec("Mean", "m", better="absmin"),
+    "rmse": MetricSpec("RMSE", "m"),
+    "snr_db": MetricSpec("SNR", "dB", 2, "max"),
+    "smoothness": MetricSpec("Smoothness", "", 4, "one"),
+    "rms_east": MetricSpec("RMS E", "m"),
+    "rms_north": MetricSpec("RMS N", "m"),
+    "cep50": MetricSpec("CEP50", "m"),
+    "cep95": MetricSpec("CEP95", "m"),
+    "precision": MetricSpec("Precision", "", 3, "max"),
+    "recall": MetricSpec("Recall", "", 3, "max"),
+    "f1": MetricSpec("F1", "", 3, "max"),
+    "events": MetricSpec("Events", "", 0, None),
+    "estimate_mae": MetricSpec("Est. MAE", "m"),
+    "n": MetricSpec("n", "", 0, None),
+}
+
+_DISTANCE_DEFAULT = tuple(c for c in METRICS_COLUMNS if c not in ("pair", "method"))
+_POSITION_DEFAULT = ("max", "mean", "rmse", "cep50", "cep95", "n")
+#: Every column of Table 3 (the HTML page shows them all).
+POSITION_ALL = ("max", "mean", "rmse", *POSITION_METRICS_EXTRA_COLUMNS, "n")
+_NLOS_DEFAULT = ("precision", "recall", "f1", "events", "estimate_mae")
+
+
+@dataclass(frozen=True)
+class Row:
+    """One method of one group: values, % change vs observed (None: not shown), best cells."""
+
+    group: str
+    method: str
+    values: dict[str, float]
+    change_pct: dict[str, float | None]
+    best: frozenset[str]
+
+
+@dataclass(frozen=True)
+class Table:
+    """A titled table; ``group_label`` names the first column (Pair / Platform)."""
+
+    key: str
+    title: str
+    group_label: str
+    metrics: tuple[str, ...]
+    rows: tuple[Row, ...]
+    #: True when rows carry a change against observed.
+    has_change: bool
+
+    def header(self, name: str) -> str:
+        """Column header with the unit, e.g. ``Max (m)``."""
+        spec = METRIC_SPECS.get(name, MetricSpec(name))
+        return f"{spec.label} ({spec.unit})" if spec.unit else spec.label
+
+
+def _change(name: str, value: float, observed: float) -> float | None:
+    if not (np.isfinite(value) and np.isfinite(observed)) or observed == 0 or name == "n":
+        return None
+    if METRIC_SPECS.get(name, MetricSpec(name)).better is None:
+        return None
+    if name == "mean":
+        return 100.0 * (abs(value) - abs(observed)) / abs(observed)
+    return 100.0 * (value - observed) / abs(observed)
+
+
+def _best(name: str, values: list[float]) -> set[int]:
+    better = METRIC_SPECS.get(name, MetricSpec(name)).better
+    arr = np.asarray(values, dtype=np.float64)
+    ok = np.isfinite(arr)
+    if better is None or np.count_nonzero(ok) < 2:
+        return set()
+    score = {"min": arr, "max": -arr, "absmin": np.abs(arr), "one": np.abs(arr - 1.0)}[better]
+    best = np.min(score[ok])
+    return {int(i) for i in np.flatnonzero(ok & np.isclose(score, best, rtol=0, atol=1e-12))}
+
+
+def _build(
+    frame: pd.DataFrame,
+    group_col: str,
+    metrics: Sequence[str],
+    *,
+    key: str,
+    title: str,
+    group_label: str,
+    with_change: bool,
+) -> Table:
+    rows: list[Row] = []
+    for group, block in frame.groupby(group_col, sort=True):
+        records = block.to_dict("records")
+        observed = next((r for r in records if r["method"] == "observed"), None)
+        best = {m: _best(m, [float(r[m]) for r in records]) for m in metrics}
+        for i, rec in enumerate(records):
+            values = {m: float(rec[m]) for m in metrics}
+            change: dict[str, float | None] = {m: None for m in metrics}
+            if with_change and observed is not None and rec["method"] != "observed":
+                change = {m: _change(m, values[m], float(observed[m])) for m in metrics}
+            rows.append(
+                Row(
+                    group=str(group),
+                    method=str(rec["method"]),
+                    values=values,
+                    change_pct=change,
+                    best=frozenset(m for m in metrics if i in best[m]),
+                )
+            )
+    return Table(key, title, group_label, tuple(metrics), tuple(rows), with_change)
+
+
+def _filter(
+    frame: pd.DataFrame, column: str, keep: Sequence[str] | None, what: str
+) -> pd.DataFrame:
+    if keep is None:
+        return frame
+    known = sorted(frame[column].astype(str).unique())
+    for name in keep:
+        if name not in known:
+            raise ConfigError(f"unknown {what} {name!r}; the run has {', '.join(known) or 'none'}")
+    return frame[frame[column].astype(str).isin(list(keep))]
+
+
+def distance_table(
+    metrics: pd.DataFrame,
+    columns: Sequence[str] = _DISTANCE_DEFAULT,
+    pairs: Sequence[str] | None = None,
+) -> Table:
+    """Table 2 of paper 000 from ``metrics.csv`` rows."""
+    frame = _filter(metrics, "pair", pairs, "pair")
+    return _build(
+        frame,
+        "pair",
+        [c for c in columns if c in frame.columns],
+        key="table2",
+        title="Table 2. Distance errors per pair and method",
+        group_label="Pair",
+        with_change=True,
+    )
+
+
+def position_table(
+    position_metrics: pd.DataFrame,
+    columns: Sequence[str] = _POSITION_DEFAULT,
+    platforms: Sequence[str] | None = None,
+) -> Table:
+    """Table 3 of paper 000 (horizontal position errors) from ``position_metrics.csv`` rows."""
+    frame = _filter(position_metrics, "platform", platforms, "platform")
+    return _build(
+        frame,
+        "platform",
+        [c for c in columns if c in frame.columns],
+        key="table3",
+        title="Table 3. Horizontal position errors per platform and method",
+        group_label="Platform",
+        with_change=True,
+    )
+
+
+def nlos_table(
+    nlos_scores: pd.DataFrame,
+    columns: Sequence[str] = _NLOS_DEFAULT,
+    pairs: Sequence[str] | None = None,
+) -> Table:
+    """NLOS detection scores against the reference (``nlos_scores.csv`` rows)."""
+    frame = nlos_scores if pairs is None else nlos_scores[nlos_scores["pair"].isin(list(pairs))]
+    return _build(
+        frame,
+        "pair",
+        [c for c in columns if c in frame.columns],
+        key="nlos",
+        title="NLOS detection against the reference",
+        group_label="Pair",
+        with_change=False,
+    )
+
+
+def _check_metrics(names: Sequence[str]) -> None:
+    known = [*_DISTANCE_DEFAULT, *POSITION_ALL, *_NLOS_DEFAULT, "tp", "fp", "fn"]
+    for name in names:
+        if name not in known:
+            near = difflib.get_close_matches(name, known, n=1)
+            hint = f"; did you mean {near[0]!r}?" if near else ""
+            raise ConfigError(
+                f"unknown metric {name!r}{hint} (known: {', '.join(dict.fromkeys(known))})"
+            )
+
+
+def build_tables(
+    run: RunTables,
+    *,
+    metrics: Sequence[str] | None = None,
+    pairs: Sequence[str] | None = None,
+    platforms: Sequence[str] | None = None,
+) -> list[Table]:
+    """Table 2, Table 3 and (if the run has scores) the NLOS table, filtered as asked.
+
+    ``metrics`` chooses the columns of every table (in the given order; names a table does
+    not have are skipped there; ``n`` is shown only if asked for). A table left without
+    columns or rows is omitted. Unknown metric, pair or platform names raise ConfigError.
+    """
+    if metrics is not None:
+        _check_metrics(metrics)
+    tables = [
+        distance_table(run.metrics, metrics or _DISTANCE_DEFAULT, pairs),
+        position_table(run.position_metrics, metrics or _POSITION_DEFAULT, platforms),
+    ]
+    if run.nlos_scores is not None and len(run.nlos_scores):
+        tables.append(nlos_table(run.nlos_scores, metrics or _NLOS_DEFAULT, pairs))
+    return [t for t in tables if t.metrics and t.rows]

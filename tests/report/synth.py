@@ -1,0 +1,121 @@
+"""Small synthetic output tables shared by the report tests (deterministic)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from coopproc.model import (
+    DI_COLUMNS,
+    NLOS_ESTIMATE_COLUMNS,
+    NLOS_EVENT_COLUMNS,
+    POSITIONS_COLUMNS,
+    RANGES_OUT_COLUMNS,
+)
+from coopproc.report.metrics import distance_metrics, position_metrics
+from coopproc.report.rundir import RunTables
+from coopproc.report.scores import nlos_event_scores, nlos_scores
+
+T0 = 1000.0
+PAIRS = ("A-B", "A-C", "B-C")
+SIGMA = 0.15
+
+
+def make_run(n: int = 120, seed: int = 7) -> RunTables:
+    """Three pairs, one NLOS event on A-B and B-C, positions of A and C with a reference."""
+    rng = np.random.default_rng(seed)
+    t = T0 + np.arange(n, dtype=float)
+    ranges, di, events, estimates = [], [], [], []
+    for k, pair in enumerate(PAIRS):
+        ref = 18.0 + k + 2.0 * np.sin(2 * np.pi * (t - T0) / 80.0)
+        noise = rng.normal(0.0, SIGMA, n)
+        nlos = np.zeros(n)
+        flag = np.zeros(n, dtype=int)
+        est = np.zeros(n)
+        if pair != "A-C":
+            s, e = 30 + 10 * k, 45 + 10 * k
+            nlos[s:e] = 0.5 + 0.05 * k
+            flag[s:e] = 1
+            est[s:e] = nlos[s] - 0.02
+            events.append((pair, "di", t[s], t[e - 1], e - s, nlos[s] - 0.02))
+            events.append((pair, "rn", t[s + 1], t[e - 1], e - s - 1, nlos[s] + 0.08))
+            for method, off in (("di", -0.02), ("rn", 0.08)):
+                for step in range(1, 4):
+                    estimates.append(
+                        (pair, method, 1, step, t[s + step - 1], nlos[s] + off * step / 3 + 0.1 / step)
+                    )
+        observed = ref + noise + nlos
+        ranges.append(
+            pd.DataFrame(
+                {
+                    "time": t,
+                    "pair": pair,
+                    "observed": observed,
+                    "rn": ref + 0.5 * noise + 0.2 * nlos,
+                    "di": ref + 0.3 * noise,
+                    "reference": ref,
+                    "nlos_flag": flag,
+                    "nlos_estimate": est,
+                }
+            )
+        )
+        dref = np.concatenate([[np.nan], np.diff(ref)])
+        di.append(
+            pd.DataFrame(
+                {
+                    "time": t,
+                    "pair": pair,
+                    "di_dr": dref + 0.01 * np.arange(n) / n,
+                    "di_cp": dref + rng.normal(0, 0.05, n),
+                    "di_smoothed": dref + rng.normal(0, 0.01, n),
+                    "di_reference": dref,
+                }
+            )
+        )
+    positions = []
+    for j, platform in enumerate(("A", "B", "C")):
+        east = 0.5 * (t - T0) + 3.0 * j
+        north = 5.0 * np.sin((t - T0) / 30.0) + 2.0 * j
+        positions.append(_pos(t, platform, "reference", east, north, np.nan))
+        for m, scale in (("nav", 1.0), ("observed", 0.3), ("rn", 0.2), ("di", 0.15)):
+            de = scale * rng.normal(0, 1, n)
+            dn = scale * rng.normal(0, 1, n)
+            err = np.hypot(de, dn) if platform != "B" else np.full(n, np.nan)
+            positions.append(_pos(t, platform, m, east + de, north + dn, err))
+    ranges_df = pd.concat(ranges, ignore_index=True)[list(RANGES_OUT_COLUMNS)]
+    events_df = pd.DataFrame(events, columns=list(NLOS_EVENT_COLUMNS))
+    positions_df = pd.concat(positions, ignore_index=True)[list(POSITIONS_COLUMNS)]
+    sigma = dict.fromkeys(PAIRS, SIGMA)
+    return RunTables(
+        ranges=ranges_df,
+        di=pd.concat(di, ignore_index=True)[list(DI_COLUMNS)],
+        nlos_events=events_df,
+        nlos_estimates=pd.DataFrame(estimates, columns=list(NLOS_ESTIMATE_COLUMNS)),
+        positions=positions_df,
+        metrics=distance_metrics(ranges_df),
+        position_metrics=position_metrics(positions_df),
+        nlos_scores=nlos_scores(ranges_df, events_df, sigma),
+        nlos_event_scores=nlos_event_scores(ranges_df, events_df),
+        info={
+            "coopproc_version": "0.1.0",
+            "start_time": "2026-01-01T00:00:00+00:00",
+            "duration_s": 1.5,
+            "session": {"name": "synthetic", "path": "/data/synthetic"},
+            "inputs": [{"file": "ranges.csv", "sha256": "ab" * 32}],
+            "sigma": {p: {"sigma_m": SIGMA, "source": "session.toml"} for p in PAIRS},
+        },
+    )
+
+
+def _pos(t, platform, method, east, north, err) -> pd.DataFrame:
+    return pd.DataFrame(
+        {
+            "time": t,
+            "platform": platform,
+            "method": method,
+            "east": east,
+            "north": north,
+            "up": 0.0,
+            "error_h": err,
+        }
+    )
