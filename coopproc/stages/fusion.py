@@ -33,7 +33,12 @@ import pandas as pd
 from coopproc.configtools import from_table
 from coopproc.errors import StageError
 from coopproc.model import FloatArray, Session, Trajectory
-from coopproc.stages.fusion_data import anchor_positions, clean_ranges, epoch_groups
+from coopproc.stages.fusion_data import (
+    anchor_positions,
+    clean_ranges,
+    epoch_groups,
+    platform_codes,
+)
 from coopproc.stages.fusion_data import range_sigma_default as _range_sigma_default
 from coopproc.stages.fusion_ekf import (
     OBS_ANCHOR,
@@ -284,17 +289,18 @@ def _observations(
     """Flat observation arrays (ranges, then leader fixes), unsorted."""
     dim = params.dims
     index = {pid: i for i, pid in enumerate(moving)}
-    a_from = rows["from"].map(index).to_numpy(dtype=np.float64, na_value=np.nan)
-    a_to = rows["to"].map(index).to_numpy(dtype=np.float64, na_value=np.nan)
-    from_moving = np.isfinite(a_from)
-    to_moving = np.isfinite(a_to)
+    a_from = platform_codes(rows["from"], moving)
+    a_to = platform_codes(rows["to"], moving)
+    from_moving = a_from >= 0
+    to_moving = a_to >= 0
     both = from_moving & to_moving
     a = np.where(from_moving, a_from, a_to).astype(np.int64)
     b = np.where(both, a_to, -1).astype(np.int64)
-    anchor_id = np.where(from_moving, rows["to"].to_numpy(), rows["from"].to_numpy())
-    anchor = np.zeros((len(rows), 3))
-    for aid, xyz in anchors.items():
-        anchor[anchor_id == aid] = xyz
+    anchor_ids = sorted(anchors)
+    anchor_table = np.array([anchors[k] for k in anchor_ids] + [np.zeros(3)])
+    to_code = platform_codes(rows["to"], anchor_ids)
+    anchor_code = np.where(from_moving, to_code, platform_codes(rows["from"], anchor_ids))
+    anchor = anchor_table[np.where(anchor_code >= 0, anchor_code, len(anchor_ids))]
     up_a = nav[a, ep_idx, 2]
     up_b = np.where(both, nav[np.maximum(b, 0), ep_idx, 2], anchor[:, 2])
     dz2 = (up_a - up_b) ** 2 if dim == 2 else np.zeros(len(rows))

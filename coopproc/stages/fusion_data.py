@@ -8,7 +8,13 @@ import pandas as pd
 from coopproc.errors import StageError
 from coopproc.model import FloatArray, Session
 
-__all__ = ["anchor_positions", "clean_ranges", "epoch_groups", "range_sigma_default"]
+__all__ = [
+    "anchor_positions",
+    "clean_ranges",
+    "epoch_groups",
+    "platform_codes",
+    "range_sigma_default",
+]
 
 _REQUIRED = ("time", "from", "to", "range")
 
@@ -66,20 +72,24 @@ def clean_ranges(session: Session, ranges: pd.DataFrame, default_sigma_m: float)
     sigma = np.where(np.isfinite(sigma) & (sigma > 0), sigma, default_sigma_m)
     frame["var"] = sigma * sigma
     frame = frame[np.isfinite(frame["time"]) & np.isfinite(frame["range"])]
-    known = set(session.platforms)
+    ids = sorted(session.platforms)
+    index = pd.Index(ids)
+    codes = {}
     for column in ("from", "to"):
-        unknown = sorted(set(frame[column].unique()) - known)
-        if unknown:
+        code = index.get_indexer(frame[column].to_numpy())
+        if (code < 0).any():
+            unknown = frame[column].to_numpy()[code < 0][0]
             raise StageError(
-                f"fusion: range rows name platform '{unknown[0]}' in column '{column}', which "
-                f"the session does not have (platforms: {', '.join(sorted(known))})"
+                f"fusion: range rows name platform '{unknown}' in column '{column}', which "
+                f"the session does not have (platforms: {', '.join(ids)})"
             )
-    if (frame["from"] == frame["to"]).any():
-        row = frame[frame["from"] == frame["to"]].iloc[0]
+        codes[column] = code
+    same = codes["from"] == codes["to"]
+    if same.any():
+        row = frame[same].iloc[0]
         raise StageError(f"fusion: range from '{row['from']}' to itself at time {row['time']}")
-    role = {pid: p.role for pid, p in session.platforms.items()}
-    both_anchor = (frame["from"].map(role) == "anchor") & (frame["to"].map(role) == "anchor")
-    frame = frame[~both_anchor.to_numpy()]
+    is_anchor = np.array([session.platforms[p].role == "anchor" for p in ids], dtype=bool)
+    frame = frame[~(is_anchor[codes["from"]] & is_anchor[codes["to"]])]
     return frame.sort_values("time", kind="stable").reset_index(drop=True)
 
 
@@ -97,3 +107,8 @@ def epoch_groups(time_s: FloatArray, merge_s: float) -> tuple[FloatArray, np.nda
         group = np.cumsum(starts) - 1
         return unique[starts], group[inverse].astype(np.int64)
     return unique, inverse.astype(np.int64)
+
+
+def platform_codes(ids: pd.Series, order: list[str]) -> np.ndarray:
+    """Position of each id in ``order`` (-1 where absent), vectorized."""
+    return np.asarray(pd.Index(order).get_indexer(pd.Index(ids)), dtype=np.int64)
