@@ -91,9 +91,11 @@ def igg3_factor(s: FloatArray | float, k0: float, k1: float) -> FloatArray:
 
     gamma = 1 for |s| <= k0; (k0/|s|) ((k1-|s|)/(k1-k0))^2 for k0 < |s| <= k1;
     1e-30 beyond k1. The paper writes s_k; innovations are signed, so |s_k| is meant.
+    The middle branch reaches 0 at |s| = k1; it is floored at 1e-30 (the value beyond
+    k1) so that R / gamma stays finite.
     """
     a = np.abs(np.asarray(s, dtype=np.float64))
-    mid = (k0 / np.maximum(a, 1e-300)) * ((k1 - a) / (k1 - k0)) ** 2
+    mid = np.maximum((k0 / np.maximum(a, 1e-300)) * ((k1 - a) / (k1 - k0)) ** 2, GAMMA_REJECT)
     return np.where(a <= k0, 1.0, np.where(a <= k1, mid, GAMMA_REJECT))
 
 
@@ -157,7 +159,7 @@ def igg3_scalar(s: float, k0: float, k1: float) -> float:
         return 1.0
     if a <= k1:
         t = (k1 - a) / (k1 - k0)
-        return (k0 / a) * t * t
+        return max((k0 / a) * t * t, GAMMA_REJECT)
     return GAMMA_REJECT
 
 

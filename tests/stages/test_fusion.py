@@ -1,0 +1,249 @@
+"""Cooperative EKF + RTS on small synthetic sessions with known truth."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from coopproc.configtools import from_table
+from coopproc.errors import ConfigError, StageError
+from coopproc.model import Platform, RangeTable, Session, SessionConfig, Trajectory, pair_name
+from coopproc.stages.fusion import FusionParams, fuse, fusion_params_from_toml
+
+
+def make_session(
+    *,
+    seed: int = 1,
+    duration_s: float = 300.0,
+    followers: int = 2,
+    uwb_sigma: float = 0.08,
+) -> tuple[Session, dict[str, np.ndarray], np.ndarray]:
+    """Leader B on a loop, followers around it; DR = truth + drifting error; 1 Hz ranges."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, duration_s + 1e-9, 0.1)
+    radius = 40.0
+    omega = 0.5 / radius
+    lead = np.stack(
+        [radius * np.sin(omega * t), radius * (1 - np.cos(omega * t)), 0.1 * np.sin(t / 50)], 1
+    )
+    heading = omega * t
+    ids = ["B"] + [chr(ord("A") + i) if i == 0 else chr(ord("C") + i - 1) for i in range(followers)]
+    truth = {"B": lead}
+    offsets = [(-15.0, 8.0), (-14.0, -9.0), (-25.0, 0.0), (-6.0, 15.0), (-6.0, -15.0)]
+    for i, pid in enumerate(ids[1:]):
+        back, side = offsets[i % len(offsets)]
+        side = side + 1.5 * np.sin(2 * np.pi * t / (60 + 13 * i))
+        e = lead[:, 0] + back * np.cos(heading) - side * np.sin(heading)
+        nn = lead[:, 1] + back * np.sin(heading) + side * np.cos(heading)
+        truth[pid] = np.stack([e, nn, 0.3 * np.sin(t / 40 + i)], 1)
+    nav: dict[str, Trajectory] = {}
+    platforms: dict[str, Platform] = {}
+    for pid, pos in truth.items():
+        if pid == "B":
+            meas = pos + rng.normal(0, 0.02, pos.shape)
+            nav[pid] = Trajectory(pid, t, meas, sigma_enu_m=np.full(pos.shape, 0.02))
+            platforms[pid] = Platform(pid, role="leader", drift_sigma_mps=0.02)
+        else:
+            walk = np.cumsum(rng.normal(0, 0.01 * np.sqrt(0.1), (t.size, 3)), axis=0)
+            slope = rng.normal(0, 0.003, 3)
+            err = rng.normal(0, 0.3, 3) + slope * t[:, None] + walk
+            err[:, 2] *= 0.1
+            nav[pid] = Trajectory(pid, t, pos + err)
+            platforms[pid] = Platform(pid, role="follower", drift_sigma_mps=0.02)
+    epochs = np.arange(1.0, duration_s, 1.0)
+    rows = []
+    idx = np.round(epochs / 0.1).astype(int)
+    pids = sorted(truth)
+    for i, a in enumerate(pids):
+        for b in pids[i + 1 :]:
+            dist = np.linalg.norm(truth[a][idx] - truth[b][idx], axis=1)
+            rows.append(
+                pd.DataFrame(
+                    {
+                        "time": epochs,
+                        "pair": pair_name(a, b),
+                        "from": a,
+                        "to": b,
+                        "range": dist + rng.normal(0, uwb_sigma, epochs.size),
+                        "sigma": np.nan,
+                    }
+                )
+            )
+    frame = pd.concat(rows).sort_values("time", kind="stable").reset_index(drop=True)
+    config = SessionConfig(name="synthetic", platforms=platforms, uwb_sigma_m=0.15)
+    session = Session(
+        config=config,
+        platforms=platforms,
+        nav=nav,
+        reference={},
+        ranges=RangeTable(frame),
+        origin_llh=(34.0, 113.0, 100.0),
+        root=Path("synthetic"),
+    )
+    return session, {k: v[idx] for k, v in truth.items()}, epochs
+
+
+def horizontal_error(traj: Trajectory, truth: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(traj.enu_m[:, :2] - truth[:, :2], axis=1)
+
+
+def dr_error(session: Session, pid: str, truth: np.ndarray, epochs: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(session.nav[pid].interpolate(epochs)[:, :2] - truth[:, :2], axis=1)
+
+
+@pytest.fixture(scope="module")
+def base() -> tuple[Session, dict[str, np.ndarray], np.ndarray]:
+    return make_session()
+
+
+def test_fusion_beats_dead_reckoning_and_rts_beats_forward(base) -> None:
+    session, truth, epochs = base
+    out = fuse(session, session.ranges.frame, FusionParams())
+    assert set(out.smoothed) == {"A", "B", "C"}
+    assert out.epochs_s == pytest.approx(epochs)
+    for pid in ("A", "C"):
+        dr = dr_error(session, pid, truth[pid], epochs)
+        fwd = horizontal_error(out.forward[pid], truth[pid])
+        smo = horizontal_error(out.smoothed[pid], truth[pid])
+        assert fwd.mean() < 0.5 * dr.mean()  # measured: 0.19 vs 0.50 m
+        assert np.sqrt((smo**2).mean()) < 0.8 * np.sqrt((fwd**2).mean())  # 0.135 vs 0.21 m
+        assert out.smoothed[pid].sigma_enu_m is not None
+        assert np.all(
+            out.smoothed[pid].sigma_enu_m[:, :2] <= out.forward[pid].sigma_enu_m[:, :2] + 1e-12
+        )
+        # 2D mode: the height is the platform's own
+        assert out.smoothed[pid].enu_m[:, 2] == pytest.approx(
+            session.nav[pid].interpolate(epochs)[:, 2]
+        )
+    # the leader stays at its accurate fix
+    assert horizontal_error(out.smoothed["B"], truth["B"]).mean() < 0.05
+
+
+def test_robust_filter_resists_a_2m_gross_error(base) -> None:
+    session, _, _ = base
+    clean = session.ranges.frame
+    bad = clean.copy()
+    row = bad.index[(bad["time"] == 150.0) & (bad["pair"] == "A-B")][0]
+    bad.loc[row, "range"] += 2.0  # paper 002 section 5.4
+    moved = {}
+    for robust in (True, False):
+        params = FusionParams(robust=robust, smoother=False)
+        a = fuse(session, clean, params).forward
+        b = fuse(session, bad, params).forward
+        moved[robust] = max(np.abs(a[p].enu_m - b[p].enu_m).max() for p in "ABC")
+    assert moved[False] > 0.1  # measured 0.30 m
+    assert moved[True] < moved[False] / 3  # measured 0.003 m
+    obs = fuse(session, bad, FusionParams()).observations
+    hit = obs[(obs["time"] == 150.0) & (obs["from"] == "A") & (obs["to"] == "B")]
+    assert hit["gamma"].iloc[0] == pytest.approx(1e-30)
+    assert hit["innovation"].iloc[0] == pytest.approx(2.0, abs=0.1)
+    assert (obs["gamma"] == 1.0).mean() > 0.95
+
+
+def test_range_sigma_per_row_weights_the_update(base) -> None:
+    session, _, _ = base
+    frame = session.ranges.frame
+    noisy = frame.copy()
+    sel = noisy["pair"] == "A-C"
+    noisy.loc[sel, "range"] += np.random.default_rng(5).normal(0, 1.0, int(sel.sum()))
+    noisy.loc[sel, "sigma"] = 1e3
+    without = fuse(session, frame[~sel], FusionParams())
+    heavy = fuse(session, noisy, FusionParams())
+    for pid in "AC":
+        assert np.abs(heavy.smoothed[pid].enu_m - without.smoothed[pid].enu_m).max() < 1e-3
+
+
+def test_any_subset_of_ranges_per_epoch(base) -> None:
+    session, truth, _ = base
+    frame = session.ranges.frame
+    keep = np.random.default_rng(9).random(len(frame)) < 0.4
+    sub = frame[keep].copy()
+    sub.loc[sub.index[::7], "range"] = np.nan  # dropouts are ignored
+    out = fuse(session, sub, FusionParams())
+    epochs = out.epochs_s
+    assert epochs.shape[0] == sub.loc[sub["range"].notna(), "time"].nunique()
+    idx = np.searchsorted(np.arange(1.0, 300.0), epochs)
+    for pid in "AC":
+        dr = dr_error(session, pid, truth[pid][idx], epochs)
+        assert horizontal_error(out.smoothed[pid], truth[pid][idx]).mean() < 0.6 * dr.mean()
+
+
+@pytest.mark.parametrize(("followers", "ratio"), [(1, 0.9), (5, 0.7), (21, 0.7)])
+def test_two_to_twenty_plus_platforms(followers: int, ratio: float) -> None:
+    session, truth, epochs = make_session(seed=4, duration_s=120.0, followers=followers)
+    out = fuse(session, session.ranges.frame, FusionParams())
+    assert len(out.smoothed) == followers + 1
+    followers_ids = [p for p in out.smoothed if p != "B"]
+    fused = np.mean([horizontal_error(out.smoothed[p], truth[p]).mean() for p in followers_ids])
+    dr = np.mean([dr_error(session, p, truth[p], epochs).mean() for p in followers_ids])
+    assert fused < ratio * dr  # one range only constrains the follower radially
+
+
+def test_three_dimensional_state(base) -> None:
+    session, truth, epochs = base
+    out = fuse(session, session.ranges.frame, FusionParams(dims=3))
+    for pid in "AC":
+        dr = dr_error(session, pid, truth[pid], epochs)
+        assert horizontal_error(out.smoothed[pid], truth[pid]).mean() < 0.5 * dr.mean()
+        assert np.isfinite(out.smoothed[pid].sigma_enu_m).all()
+
+
+def test_nav_rate_output(base) -> None:
+    session, _, _ = base
+    at_epochs = fuse(session, session.ranges.frame, FusionParams())
+    at_nav = fuse(session, session.ranges.frame, FusionParams(), output="nav")
+    traj = at_nav.forward["A"]
+    nav_t = session.nav["A"].time_s
+    assert traj.time_s == pytest.approx(nav_t[(nav_t >= 1.0) & (nav_t <= 299.0)])
+    at = np.searchsorted(traj.time_s, at_epochs.epochs_s - 1e-9)
+    for kind in ("forward", "smoothed"):
+        got = getattr(at_nav, kind)["A"].enu_m[at]
+        assert got == pytest.approx(getattr(at_epochs, kind)["A"].enu_m, abs=1e-9)
+    # between epochs the forward solution moves with dead reckoning
+    nav_step = np.diff(session.nav["A"].enu_m[(nav_t >= 1.0) & (nav_t <= 299.0)], axis=0)
+    step = np.diff(traj.enu_m, axis=0)
+    inside = np.round(traj.time_s[1:] % 1.0, 6) != 0
+    assert step[inside] == pytest.approx(nav_step[inside], abs=1e-9)
+
+
+def test_deterministic(base) -> None:
+    session, _, _ = base
+    a = fuse(session, session.ranges.frame, FusionParams())
+    b = fuse(session, session.ranges.frame, FusionParams())
+    for pid in a.smoothed:
+        assert np.array_equal(a.smoothed[pid].enu_m, b.smoothed[pid].enu_m)
+        assert np.array_equal(a.forward[pid].enu_m, b.forward[pid].enu_m)
+
+
+def test_smoother_off_gives_forward(base) -> None:
+    session, _, _ = base
+    out = fuse(session, session.ranges.frame, FusionParams(smoother=False))
+    assert np.array_equal(out.smoothed["A"].enu_m, out.forward["A"].enu_m)
+
+
+def test_bad_input_is_one_clear_error(base) -> None:
+    session, _, _ = base
+    frame = session.ranges.frame
+    with pytest.raises(StageError, match="platform 'X'"):
+        fuse(session, frame.assign(to=np.where(frame.index == 3, "X", frame["to"])), FusionParams())
+    with pytest.raises(StageError, match="no column 'range'"):
+        fuse(session, frame.drop(columns="range"), FusionParams())
+    with pytest.raises(StageError, match="no range epoch"):
+        fuse(session, frame[frame["time"] > 1e6], FusionParams())
+
+
+def test_params_from_toml() -> None:
+    params = fusion_params_from_toml(
+        {"ranging": {"x": 1}, "fusion": {"k0": 3.2, "smoother": False, "lsq": {"c": 1.8}}}
+    )
+    assert params.k0 == 3.2 and params.smoother is False and params.lsq.c == 1.8
+    assert fusion_params_from_toml({}) == FusionParams()
+    with pytest.raises(ConfigError, match="k0"):
+        fusion_params_from_toml({"fusion": {"k0": 2.0}})
+    with pytest.raises(ConfigError, match="did you mean 'smoother'"):
+        fusion_params_from_toml({"fusion": {"smoothr": True}})
+    with pytest.raises(ConfigError, match=r"1\.3\.\.2\.0"):
+        from_table(FusionParams, {"lsq": {"c": 3.0}}, "run config [fusion]")
