@@ -1,0 +1,228 @@
+"""``simulate``: a scenario's world + sensors -> an in-memory Session and its Truth.
+
+Everything is drawn from ``numpy.random.default_rng`` streams keyed by (seed, name), so
+a seed gives the same session bit for bit, and all per-sample work is vectorized.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from coopproc.configtools import nearest
+from coopproc.errors import ConfigError
+from coopproc.model import Platform, RangeTable, Session, SessionConfig, Trajectory
+from coopproc.sim.deadreckoning import course_rad, dead_reckon, dr_drift_sigma_mps, draw_dr_errors
+from coopproc.sim.gnss import leader_drift_sigma_mps, leader_nav, ppk_reference
+from coopproc.sim.params import NlosSpec, SimParams, apply_overrides
+from coopproc.sim.scenarios import SCENARIOS, Actor, named_rng
+from coopproc.sim.truth import (
+    DR_ERROR_COLUMNS,
+    DR_PARAM_COLUMNS,
+    NAV_FRAME_COLUMNS,
+    Simulation,
+    Truth,
+)
+from coopproc.sim.uwb import simulate_ranges
+
+__all__ = ["scenario_params", "simulate"]
+
+
+def scenario_params(scenario: str, **overrides: Any) -> SimParams:
+    """The effective parameters of ``scenario`` with ``overrides`` applied."""
+    if scenario not in SCENARIOS:
+        raise ConfigError(f"unknown scenario '{scenario}'{nearest(scenario, SCENARIOS)}")
+    spec = SCENARIOS[scenario]
+    base = apply_overrides(SimParams(), spec.defaults)
+    params = apply_overrides(base, overrides)
+    if "nlos_events" not in overrides or overrides["nlos_events"] is None:
+        nominal = float(spec.defaults.get("duration_s", SimParams().duration_s))
+        params = dataclasses.replace(
+            params, nlos_events=_scale_events(params.nlos_events, nominal, params.duration_s)
+        )
+    return params
+
+
+def _scale_events(
+    events: tuple[NlosSpec, ...], nominal_s: float, duration_s: float
+) -> tuple[NlosSpec, ...]:
+    """Scenario events at the same fraction of a shorter/longer session, same length."""
+    if duration_s == nominal_s:
+        return events
+    out = []
+    for event in events:
+        start = event.start_s * duration_s / nominal_s
+        end = min(start + (event.end_s - event.start_s), duration_s - 1.0)
+        if end > start:
+            out.append(dataclasses.replace(event, start_s=start, end_s=end))
+    return tuple(out)
+
+
+def _random_events(params: SimParams, pairs: list[str], seed: int) -> list[NlosSpec]:
+    """Random NLOS events: Poisson count per pair, 10-30 s long, means 0.4-0.6 m."""
+    rate = params.random_nlos_per_pair_hour
+    if rate <= 0 or params.duration_s < 120.0:
+        return []
+    rng = named_rng(seed, "random-nlos")
+    events: list[NlosSpec] = []
+    for pair in pairs:
+        taken = [(e.start_s, e.end_s) for e in params.nlos_events if e.pair == pair]
+        for _ in range(int(rng.poisson(rate * params.duration_s / 3600.0))):
+            start = float(rng.uniform(30.0, params.duration_s - 60.0))
+            end = start + float(rng.uniform(10.0, 30.0))
+            mean = float(rng.uniform(0.4, 0.6))
+            if all(end < s - 5.0 or start > e + 5.0 for s, e in taken):
+                taken.append((start, end))
+                events.append(NlosSpec(pair, round(start, 1), round(end, 1), round(mean, 3)))
+    return events
+
+
+def _heading_deg(enu_m: np.ndarray) -> np.ndarray:
+    _, course = course_rad(enu_m)
+    return np.asarray(np.mod(np.rad2deg(np.concatenate((course, course[-1:]))), 360.0))
+
+
+def _own_frame(
+    enu_m: np.ndarray, heading_deg: np.ndarray, shift_en: np.ndarray, rotation_deg: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Session-frame positions/heading -> a frame where session = R_cw(rot) nav + shift."""
+    a = np.deg2rad(rotation_deg)
+    e, n = enu_m[:, 0] - shift_en[0], enu_m[:, 1] - shift_en[1]
+    out = enu_m.copy()
+    out[:, 0] = e * np.cos(a) - n * np.sin(a)
+    out[:, 1] = e * np.sin(a) + n * np.cos(a)
+    return out, np.mod(heading_deg - rotation_deg, 360.0)
+
+
+def simulate(
+    scenario: str,
+    *,
+    seed: int = 0,
+    duration_s: float | None = None,
+    platforms: int | None = None,
+    **overrides: Any,
+) -> Simulation:
+    """Simulate ``scenario`` (a key of :data:`SCENARIOS`) with known truth.
+
+    ``duration_s``, ``platforms`` and any other :class:`SimParams` field override the
+    scenario's defaults; unknown names raise ConfigError.
+    """
+    params = scenario_params(scenario, duration_s=duration_s, platforms=platforms, **overrides)
+    dt = 1.0 / params.nav_rate_hz
+    t_rel = np.round(dt * np.arange(int(np.floor(params.duration_s / dt + 1e-9)) + 1), 9)
+    world = SCENARIOS[scenario].build(params, seed, t_rel)
+    start = params.start_tow_s
+    time = start + t_rel
+
+    truth_traj: dict[str, Trajectory] = {}
+    nav: dict[str, Trajectory] = {}
+    reference: dict[str, Trajectory] = {}
+    plats: dict[str, Platform] = {}
+    dr_err_frames, dr_param_rows, frame_rows = [], [], []
+    ref_dt = 1.0 / params.ref_rate_hz
+    t_ref = start + np.round(
+        ref_dt * np.arange(int(np.floor(params.duration_s / ref_dt + 1e-9)) + 1), 9
+    )
+    for actor in sorted(world.actors, key=lambda a: a.id):
+        heading = _heading_deg(actor.truth_enu_m)
+        truth = Trajectory(actor.id, time, actor.truth_enu_m, heading_deg=heading, source="truth")
+        truth_traj[actor.id] = truth
+        plats[actor.id] = _platform(actor, params)
+        if actor.nav == "none":
+            continue
+        rng = named_rng(seed, f"nav:{actor.id}")
+        if actor.nav == "gnss":
+            pos, head, sigma = leader_nav(actor.truth_enu_m, heading, time, params, rng)
+        else:
+            errors = draw_dr_errors(params, rng)
+            pos, head, sigma = dead_reckon(actor.truth_enu_m, time, params, errors, rng)
+            dr_param_rows.append(
+                [
+                    actor.id,
+                    errors.gyro_bias_dph,
+                    errors.odo_scale,
+                    errors.heading_init_deg,
+                    *errors.init_error_m,
+                ]
+            )
+        err = pos - actor.truth_enu_m
+        dr_err_frames.append(
+            pd.DataFrame(
+                {
+                    "time": time,
+                    "platform": actor.id,
+                    "error_east": err[:, 0],
+                    "error_north": err[:, 1],
+                    "error_up": err[:, 2],
+                    "error_h": np.hypot(err[:, 0], err[:, 1]),
+                }
+            )
+        )
+        if actor.own_frame:
+            shift = actor.truth_enu_m[0, :2]
+            rotation = float(heading[0])
+            pos, head = _own_frame(pos, head, shift, rotation)
+            frame_rows.append([actor.id, rotation, float(shift[0]), float(shift[1])])
+        nav[actor.id] = Trajectory(
+            actor.id, time, pos, sigma_enu_m=sigma, heading_deg=head, source="simulated"
+        )
+        ref_pos, ref_sigma, quality = ppk_reference(
+            truth.interpolate(t_ref), t_ref, params, named_rng(seed, f"ref:{actor.id}")
+        )
+        reference[actor.id] = Trajectory(
+            actor.id, t_ref, ref_pos, sigma_enu_m=ref_sigma, quality=quality, source="simulated"
+        )
+
+    pairs = sorted(link.pair for link in world.links)
+    events = [*params.nlos_events, *_random_events(params, pairs, seed)]
+    unknown = sorted({e.pair for e in events} - set(pairs))
+    if unknown:
+        raise ConfigError(
+            f"NLOS events on pairs without ranging: {', '.join(unknown)} "
+            f"(pairs: {', '.join(pairs)})"
+        )
+    out = simulate_ranges(truth_traj, world.links, params, events, world.outages, start, seed)
+
+    config = SessionConfig(
+        name=f"{scenario} seed {seed}",
+        time_base="gps_tow",
+        gps_week=params.gps_week,
+        origin_llh=params.origin_llh,
+        platforms=plats,
+        uwb_sigma_m=params.uwb_declared_sigma_m,
+        reference_quality=(1,),
+    )
+    session = Session(
+        config=config,
+        platforms=plats,
+        nav=nav,
+        reference=reference,
+        ranges=RangeTable(out.ranges, source="simulated"),
+        origin_llh=params.origin_llh,
+        root=Path(scenario),
+    )
+    truth_obj = Truth(
+        trajectories=truth_traj,
+        distances=out.distances,
+        nlos_events=out.nlos_events,
+        gross_errors=out.gross_errors,
+        dr_error=pd.concat(dr_err_frames, ignore_index=True)
+        if dr_err_frames
+        else pd.DataFrame(columns=list(DR_ERROR_COLUMNS)),
+        dr_params=pd.DataFrame(dr_param_rows, columns=list(DR_PARAM_COLUMNS)),
+        nav_frames=pd.DataFrame(frame_rows, columns=list(NAV_FRAME_COLUMNS)),
+        params=params,
+    )
+    return Simulation(scenario=scenario, seed=seed, session=session, truth=truth_obj)
+
+
+def _platform(actor: Actor, params: SimParams) -> Platform:
+    if actor.role == "anchor":
+        p = actor.truth_enu_m[0]
+        return Platform(actor.id, "anchor", None, (float(p[0]), float(p[1]), float(p[2])))
+    drift = leader_drift_sigma_mps(params) if actor.nav == "gnss" else dr_drift_sigma_mps(params)
+    return Platform(actor.id, actor.role, round(drift, 4))

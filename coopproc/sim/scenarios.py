@@ -1,0 +1,277 @@
+"""The scenario registry: what moves where, who ranges with whom, and the default figures.
+
+Each scenario turns :class:`~coopproc.sim.params.SimParams` into a :class:`World`: the
+true positions of every platform on the nav-rate time grid, their roles, the ranging
+links and the NLOS events / outages (seconds from the session start). The engine
+(:mod:`coopproc.sim.engine`) adds the sensors.
+"""
+
+from __future__ import annotations
+
+import zlib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from coopproc.errors import ConfigError
+from coopproc.model import FloatArray
+from coopproc.sim.formation import (
+    Terrain,
+    formation_positions,
+    path_positions,
+    speed_profile_s,
+    wedge_layout,
+)
+from coopproc.sim.params import NlosSpec, OutageSpec, SimParams
+from coopproc.sim.paths import rounded_polygon, rounded_rectangle
+from coopproc.sim.uwb import PairModel
+
+__all__ = ["SCENARIOS", "Actor", "Scenario", "World", "named_rng"]
+
+NavKind = Literal["dr", "gnss", "none"]
+
+
+def named_rng(seed: int, name: str) -> np.random.Generator:
+    """An independent random stream per (seed, name): adding a platform leaves others alone."""
+    return np.random.default_rng([seed, zlib.crc32(name.encode())])
+
+
+@dataclass(frozen=True, eq=False)
+class Actor:
+    """One platform of a world: its role, how it navigates, and its true positions."""
+
+    id: str
+    role: Literal["follower", "leader", "anchor"]
+    nav: NavKind
+    truth_enu_m: FloatArray  # (n, 3) on the world's time grid
+    #: True: the nav file is in the platform's own frame (start 0, initial heading 0).
+    own_frame: bool = False
+
+
+@dataclass(frozen=True, eq=False)
+class World:
+    """True motion and ranging layout of one scenario run."""
+
+    time_rel_s: FloatArray
+    actors: tuple[Actor, ...]
+    links: tuple[PairModel, ...]
+    outages: tuple[OutageSpec, ...] = ()
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A named scenario: its description, default parameters and its world builder."""
+
+    name: str
+    description: str
+    build: Callable[[SimParams, int, FloatArray], World]
+    defaults: Mapping[str, Any] = field(default_factory=dict)
+
+
+def _all_links(ids: list[str]) -> tuple[PairModel, ...]:
+    return tuple(PairModel(a, b) for i, a in enumerate(ids) for b in ids[i + 1 :])
+
+
+def _formation_world(
+    ids: list[str],
+    path_size: tuple[float, float, float],
+    params: SimParams,
+    seed: int,
+    t: FloatArray,
+) -> World:
+    """Leader ids[0] and followers ids[1:] in a wedge behind it on a rounded rectangle."""
+    path = rounded_rectangle(*path_size)
+    terrain = Terrain(params.height_amplitude_m, named_rng(seed, "terrain"))
+    layout = wedge_layout(len(ids))
+    pos = formation_positions(
+        path, t, layout, params.speed_mps, params.distance_rate_mps, terrain,
+        named_rng(seed, "formation"),
+    )  # fmt: skip
+    actors = tuple(
+        Actor(pid, "leader" if k == 0 else "follower", "gnss" if k == 0 else "dr", pos[k])
+        for k, pid in enumerate(ids)
+    )
+    return World(time_rel_s=t, actors=actors, links=_all_links(sorted(ids)))
+
+
+_LETTERS = "ABCDEFGHIJKLMNOPQRSTUVWXYZ"
+
+
+def _paper_experiment(params: SimParams, seed: int, t: FloatArray) -> World:
+    # paper 000 section 4.1: trolley B (leader) in front, robots A and C behind
+    if not 2 <= params.platforms <= len(_LETTERS):
+        raise ConfigError(f"paper-experiment: platforms must be 2..26, found {params.platforms}")
+    letters = list(_LETTERS[: params.platforms])
+    ids = ["B", *[x for x in letters if x != "B"]]
+    return _formation_world(ids, (160.0, 70.0, 15.0), params, seed, t)
+
+
+def _paper_table1(params: SimParams, seed: int, t: FloatArray) -> World:
+    if params.platforms != 2:
+        raise ConfigError(f"paper-table1: one pair, platforms must be 2, found {params.platforms}")
+    return _formation_world(["B", "A"], (160.0, 70.0, 15.0), params, seed, t)
+
+
+def _large(params: SimParams, seed: int, t: FloatArray) -> World:
+    if params.platforms < 2:
+        raise ConfigError(f"large: platforms must be >= 2, found {params.platforms}")
+    ids = [f"P{k:02d}" for k in range(params.platforms)]
+    return _formation_world(ids, (400.0, 200.0, 20.0), params, seed, t)
+
+
+def _loop_positions(
+    path_size: tuple[float, float, float],
+    centre: tuple[float, float],
+    speed: float,
+    s0: float,
+    terrain: Terrain,
+    t: FloatArray,
+    rng: np.random.Generator,
+) -> FloatArray:
+    path = rounded_rectangle(*path_size, centre_m=centre)
+    return path_positions(path, speed_profile_s(t, speed, rng, s0_m=s0), terrain)
+
+
+def _single_auxiliary(params: SimParams, seed: int, t: FloatArray) -> World:
+    # paper 004 section 5: the target car T drives a closed loop around the site; the
+    # auxiliary trolley A1 (GNSS) moves inside it (or stands still: unobservable case);
+    # an optional second auxiliary A2 has peak-shifted, non-Gaussian ranging (5.2).
+    second = params.second_aux or params.platforms == 3
+    if params.platforms not in (2, 3):
+        raise ConfigError(
+            "single-auxiliary: platforms must be 2 (T, A1) or 3 (T, A1, A2), "
+            f"found {params.platforms}"
+        )
+    terrain = Terrain(params.height_amplitude_m, named_rng(seed, "terrain"))
+    target = _loop_positions(
+        (80.0, 60.0, 10.0), (0.0, 0.0), params.speed_mps, 0.0, terrain, t, named_rng(seed, "T")
+    )
+    if params.aux_static:
+        rest = np.array([[6.0, 4.0]])
+        aux1 = np.column_stack(
+            (np.repeat(rest, t.shape[0], axis=0), terrain.up(rest).repeat(t.shape[0]))
+        )
+    else:
+        aux1 = _loop_positions(
+            (30.0, 30.0, 14.99), (0.0, 0.0), 0.6, 20.0, terrain, t, named_rng(seed, "A1")
+        )
+    actors = [
+        Actor("T", "follower", "dr", target, own_frame=True),
+        Actor("A1", "leader", "gnss", aux1),
+    ]
+    links = [PairModel("A1", "T")]
+    if second:
+        aux2 = _loop_positions(
+            (16.0, 16.0, 7.99), (-18.0, 8.0), 0.5, 5.0, terrain, t, named_rng(seed, "A2")
+        )
+        actors.append(Actor("A2", "leader", "gnss", aux2))
+        links.append(PairModel("A2", "T", bias_m=params.aux2_bias_m, laplace_m=params.aux2_noise_m))
+    return World(time_rel_s=t, actors=tuple(actors), links=tuple(links))
+
+
+_ANCHOR_SITES = (
+    (-20.0, -15.0), (20.0, -15.0), (20.0, 15.0), (-20.0, 15.0),
+    (0.0, -15.0), (0.0, 15.0), (-20.0, 0.0), (20.0, 0.0),
+)  # fmt: skip
+
+
+def _anchors(params: SimParams, seed: int, t: FloatArray) -> World:
+    # paper 003 section 3: a handcart with a UWB tag pushed along a '#'-shaped route
+    # (< 0.8 m/s) inside a field of base stations, testers walking around one of them.
+    count = params.platforms - 1
+    if not 4 <= count <= len(_ANCHOR_SITES):
+        raise ConfigError(
+            f"anchors: platforms must be 5..9 (one tag + 4..8 anchors), found {params.platforms}"
+        )
+    terrain = Terrain(params.height_amplitude_m, named_rng(seed, "terrain"))
+    route = [
+        (-14.0, -6.0),
+        (14.0, -6.0),
+        (8.0, -12.0),
+        (8.0, 12.0),
+        (14.0, 6.0),
+        (-14.0, 6.0),
+        (-8.0, 12.0),
+        (-8.0, -12.0),
+    ]
+    path = rounded_polygon(route, 1.5)
+    tag = path_positions(
+        path, speed_profile_s(t, params.speed_mps, named_rng(seed, "tag")), terrain
+    )
+    tag[:, 2] += 0.8  # tag antenna on the handcart
+    actors = [Actor("tag", "follower", "dr", tag)]
+    for k in range(count):
+        site = np.array([*_ANCHOR_SITES[k], 2.0 + 0.1 * k])
+        actors.append(Actor(f"AN{k + 1}", "anchor", "none", np.tile(site, (t.shape[0], 1))))
+    links = tuple(PairModel("tag", f"AN{k + 1}") for k in range(count))
+    return World(time_rel_s=t, actors=tuple(actors), links=links, outages=params.outages)
+
+
+SCENARIOS: dict[str, Scenario] = {
+    "paper-experiment": Scenario(
+        "paper-experiment",
+        "paper 000 section 4.4: A, B (leader, GNSS/INS), C (INS/OD) in a triangle at 0.5 m/s, "
+        "10 min, UWB 1 Hz, two NLOS events on A-B and two on B-C, A-C line of sight",
+        _paper_experiment,
+        {
+            "duration_s": 600.0,
+            "platforms": 3,
+            "nlos_events": (
+                NlosSpec("A-B", 120.0, 145.0, 0.58),
+                NlosSpec("B-C", 230.0, 250.0, 0.50),
+                NlosSpec("A-B", 380.0, 400.0, 0.47),
+                NlosSpec("B-C", 470.0, 495.0, 0.55),
+            ),
+        },
+    ),
+    "paper-table1": Scenario(
+        "paper-table1",
+        "paper 000 section 4.3: one pair, 2 min, ranges at 10 Hz, NLOS N(0.45, 0.1^2) at "
+        "10-20 s, N(0.5, 0.1^2) at 50-60 s, N(0.6, 0.1^2) at 90-95 s",
+        _paper_table1,
+        {
+            "duration_s": 120.0,
+            "platforms": 2,
+            "range_rate_hz": 10.0,
+            "dropout_rate": 0.0,
+            "nlos_events": (
+                NlosSpec("A-B", 10.0, 20.0, 0.45),
+                NlosSpec("A-B", 50.0, 60.0, 0.50),
+                NlosSpec("A-B", 90.0, 95.0, 0.60),
+            ),
+        },
+    ),
+    "anchors": Scenario(
+        "anchors",
+        "paper 003: one moving tag (INS dead reckoning) and 6 fixed anchors, NLOS on AN3, "
+        "one 30 s UWB outage",
+        _anchors,
+        {
+            "duration_s": 600.0,
+            "platforms": 7,
+            "speed_mps": 0.6,
+            "height_amplitude_m": 0.05,
+            "nlos_events": (
+                NlosSpec("AN3-tag", 100.0, 130.0, 0.8),
+                NlosSpec("AN3-tag", 350.0, 380.0, 0.6),
+            ),
+            "outages": (OutageSpec(450.0, 480.0),),
+        },
+    ),
+    "single-auxiliary": Scenario(
+        "single-auxiliary",
+        "paper 004 section 5: target T with dead reckoning in its own frame (unknown start "
+        "and azimuth), moving GNSS auxiliary A1; options aux_static, second_aux (A2, biased)",
+        _single_auxiliary,
+        {"duration_s": 300.0, "platforms": 2, "speed_mps": 1.0, "distance_rate_mps": 0.0},
+    ),
+    "large": Scenario(
+        "large",
+        "N platforms (default 10) in a wedge for hours (default 1 h), random NLOS events, "
+        "for benchmarks",
+        _large,
+        {"duration_s": 3600.0, "platforms": 10, "random_nlos_per_pair_hour": 0.5},
+    ),
+}

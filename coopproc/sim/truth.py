@@ -1,0 +1,88 @@
+"""What the simulator knows and a real recording does not: the truth behind a session."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import pandas as pd
+
+from coopproc.model import Session, Trajectory
+from coopproc.sim.params import SimParams
+
+__all__ = [
+    "DISTANCE_COLUMNS",
+    "DR_ERROR_COLUMNS",
+    "DR_PARAM_COLUMNS",
+    "GROSS_ERROR_COLUMNS",
+    "NAV_FRAME_COLUMNS",
+    "NLOS_TRUTH_COLUMNS",
+    "Simulation",
+    "Truth",
+]
+
+#: ``truth/distances.csv``: true distance at every written range epoch, and the range's
+#: total error (range - distance) in the same row order as the session's ranges.
+DISTANCE_COLUMNS: tuple[str, ...] = ("time", "pair", "distance", "error")
+#: ``truth/nlos_events.csv``: start/end in the session time base; realized_mean = mean of
+#: the errors actually added over the event's written epochs; epochs = their count.
+NLOS_TRUTH_COLUMNS: tuple[str, ...] = (
+    "pair",
+    "start",
+    "end",
+    "nominal_mean",
+    "realized_mean",
+    "epochs",
+)
+GROSS_ERROR_COLUMNS: tuple[str, ...] = ("time", "pair", "error")
+#: ``truth/dr_error.csv``: navigation solution minus truth at every nav epoch. For a
+#: platform whose nav is in its own frame (single-auxiliary target) the error is taken
+#: before that frame's shift and rotation, i.e. the dead-reckoning error itself.
+DR_ERROR_COLUMNS: tuple[str, ...] = (
+    "time",
+    "platform",
+    "error_east",
+    "error_north",
+    "error_up",
+    "error_h",
+)
+#: ``truth/dr_params.csv``: the sensor errors each dead-reckoning platform drew.
+DR_PARAM_COLUMNS: tuple[str, ...] = (
+    "platform",
+    "gyro_bias_dph",
+    "odo_scale",
+    "heading_init_deg",
+    "init_east",
+    "init_north",
+    "init_up",
+)
+#: ``truth/nav_frames.csv``: nav frame -> session frame of platforms with their own frame:
+#: session_en = R(rotation) nav_en + shift, rotation clockwise (a heading in the nav
+#: frame plus ``rotation_deg`` is the true heading).
+NAV_FRAME_COLUMNS: tuple[str, ...] = ("platform", "rotation_deg", "shift_east", "shift_north")
+
+
+@dataclass(frozen=True, eq=False)
+class Truth:
+    """The known truth of a simulated session (all times in the session time base)."""
+
+    #: True trajectories at the nav rate (time, east, north, up, heading), by platform.
+    trajectories: Mapping[str, Trajectory]
+    distances: pd.DataFrame  # DISTANCE_COLUMNS
+    nlos_events: pd.DataFrame  # NLOS_TRUTH_COLUMNS
+    gross_errors: pd.DataFrame  # GROSS_ERROR_COLUMNS
+    dr_error: pd.DataFrame  # DR_ERROR_COLUMNS
+    dr_params: pd.DataFrame  # DR_PARAM_COLUMNS
+    nav_frames: pd.DataFrame  # NAV_FRAME_COLUMNS
+    #: The effective parameters the session was made with.
+    params: SimParams
+
+
+@dataclass(frozen=True, eq=False)
+class Simulation:
+    """A simulated session and its truth."""
+
+    scenario: str
+    seed: int
+    session: Session
+    truth: Truth

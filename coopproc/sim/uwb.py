@@ -1,0 +1,165 @@
+"""UWB two-way ranges between platforms: noise, NLOS events, gross errors, dropouts.
+
+For every pair, ranges are taken at the ranging rate, each pair at its own small time
+offset inside the ranging period (the DW1000 polls pairs one after another). A range is
+
+    range = |p_i(t) - p_j(t)| + n + b_pair + nlos + gross,    rounded to the millimetre
+
+with n ~ N(0, uwb_noise^2) (or Laplace for a pair with non-Gaussian ranging, paper 004
+section 5.2), and during an NLOS event on the pair every epoch gets nlos ~ N(mu, 0.1^2)
+(paper 000 section 4.3), clipped at 0 because a blocked path is never shorter. Epochs
+are then dropped at random (dropouts) and during outages (paper 003 section 3.4).
+"""
+
+from __future__ import annotations
+
+import zlib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from coopproc.model import Trajectory, pair_name
+from coopproc.sim.params import NlosSpec, OutageSpec, SimParams
+
+__all__ = ["PairModel", "RangeOutput", "simulate_ranges"]
+
+
+@dataclass(frozen=True)
+class PairModel:
+    """One ranging link and its error model (``a`` initiates on even epochs)."""
+
+    a: str
+    b: str
+    bias_m: float = 0.0
+    #: Laplace scale of the noise instead of the Gaussian uwb_noise_m; 0: Gaussian.
+    laplace_m: float = 0.0
+
+    @property
+    def pair(self) -> str:
+        return pair_name(self.a, self.b)
+
+
+@dataclass(frozen=True, eq=False)
+class RangeOutput:
+    """The range table plus its truth."""
+
+    ranges: pd.DataFrame  # time, pair, from, to, range, sigma[, rssi]
+    distances: pd.DataFrame  # time, pair, distance, error
+    nlos_events: pd.DataFrame  # pair, start, end, nominal_mean, realized_mean, epochs
+    gross_errors: pd.DataFrame  # time, pair, error
+
+
+def _pair_rng(seed: int, pair: str) -> np.random.Generator:
+    return np.random.default_rng([seed, zlib.crc32(f"uwb:{pair}".encode())])
+
+
+def simulate_ranges(
+    truth: Mapping[str, Trajectory],
+    links: Sequence[PairModel],
+    params: SimParams,
+    events: Sequence[NlosSpec],
+    outages: Sequence[OutageSpec],
+    start_s: float,
+    seed: int,
+) -> RangeOutput:
+    """Ranges of every link over the truth's common span; times in the session base."""
+    period = 1.0 / params.range_rate_hz
+    t_end = min(float(traj.time_s[-1]) for traj in truth.values()) - start_s
+    frames, dists, gross_rows, event_rows = [], [], [], []
+    for index, link in enumerate(sorted(links, key=lambda item: item.pair)):
+        pair = link.pair
+        rng = _pair_rng(seed, pair)
+        offset = (0.013 + 0.021 * index) % period
+        t_rel = np.round(
+            offset + period * np.arange(int(np.floor((t_end - offset) / period)) + 1), 6
+        )
+        t_rel = t_rel[t_rel <= t_end + 1e-9]
+        n = t_rel.shape[0]
+        time = start_s + t_rel
+        distance = np.linalg.norm(
+            truth[link.a].interpolate(time) - truth[link.b].interpolate(time), axis=1
+        )
+        if link.laplace_m > 0:
+            error = rng.laplace(0.0, link.laplace_m, size=n)
+        else:
+            error = rng.normal(0.0, params.uwb_noise_m, size=n)
+        error = error + link.bias_m
+        nlos_total = np.zeros(n)
+        pair_events = sorted((e for e in events if e.pair == pair), key=lambda e: e.start_s)
+        nlos_added = []
+        for event in pair_events:
+            mask = (t_rel >= event.start_s) & (t_rel <= event.end_s)
+            added = np.maximum(rng.normal(event.mean_m, params.nlos_sigma_m, size=n), 0.0) * mask
+            nlos_total += added
+            nlos_added.append((event, mask, added))
+        gross_mask = rng.uniform(size=n) < params.gross_error_rate
+        gross = np.where(
+            gross_mask,
+            params.gross_error_m
+            * rng.uniform(0.75, 1.25, size=n)
+            * rng.choice([-1.0, 1.0], size=n),
+            0.0,
+        )
+        keep: NDArray[np.bool_] = np.asarray(rng.uniform(size=n) >= params.dropout_rate)
+        for outage in outages:
+            keep &= ~((t_rel >= outage.start_s) & (t_rel <= outage.end_s))
+        measured = np.round(distance + error + nlos_total + gross, 3)
+        forward = np.arange(n) % 2 == 0
+        frame = pd.DataFrame(
+            {
+                "time": time,
+                "pair": pair,
+                "from": np.where(forward, link.a, link.b),
+                "to": np.where(forward, link.b, link.a),
+                "range": measured,
+                "sigma": params.uwb_declared_sigma_m,
+            }
+        )
+        if params.rssi:
+            d = np.maximum(distance, 0.5)
+            rssi = (
+                -55.0
+                - 20.0 * np.log10(d / 10.0)
+                - 8.0 * (nlos_total > 0)
+                + rng.normal(0.0, 1.5, size=n)
+            )
+            frame["rssi"] = np.round(rssi, 1)
+        frames.append(frame.loc[keep])
+        dists.append(
+            pd.DataFrame(
+                {"time": time, "pair": pair, "distance": distance, "error": measured - distance}
+            ).loc[keep]
+        )
+        gross_rows.append(
+            pd.DataFrame({"time": time, "pair": pair, "error": gross}).loc[keep & gross_mask]
+        )
+        for event, mask, added in nlos_added:
+            used = mask & keep
+            realized = float(added[used].mean()) if used.any() else float("nan")
+            event_rows.append(
+                {
+                    "pair": pair,
+                    "start": start_s + event.start_s,
+                    "end": start_s + event.end_s,
+                    "nominal_mean": event.mean_m,
+                    "realized_mean": realized,
+                    "epochs": int(used.sum()),
+                }
+            )
+    ranges = _sorted(pd.concat(frames, ignore_index=True))
+    distances = _sorted(pd.concat(dists, ignore_index=True))
+    gross_errors = _sorted(pd.concat(gross_rows, ignore_index=True))
+    nlos = pd.DataFrame(
+        event_rows, columns=["pair", "start", "end", "nominal_mean", "realized_mean", "epochs"]
+    )
+    nlos = nlos.sort_values(["start", "pair"], kind="stable").reset_index(drop=True)
+    return RangeOutput(
+        ranges=ranges, distances=distances, nlos_events=nlos, gross_errors=gross_errors
+    )
+
+
+def _sorted(frame: pd.DataFrame) -> pd.DataFrame:
+    return frame.sort_values(["time", "pair"], kind="stable").reset_index(drop=True)
