@@ -84,9 +84,12 @@ def _legend(fig: Figure, axes: Sequence[Axes]) -> None:
         for handle, label in zip(handles, labels, strict=True):
             seen.setdefault(label, handle)
     if seen:
-        fig.legend(
-            list(seen.values()), list(seen), loc="outside upper center", ncols=min(len(seen), 3)
-        )
+        # Three entries a row where they fit the figure width, else two.
+        width_chars = fig.get_figwidth() * 13
+        ncols = min(len(seen), 3)
+        if sum(len(k) + 6 for k in list(seen)[:ncols]) > width_chars:
+            ncols = 2
+        fig.legend(list(seen.values()), list(seen), loc="outside upper center", ncols=ncols)
 
 
 def _time_label(ax: Axes, origin_s: float) -> None:

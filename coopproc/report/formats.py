@@ -126,7 +126,11 @@ def _tex_number(text: str) -> str:
 
 
 def _latex(table: Table) -> str:
-    header = [table.group_label, "Method", *(_tex(table.header(m)) for m in table.metrics)]
+    header = [
+        table.group_label,
+        "Method",
+        *("$n$" if m == "n" else _tex(table.header(m)) for m in table.metrics),
+    ]
     caption = _tex(table.title.split(". ", 1)[-1])
     if table.has_change:
         caption += r"; in parentheses the relative change against Observed (\%)"

@@ -60,8 +60,8 @@ METHOD_STYLES: dict[str, LineStyle] = {
 
 DI_STYLES: dict[str, LineStyle] = {
     "di_dr": LineStyle("Dead reckoning", "#ff7f0e", "-"),
-    "di_cp": LineStyle("Cooperative positioning", "#1f77b4", "--"),
-    "di_smoothed": LineStyle("Smoothed (DI filter)", "#2ca02c", "-."),
+    "di_cp": LineStyle("Coop. positioning", "#1f77b4", "--"),
+    "di_smoothed": LineStyle("Smoothed DI", "#2ca02c", "-."),
 }
 
 #: Shading of detected NLOS spans.
@@ -91,8 +91,9 @@ RC: dict[Any, Any] = {
     "axes.linewidth": 0.6,
     "lines.linewidth": 0.9,
     "legend.frameon": False,
-    "savefig.bbox": "tight",
-    "savefig.pad_inches": 0.03,
+    # No "tight" bbox: constrained layout fits everything, and a file is exactly
+    # figsize x dpi pixels (one paper column wide).
+    "savefig.bbox": None,
     "svg.hashsalt": "coopproc",
     "pdf.compression": 6,
 }

@@ -42,7 +42,14 @@ def make_run(n: int = 120, seed: int = 7) -> RunTables:
             for method, off in (("di", -0.02), ("rn", 0.08)):
                 for step in range(1, 4):
                     estimates.append(
-                        (pair, method, 1, step, t[s + step - 1], nlos[s] + off * step / 3 + 0.1 / step)
+                        (
+                            pair,
+                            method,
+                            1,
+                            step,
+                            t[s + step - 1],
+                            nlos[s] + off * step / 3 + 0.1 / step,
+                        )
                     )
         observed = ref + noise + nlos
         ranges.append(
@@ -118,4 +125,75 @@ def _pos(t, platform, method, east, north, err) -> pd.DataFrame:
             "up": 0.0,
             "error_h": err,
         }
+    )
+
+
+#: Paper 000 Table 2 (pair, method, max, mean, rmse, snr_db, smoothness).
+PAPER_TABLE2 = [
+    ("A-B", "observed", 0.8348, 0.0285, 0.1404, 42.1575, 1.8831),
+    ("A-B", "rn", 0.3289, -0.0255, 0.0593, 49.8267, 1.1485),
+    ("A-B", "di", 0.1024, -0.0059, 0.0389, 53.3832, 1.0111),
+    ("A-C", "observed", 0.1835, 0.0041, 0.0641, 51.6731, 1.2621),
+    ("A-C", "rn", 0.1880, 0.0041, 0.0639, 51.6874, 1.1209),
+    ("A-C", "di", 0.1096, 0.0034, 0.0401, 55.5046, 1.0056),
+    ("B-C", "observed", 0.7325, 0.0345, 0.1438, 42.0586, 1.6148),
+    ("B-C", "rn", 0.2653, -0.0053, 0.0608, 49.7457, 1.1337),
+    ("B-C", "di", 0.1147, -0.0035, 0.0404, 53.2827, 1.0152),
+]
+#: Paper 000 Table 3 (platform, method, max, mean), with made-up rmse / cep columns.
+PAPER_TABLE3 = [
+    ("A", "observed", 0.8250, 0.2388),
+    ("A", "rn", 0.5874, 0.1742),
+    ("A", "di", 0.529, 0.1534),
+    ("C", "observed", 0.8771, 0.2021),
+    ("C", "rn", 0.6861, 0.1427),
+    ("C", "di", 0.6771, 0.12),
+]
+
+
+def paper_run() -> RunTables:
+    """A run whose metrics tables hold the numbers of paper 000 Tables 2 and 3."""
+    metrics = pd.DataFrame(
+        [(*row, 300) for row in PAPER_TABLE2],
+        columns=["pair", "method", "max", "mean", "rmse", "snr_db", "smoothness", "n"],
+    )
+    pos = pd.DataFrame(
+        [
+            (p, m, mx, mean, 1.2 * mean, 0.8 * mean, 0.9 * mean, mean, 2.5 * mean, 600)
+            for p, m, mx, mean in PAPER_TABLE3
+        ],
+        columns=[
+            "platform",
+            "method",
+            "max",
+            "mean",
+            "rmse",
+            "rms_east",
+            "rms_north",
+            "cep50",
+            "cep95",
+            "n",
+        ],
+    )
+    scores = pd.DataFrame(
+        {
+            "pair": ["A-B", "A-B", "B-C", "B-C"],
+            "method": ["rn", "di", "rn", "di"],
+            "precision": [0.8, 0.95, 0.7, 0.9],
+            "recall": [0.9, 0.9, 0.6, 1.0],
+            "f1": [0.847059, 0.924324, 0.646154, 0.947368],
+            "events": [2, 2, 2, 2],
+            "estimate_mae": [0.0774, 0.0217, 0.0810, 0.0086],
+        }
+    )
+    empty = pd.DataFrame()
+    return RunTables(
+        ranges=empty,
+        di=empty,
+        nlos_events=empty,
+        nlos_estimates=empty,
+        positions=empty,
+        metrics=metrics,
+        position_metrics=pos,
+        nlos_scores=scores,
     )
