@@ -189,6 +189,7 @@ def robust_lsq_positions(
         sig[:, :dim] = np.sqrt(np.einsum("eii->ei", cov[sel]))
         v3 = np.zeros_like(enu)
         v3[:, :dim] = vel[sel]
+        v3[np.isnan(v3[:, 0]), 2] = np.nan
         if dim == 2:
             enu[:, 2] = tag_up[sel]
         out[str(tid)] = Trajectory(
