@@ -1,0 +1,260 @@
+"""What every reader shares: the raw trajectory, row locations, problem lists, checks.
+
+Readers turn a file into a :class:`RawTrajectory` (positions still in the file's form and
+times in the file's time kind) or a range DataFrame; ``assemble`` then picks the origin,
+converts to ENU and to the session time base. Row-level checks here report every kind
+of problem of a file at once (:class:`InputProblems`), each as one line with the first
+offending line and the count of others.
+"""
+
+from __future__ import annotations
+
+import gzip
+import re
+import struct
+import zlib
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from coopproc.configtools import nearest
+from coopproc.errors import CoopprocError, InputError
+from coopproc.model import FloatArray
+
+__all__ = [
+    "ID_PATTERN",
+    "PARSE_ERRORS",
+    "InputProblems",
+    "Locator",
+    "RawTrajectory",
+    "check_trajectory_times",
+    "expand",
+    "numeric_column",
+]
+
+#: Platform ids: letters, digits, ``_`` and ``-`` (DATA.md "Words").
+ID_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
+
+#: Exceptions third-party parsers raise on bad bytes; readers turn them into InputError.
+PARSE_ERRORS: tuple[type[BaseException], ...] = (
+    ValueError,
+    TypeError,
+    KeyError,
+    IndexError,
+    OverflowError,
+    UnicodeError,
+    EOFError,
+    OSError,
+    zlib.error,
+    struct.error,
+    gzip.BadGzipFile,
+    pd.errors.ParserError,
+    pd.errors.EmptyDataError,
+)
+
+PositionForm = Literal["enu", "llh", "ecef"]
+TimeKind = Literal["session", "gpst"]
+
+
+class InputProblems(InputError):
+    """Several problems of one input; renders as the first, carries all in ``errors``."""
+
+    def __init__(self, errors: Sequence[InputError]) -> None:
+        first = errors[0]
+        self.errors: tuple[InputError, ...] = tuple(errors)
+        more = len(errors) - 1
+        suffix = f" (and {more} more problem{'s' if more > 1 else ''})" if more else ""
+        super().__init__(first.path, first.problem + suffix, line=first.line, record=first.record)
+
+
+def expand(err: CoopprocError) -> list[str]:
+    """Every one-line message an error stands for."""
+    if isinstance(err, InputProblems):
+        return [str(e) for e in err.errors]
+    return [str(err)]
+
+
+@dataclass
+class Locator:
+    """Where row ``i`` of a table came from: a file line (CSV) or a record (MCAP)."""
+
+    path: str
+    #: File line of each row (1-based), or None to name records instead.
+    lines: Callable[[int], int] | None = None
+    #: Name of row ``i`` when there are no lines (e.g. ``message 12 on /A/nav``).
+    record: Callable[[int], str] | None = None
+
+    def error(self, message: str, row: int | None = None, count: int = 1) -> InputError:
+        """An InputError at ``row`` (0-based), mentioning ``count - 1`` other rows."""
+        if count > 1:
+            message += f" (and {count - 1} more row{'s' if count > 2 else ''})"
+        if row is None:
+            return InputError(self.path, message)
+        if self.lines is not None:
+            return InputError(self.path, message, line=self.lines(row))
+        if self.record is not None:
+            return InputError(self.path, message, record=self.record(row))
+        return InputError(self.path, message, record=f"row {row + 1}")
+
+
+def numeric_column(
+    frame: pd.DataFrame,
+    name: str,
+    where: Locator,
+    problems: list[InputError],
+    *,
+    allow_empty: bool = False,
+) -> FloatArray:
+    """Column ``name`` as float64; non-numbers and (unless allowed) empty/NaN/inf reported."""
+    raw = frame[name]
+    if pd.api.types.is_float_dtype(raw.dtype) or pd.api.types.is_integer_dtype(raw.dtype):
+        values = raw.to_numpy(dtype=np.float64, na_value=np.nan)
+    else:
+        values = pd.to_numeric(raw, errors="coerce").to_numpy(dtype=np.float64, na_value=np.nan)
+        bad = np.isnan(values) & raw.notna().to_numpy()
+        if bad.any():
+            idx = np.flatnonzero(bad)
+            found = str(raw.iloc[idx[0]])[:40]
+            problems.append(
+                where.error(
+                    f"column '{name}': found {found!r}, expected a number", int(idx[0]), idx.size
+                )
+            )
+            values = values.copy()
+            values[bad] = 0.0
+    missing = np.isnan(values)
+    if not allow_empty and missing.any():
+        idx = np.flatnonzero(missing)
+        problems.append(
+            where.error(f"column '{name}': empty or NaN, expected a number", int(idx[0]), idx.size)
+        )
+    infinite = np.isinf(values)
+    if infinite.any():
+        idx = np.flatnonzero(infinite)
+        problems.append(
+            where.error(
+                f"column '{name}': found {values[idx[0]]}, expected a finite number",
+                int(idx[0]),
+                idx.size,
+            )
+        )
+    return values
+
+
+def require_columns(
+    columns: Sequence[str], required: Sequence[str], where: Locator, what: str
+) -> list[InputError]:
+    """A problem for each required column missing, naming the nearest present one."""
+    out = []
+    present = [str(c) for c in columns]
+    for name in required:
+        if name not in present:
+            hint = nearest(name, present).replace("did you mean", "found")
+            out.append(where.error(f"missing column '{name}' of {what}{hint}"))
+    return out
+
+
+@dataclass
+class RawTrajectory:
+    """One trajectory as read: positions in the file's form, times in the file's kind."""
+
+    platform: str
+    time_s: FloatArray
+    #: (n, 3) positions: east/north/up m, lat/lon deg + height m, or ECEF x/y/z m.
+    position: FloatArray
+    form: PositionForm
+    source: str
+    #: ``session``: already in the session time base; ``gpst``: GPST s since the GPS epoch.
+    time_kind: TimeKind = "session"
+    sigma_enu_m: FloatArray | None = None
+    #: (n, 3, 3) ECEF covariance (RTKLIB ECEF form); rotated to ENU sigmas on assembly.
+    cov_ecef_m2: FloatArray | None = None
+    vel_enu_mps: FloatArray | None = None
+    heading_deg: FloatArray | None = None
+    quality: NDArray[np.int64] | None = None
+    #: The GPS week of the first epoch (files that carry absolute GPST times).
+    gps_week: int | None = None
+    notes: list[str] = field(default_factory=list)
+
+    def take(self, index: NDArray[np.intp]) -> RawTrajectory:
+        """The rows ``index`` (a new object)."""
+
+        def sub(a: NDArray | None) -> NDArray | None:  # type: ignore[type-arg]
+            return None if a is None else a[index]
+
+        return RawTrajectory(
+            platform=self.platform,
+            time_s=self.time_s[index],
+            position=self.position[index],
+            form=self.form,
+            source=self.source,
+            time_kind=self.time_kind,
+            sigma_enu_m=sub(self.sigma_enu_m),
+            cov_ecef_m2=sub(self.cov_ecef_m2),
+            vel_enu_mps=sub(self.vel_enu_mps),
+            heading_deg=sub(self.heading_deg),
+            quality=sub(self.quality),
+            gps_week=self.gps_week,
+            notes=list(self.notes),
+        )
+
+
+def check_trajectory_times(raw: RawTrajectory, where: Locator) -> RawTrajectory:
+    """Sort unsorted rows (stable, noted); drop exact duplicate epochs (noted).
+
+    Two rows with the same time and different positions are an error: the file does not
+    say which one is right.
+    """
+    t = raw.time_s
+    if t.size == 0:
+        raise where.error("no data rows; expected at least one epoch")
+    out = raw
+    if np.any(np.diff(t) < 0):
+        order = np.argsort(t, kind="stable")
+        n_back = int(np.count_nonzero(np.diff(t) < 0))
+        out = out.take(order)
+        out.notes.append(
+            f"{where.path}: times not in order ({n_back} step(s) back); rows sorted by time"
+        )
+    else:
+        order = np.arange(t.size)
+    same = np.flatnonzero(np.diff(out.time_s) == 0)
+    if same.size:
+        equal = np.all(out.position[same] == out.position[same + 1], axis=1)
+        if not equal.all():
+            first = int(same[~equal][0])
+            raise where.error(
+                f"time {out.time_s[first + 1]!r} appears twice with different positions; "
+                "expected strictly increasing times",
+                int(order[first + 1]),
+                int(np.count_nonzero(~equal)),
+            )
+        keep = np.ones(out.time_s.size, dtype=bool)
+        keep[same + 1] = False
+        out = out.take(np.flatnonzero(keep))
+        out.notes.append(f"{where.path}: {same.size} duplicated epoch(s) dropped")
+    return out
+
+
+def file_lines(path: Path, first_data_line: int) -> Callable[[int], int]:
+    """Map data row index -> 1-based file line, skipping blank lines (read on demand)."""
+    cache: list[int] = []
+
+    def line_of(row: int) -> int:
+        if not cache:
+            opener = gzip.open if path.name.endswith(".gz") else open
+            try:
+                with opener(path, "rt", encoding="utf-8", errors="replace") as fh:
+                    for number, text in enumerate(fh, start=1):
+                        if number >= first_data_line and text.strip():
+                            cache.append(number)
+            except PARSE_ERRORS:
+                return first_data_line + row
+        return cache[row] if row < len(cache) else first_data_line + row
+
+    return line_of

@@ -1,0 +1,234 @@
+"""Turn raw trajectories and ranges into one Session: time base, origin, ENU, checks.
+
+Decisions (documented in docs/formats.md):
+
+- time base not given: Unix if any nav/range time exceeds 3.15e8 s (1980 in Unix
+  seconds), else gps_tow; a note says which;
+- gps_tow without ``gps_week``: the GPS week of the first epoch of the first .pos file
+  (sorted by platform) aligns RTKLIB times; a note says which;
+- a file whose times do not fit the time base is an error (e.g. Unix seconds against
+  gps_tow);
+- reference epochs whose quality is not in ``[reference] quality`` are dropped (noted);
+- origin: ``[frame] origin``, else the first geodetic/ECEF reference fix (platforms in
+  sorted order), else the first geodetic/ECEF nav fix; all-ENU sessions record (0, 0, 0).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from coopproc import timeconv
+from coopproc.errors import CoopprocError, InputError
+from coopproc.frames import ecef2enu, ecef2geodetic, ecef_cov2enu_sigma, geodetic2enu
+from coopproc.io._common import RawTrajectory
+from coopproc.io.ranges_csv import RangesRead
+from coopproc.model import Platform, SessionConfig, Trajectory
+
+__all__ = [
+    "UNIX_MIN_S",
+    "check_ranges",
+    "check_time_base",
+    "choose_origin",
+    "filter_quality",
+    "infer_time_base",
+    "platforms_of",
+    "to_session_time",
+    "to_trajectory",
+]
+
+#: Unix seconds at 1980-01-06; any time above this is taken for Unix seconds.
+UNIX_MIN_S = timeconv.UNIX_AT_GPS_EPOCH_S
+_UNIX_MAX_S = 4.1e9  # year 2099
+_TOW_MAX_S = 2 * timeconv.SECONDS_PER_WEEK  # a session may run into the next week
+_RELATIVE_MAX_S = 1.0e7
+
+
+def infer_time_base(times: list[np.ndarray]) -> str:
+    """``unix`` if any time looks like Unix seconds, else ``gps_tow``."""
+    top = max((float(np.max(t)) for t in times if t.size), default=0.0)
+    return "unix" if top > UNIX_MIN_S else "gps_tow"
+
+
+def check_time_base(time_s: np.ndarray, base: str, path: str) -> InputError | None:
+    """An error when ``time_s`` does not fit the time base, else None."""
+    lo, hi = float(np.min(time_s)), float(np.max(time_s))
+    looks = "Unix seconds" if hi > UNIX_MIN_S else "seconds of week or from start"
+    if base == "gps_tow" and not (lo >= 0 and hi < _TOW_MAX_S):
+        return InputError(
+            path,
+            f"times {lo:.3f}..{hi:.3f} look like {looks}; expected GPS seconds of week "
+            '(0..604800) as [time] base = "gps_tow" says',
+        )
+    if base == "unix" and not (lo > UNIX_MIN_S and hi < _UNIX_MAX_S):
+        return InputError(
+            path,
+            f"times {lo:.3f}..{hi:.3f} look like {looks}; expected Unix seconds "
+            'as [time] base = "unix" says',
+        )
+    if base == "relative" and not (lo > -_RELATIVE_MAX_S and hi < _RELATIVE_MAX_S):
+        return InputError(
+            path,
+            f"times {lo:.3f}..{hi:.3f} look like {looks}; expected seconds from the start "
+            'as [time] base = "relative" says',
+        )
+    return None
+
+
+def to_session_time(raw: RawTrajectory, base: str, gps_week: int | None) -> RawTrajectory:
+    """Convert a GPST-kind raw trajectory to the session time base (a new object)."""
+    if raw.time_kind == "session":
+        return raw
+    if base == "gps_tow":
+        assert gps_week is not None
+        t = raw.time_s - gps_week * timeconv.SECONDS_PER_WEEK
+    elif base == "unix":
+        t = timeconv.gpst_to_unix(raw.time_s)
+    else:
+        raise InputError(
+            raw.source,
+            'absolute GPS times cannot be aligned with [time] base = "relative"; expected '
+            "base gps_tow or unix, or the reference as ref_<ID>.csv in relative seconds",
+        )
+    out = raw.take(np.arange(raw.time_s.size))
+    out.time_s = t
+    out.time_kind = "session"
+    return out
+
+
+def filter_quality(raw: RawTrajectory, accepted: tuple[int, ...]) -> tuple[RawTrajectory, str]:
+    """Keep epochs whose quality is accepted; a note when some were dropped."""
+    if raw.quality is None:
+        return raw, ""
+    keep = np.isin(raw.quality, np.asarray(accepted, dtype=np.int64))
+    if keep.all():
+        return raw, ""
+    dropped = int(keep.size - keep.sum())
+    note = (
+        f"{raw.source}: {dropped} of {keep.size} epochs with Q not in {list(accepted)} "
+        "dropped from the reference"
+    )
+    return raw.take(np.flatnonzero(keep)), note
+
+
+def _first_llh(raw: RawTrajectory) -> tuple[float, float, float] | None:
+    if raw.time_s.size == 0 or raw.form == "enu":
+        return None
+    first = raw.position[0]
+    if raw.form == "ecef":
+        first = ecef2geodetic(first)[0]
+    return float(first[0]), float(first[1]), float(first[2])
+
+
+def choose_origin(
+    config: SessionConfig,
+    reference: Mapping[str, RawTrajectory],
+    nav: Mapping[str, RawTrajectory],
+) -> tuple[tuple[float, float, float], str]:
+    """The ENU origin (lat deg, lon deg, h m) and a note saying where it came from."""
+    if config.origin_llh is not None:
+        return tuple(float(v) for v in config.origin_llh), ""  # type: ignore[return-value]
+    for what, group in (("reference", reference), ("navigation", nav)):
+        for pid in sorted(group):
+            llh = _first_llh(group[pid])
+            if llh is not None:
+                note = (
+                    f"ENU origin not given ([frame] origin): first {what} fix of {pid} "
+                    f"({llh[0]:.9f}, {llh[1]:.9f}, {llh[2]:.3f}) used"
+                )
+                return llh, note
+    return (0.0, 0.0, 0.0), ""
+
+
+def to_trajectory(raw: RawTrajectory, origin: tuple[float, float, float]) -> Trajectory:
+    """The model trajectory of a raw one, positions in ENU at ``origin``."""
+    if raw.form == "llh":
+        enu = geodetic2enu(raw.position, origin)
+    elif raw.form == "ecef":
+        enu = ecef2enu(raw.position, origin)
+    else:
+        enu = np.ascontiguousarray(raw.position, dtype=np.float64)
+    sigma = raw.sigma_enu_m
+    if sigma is None and raw.cov_ecef_m2 is not None:
+        sigma = ecef_cov2enu_sigma(raw.cov_ecef_m2, origin)
+    return Trajectory(
+        platform=raw.platform,
+        time_s=np.ascontiguousarray(raw.time_s, dtype=np.float64),
+        enu_m=enu,
+        sigma_enu_m=sigma,
+        vel_enu_mps=raw.vel_enu_mps,
+        heading_deg=raw.heading_deg,
+        quality=raw.quality,
+        source=raw.source,
+    )
+
+
+def platforms_of(
+    config: SessionConfig, nav_ids: set[str], notes: list[str], problems: list[CoopprocError]
+) -> dict[str, Platform]:
+    """Platforms with navigation or anchors with a position; defaults noted."""
+    out: dict[str, Platform] = {}
+    defaulted = []
+    for pid in sorted(nav_ids):
+        if pid in config.platforms:
+            out[pid] = config.platforms[pid]
+        else:
+            out[pid] = Platform(pid)
+            defaulted.append(pid)
+    if defaulted:
+        notes.append(f"no role given for {', '.join(defaulted)}: follower assumed")
+    for pid, p in sorted(config.platforms.items()):
+        if pid in out:
+            continue
+        if p.role == "anchor" and p.position_enu_m is not None:
+            out[pid] = p
+        elif p.role == "anchor":
+            problems.append(
+                InputError(
+                    "session.toml",
+                    f"[platforms.{pid}]: anchor without navigation file nor position; "
+                    "expected position = [east, north, up]",
+                )
+            )
+        else:
+            notes.append(f"[platforms.{pid}] has no navigation file; {pid} left out")
+    return out
+
+
+def check_ranges(
+    ranges: RangesRead,
+    platforms: Mapping[str, Platform],
+    nav: Mapping[str, Trajectory],
+    skip: set[str],
+) -> list[CoopprocError]:
+    """Ranges naming platforms without navigation, and time spans that do not overlap."""
+    problems: list[CoopprocError] = []
+    frame = ranges.table.frame
+    ids = np.concatenate([frame["from"].to_numpy(), frame["to"].to_numpy()])
+    known = set(platforms) | skip
+    expected = ", ".join(sorted(platforms)) or "none"
+    for pid in sorted(set(ids.tolist()) - known):
+        rows = np.flatnonzero((frame["from"].to_numpy() == pid) | (frame["to"].to_numpy() == pid))
+        problems.append(
+            ranges.where.error(
+                f"platform '{pid}' has no navigation (nav_{pid}.csv) and is not an anchor; "
+                f"expected one of {expected}",
+                int(rows[0]),
+                rows.size,
+            )
+        )
+    times = frame["time"].to_numpy(dtype=np.float64)
+    lo, hi = float(times.min()), float(times.max())
+    for pid in sorted(nav):
+        a, b = nav[pid].span_s
+        if b < lo or a > hi:
+            problems.append(
+                InputError(
+                    nav[pid].source,
+                    f"time span {a:.3f}..{b:.3f} does not overlap the ranges' "
+                    f"{lo:.3f}..{hi:.3f} ({ranges.where.path}); expected the same period "
+                    "and time base",
+                )
+            )
+    return problems

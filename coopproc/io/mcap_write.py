@@ -1,0 +1,177 @@
+"""Write a session as one MCAP file (JSON or ROS 2 channels; topics as DATA.md says).
+
+The file also carries the session's ``session.toml`` as an attachment named
+``session.toml`` (roles, origin, time base and the ``[mcap]`` mapping used), so a single
+``.mcap`` reads back to the same session. Log times are the epoch times in nanoseconds
+(the session time base must then be non-negative); ROS 2 header stamps hold the same time.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import tomli_w
+from mcap.writer import CompressionType
+from mcap.writer import Writer as JsonWriter
+
+from coopproc.errors import OutputError
+from coopproc.frames import enu2geodetic
+from coopproc.io.ros2_msgdefs import NAVSATFIX, ODOMETRY, UWB_RANGE, UWB_RANGE_MAPPING
+from coopproc.io.session_toml import McapMapping, session_toml_table
+from coopproc.model import Session, Trajectory
+
+__all__ = ["write_mcap"]
+
+#: RTKLIB Q -> sensor_msgs/NavSatStatus status (2 = GBAS/RTK, 1 = SBAS, 0 = fix, -1 none).
+Q_TO_NAVSAT = {1: 2, 2: 2, 3: 1, 4: 2, 5: 0, 6: 0}
+
+
+def _log_ns(time_s: np.ndarray, what: str) -> np.ndarray:
+    if time_s.size and float(np.min(time_s)) < 0:
+        raise OutputError(f"{what}: negative times cannot be MCAP log times")
+    return np.round(time_s * 1e9).astype(np.int64)
+
+
+def write_mcap(
+    session: Session, path: str | Path, *, encoding: Literal["json", "ros2"] = "json"
+) -> Path:
+    """Write ``session`` as one MCAP file; returns the path."""
+    p = Path(path)
+    mapping = McapMapping(**(UWB_RANGE_MAPPING if encoding == "ros2" else {}))
+    defaults = McapMapping()
+    mcap_table = {
+        f.name: getattr(mapping, f.name)
+        for f in dataclasses.fields(mapping)
+        if getattr(mapping, f.name) != getattr(defaults, f.name)
+    }
+    config = dataclasses.replace(session.config, mcap=mcap_table, platforms=dict(session.platforms))
+    toml_text = tomli_w.dumps(session_toml_table(config, session.origin_llh)).encode()
+    with open(p, "wb") as fh:
+        if encoding == "json":
+            _write_json(session, fh, mapping, toml_text)
+        else:
+            _write_ros2(session, fh, mapping, toml_text)
+    return p
+
+
+def _write_json(session: Session, fh: Any, mapping: McapMapping, toml_text: bytes) -> None:
+    writer = JsonWriter(fh, compression=CompressionType.ZSTD)
+    writer.start(profile="", library="coopproc")
+    writer.add_attachment(0, 0, "session.toml", "application/toml", toml_text)
+    schema_id = writer.register_schema(name="", encoding="", data=b"")
+
+    def channel(topic: str) -> int:
+        return writer.register_channel(topic=topic, message_encoding="json", schema_id=schema_id)
+
+    def emit(topic: str, frame: Any, time_s: np.ndarray) -> None:
+        cid = channel(topic)
+        log = _log_ns(time_s, topic)
+        lines = frame.to_json(orient="records", lines=True, double_precision=15).splitlines()
+        for seq, (line, t) in enumerate(zip(lines, log, strict=True)):
+            writer.add_message(cid, int(t), line.encode(), int(t), seq)
+
+    for pid in sorted(session.nav):
+        traj = session.nav[pid]
+        emit(mapping.nav_topic.format(id=pid), traj.frame(), traj.time_s)
+    for pid in sorted(session.reference):
+        traj = session.reference[pid]
+        emit(mapping.reference_topic.format(id=pid), traj.frame(), traj.time_s)
+    ranges = session.ranges.frame.drop(columns=["pair"])
+    if len(ranges):
+        emit(mapping.range_topic, ranges, ranges["time"].to_numpy())
+    writer.finish()
+
+
+def _stamp(t: float) -> dict[str, int]:
+    sec = math.floor(t)
+    nanosec = round((t - sec) * 1e9)
+    if nanosec >= 1_000_000_000:
+        sec, nanosec = sec + 1, nanosec - 1_000_000_000
+    return {"sec": int(sec), "nanosec": int(nanosec)}
+
+
+def _quaternion(heading_deg: float) -> dict[str, float]:
+    # ENU yaw (counter-clockwise from east) = 90 deg - heading (clockwise from north).
+    yaw = math.radians(90.0 - heading_deg)
+    return {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}
+
+
+def _odometry(traj: Trajectory, i: int, frame_id: str) -> dict[str, Any]:
+    pose_cov = [0.0] * 36
+    if traj.sigma_enu_m is not None:
+        for k in range(3):
+            pose_cov[7 * k] = float(traj.sigma_enu_m[i, k]) ** 2
+    zero_q = {"x": 0.0, "y": 0.0, "z": 0.0, "w": 0.0}
+    orient = zero_q if traj.heading_deg is None else _quaternion(float(traj.heading_deg[i]))
+    vel = (0.0, 0.0, 0.0) if traj.vel_enu_mps is None else traj.vel_enu_mps[i]
+    e, n, u = (float(v) for v in traj.enu_m[i])
+    return {
+        "header": {"stamp": _stamp(float(traj.time_s[i])), "frame_id": "enu"},
+        "child_frame_id": frame_id,
+        "pose": {
+            "pose": {"position": {"x": e, "y": n, "z": u}, "orientation": orient},
+            "covariance": pose_cov,
+        },
+        "twist": {
+            "twist": {
+                "linear": {"x": float(vel[0]), "y": float(vel[1]), "z": float(vel[2])},
+                "angular": {"x": 0.0, "y": 0.0, "z": 0.0},
+            },
+            "covariance": [0.0] * 36,
+        },
+    }
+
+
+def _write_ros2(session: Session, fh: Any, mapping: McapMapping, toml_text: bytes) -> None:
+    from mcap_ros2.writer import Writer as Ros2Writer
+
+    writer = Ros2Writer(fh)
+    writer.add_attachment(0, 0, "session.toml", "application/toml", toml_text)
+    odom = writer.register_msgdef("nav_msgs/msg/Odometry", ODOMETRY)
+    fix = writer.register_msgdef("sensor_msgs/msg/NavSatFix", NAVSATFIX)
+    rng = writer.register_msgdef("coopproc_msgs/msg/UwbRange", UWB_RANGE)
+    for pid in sorted(session.nav):
+        traj = session.nav[pid]
+        topic = mapping.nav_topic.format(id=pid)
+        for i, t in enumerate(_log_ns(traj.time_s, topic)):
+            writer.write_message(topic, odom, _odometry(traj, i, pid), int(t), int(t), i)
+    for pid in sorted(session.reference):
+        traj = session.reference[pid]
+        topic = mapping.reference_topic.format(id=pid)
+        llh = enu2geodetic(traj.enu_m, session.origin_llh)
+        for i, t in enumerate(_log_ns(traj.time_s, topic)):
+            cov = [0.0] * 9
+            if traj.sigma_enu_m is not None:
+                for k in range(3):
+                    cov[4 * k] = float(traj.sigma_enu_m[i, k]) ** 2
+            q = 1 if traj.quality is None else int(traj.quality[i])
+            msg = {
+                "header": {"stamp": _stamp(float(traj.time_s[i])), "frame_id": pid},
+                "status": {"status": Q_TO_NAVSAT.get(q, -1), "service": 1},
+                "latitude": float(llh[i, 0]),
+                "longitude": float(llh[i, 1]),
+                "altitude": float(llh[i, 2]),
+                "position_covariance": cov,
+                "position_covariance_type": 2 if traj.sigma_enu_m is not None else 0,
+            }
+            writer.write_message(topic, fix, msg, int(t), int(t), i)
+    frame = session.ranges.frame
+    if len(frame):
+        times = frame["time"].to_numpy(dtype=np.float64)
+        log = _log_ns(times, mapping.range_topic)
+        src, dst = frame["from"].to_numpy(), frame["to"].to_numpy()
+        rng_m, sig = frame["range"].to_numpy(), frame["sigma"].to_numpy(dtype=np.float64)
+        for i in range(len(frame)):
+            msg = {
+                "header": {"stamp": _stamp(float(times[i])), "frame_id": "uwb"},
+                "from_id": str(src[i]),
+                "to_id": str(dst[i]),
+                "range": float(rng_m[i]),
+                "sigma": float(sig[i]),
+            }
+            writer.write_message(mapping.range_topic, rng, msg, int(log[i]), int(log[i]), i)
+    writer.finish()

@@ -1,0 +1,181 @@
+"""ranges.csv (plain or .csv.gz): read and write (DATA.md).
+
+Columns ``time, from, to, range`` required, ``sigma`` optional (NaN where absent or
+empty), anything else carried through unchanged. ``A->B`` and ``B->A`` both belong to
+pair ``A-B``. Unsorted rows are sorted by time (stable) with a note; exact duplicate
+rows are dropped with a note.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from coopproc.configtools import nearest
+from coopproc.errors import InputError
+from coopproc.io._common import ID_PATTERN, InputProblems, Locator, numeric_column
+from coopproc.io.csv_traj import read_csv_table
+from coopproc.model import RANGE_COLUMNS, RangeTable
+from coopproc.outdir import FLOAT_FORMAT
+
+__all__ = [
+    "MAX_RANGE_M",
+    "RangesRead",
+    "range_table_from_frame",
+    "read_ranges_csv",
+    "write_ranges_csv",
+]
+
+#: Ranges above this are absurd for UWB (typical reach is a few hundred metres).
+MAX_RANGE_M = 2000.0
+
+_REQUIRED = ("time", "from", "to", "range")
+
+
+class RangesRead:
+    """A validated range table and what the reader decided (notes)."""
+
+    def __init__(self, table: RangeTable, notes: list[str], where: Locator) -> None:
+        self.table = table
+        self.notes = notes
+        self.where = where
+
+
+def _ids(frame: pd.DataFrame, name: str, where: Locator, problems: list[InputError]) -> np.ndarray:
+    col = frame[name]
+    values = col.astype("string").str.strip()
+    empty = values.isna().to_numpy() | (values.fillna("") == "").to_numpy()
+    out = values.fillna("").to_numpy(dtype=object)
+    if empty.any():
+        idx = np.flatnonzero(empty)
+        problems.append(
+            where.error(f"column '{name}': empty; expected a platform id", int(idx[0]), idx.size)
+        )
+    uniq = pd.unique(out[~empty])
+    bad_ids = [u for u in uniq if not ID_PATTERN.match(str(u))]
+    if bad_ids:
+        mask = np.isin(out, bad_ids)
+        idx = np.flatnonzero(mask)
+        problems.append(
+            where.error(
+                f"column '{name}': {str(bad_ids[0])[:40]!r} is not a platform id; expected "
+                "letters, digits, '_' and '-'",
+                int(idx[0]),
+                idx.size,
+            )
+        )
+    return out
+
+
+def range_table_from_frame(frame: pd.DataFrame, where: Locator) -> RangesRead:
+    """Validate a range table (every kind of problem at once) and build the RangeTable."""
+    columns = [str(c) for c in frame.columns]
+    problems: list[InputError] = []
+    for name in _REQUIRED:
+        if name not in columns:
+            problems.append(where.error(f"missing column '{name}'{nearest(name, columns)}"))
+    if problems:
+        raise InputProblems(problems)
+    if len(frame) == 0:
+        raise where.error("no data rows; expected at least one range")
+    notes: list[str] = []
+    for name in columns:
+        if name not in RANGE_COLUMNS and nearest(name, RANGE_COLUMNS).startswith(" (did"):
+            hint = nearest(name, RANGE_COLUMNS)
+            notes.append(f"{where.path}: extra column '{name}' carried through as is{hint}")
+    time_s = numeric_column(frame, "time", where, problems)
+    range_m = numeric_column(frame, "range", where, problems)
+    sigma_m = (
+        numeric_column(frame, "sigma", where, problems, allow_empty=True)
+        if "sigma" in columns
+        else np.full(len(frame), np.nan)
+    )
+    src = _ids(frame, "from", where, problems)
+    dst = _ids(frame, "to", where, problems)
+    neg = range_m < 0
+    if neg.any():
+        idx = np.flatnonzero(neg)
+        problems.append(
+            where.error(
+                f"range {range_m[idx[0]]} m is negative; expected 0..{MAX_RANGE_M:g} m",
+                int(idx[0]),
+                idx.size,
+            )
+        )
+    big = range_m > MAX_RANGE_M
+    if big.any():
+        idx = np.flatnonzero(big)
+        problems.append(
+            where.error(
+                f"range {range_m[idx[0]]} m is absurd for UWB; expected 0..{MAX_RANGE_M:g} m",
+                int(idx[0]),
+                idx.size,
+            )
+        )
+    bad_sigma = sigma_m <= 0
+    if bad_sigma.any():
+        idx = np.flatnonzero(bad_sigma)
+        problems.append(
+            where.error(
+                f"sigma {sigma_m[idx[0]]} m; expected a positive 1-sigma or an empty cell",
+                int(idx[0]),
+                idx.size,
+            )
+        )
+    self_range = (src == dst) & (src != "")
+    if self_range.any():
+        idx = np.flatnonzero(self_range)
+        problems.append(
+            where.error(
+                f"platform {src[idx[0]]} ranges to itself; expected two different platforms",
+                int(idx[0]),
+                idx.size,
+            )
+        )
+    if problems:
+        raise InputProblems(problems)
+    lo = np.where(src <= dst, src, dst)
+    hi = np.where(src <= dst, dst, src)
+    pair = np.char.add(np.char.add(lo.astype(str), "-"), hi.astype(str))
+    data = {
+        "time": time_s,
+        "pair": pair.astype(object),
+        "from": src,
+        "to": dst,
+        "range": range_m,
+        "sigma": sigma_m,
+    }
+    out = pd.DataFrame(data)
+    for name in columns:
+        if name not in RANGE_COLUMNS:
+            out[name] = frame[name].to_numpy()
+    if np.any(np.diff(time_s) < 0):
+        out = out.sort_values("time", kind="stable").reset_index(drop=True)
+        notes.append(f"{where.path}: times not in order; rows sorted by time")
+    dup = out.duplicated(keep="first")
+    if dup.any():
+        out = out[~dup.to_numpy()].reset_index(drop=True)
+        notes.append(f"{where.path}: {int(dup.sum())} duplicated row(s) dropped")
+    return RangesRead(RangeTable(out, source=where.path), notes, where)
+
+
+def read_ranges_csv(path: str | Path) -> RangesRead:
+    """Read ranges.csv (or .csv.gz); raises InputError."""
+    frame, where = read_csv_table(Path(path))
+    return range_table_from_frame(frame, where)
+
+
+def write_ranges_csv(table: RangeTable, path: str | Path) -> Path:
+    """Write a range table as ranges.csv (``pair`` is derived on reading, so not written)."""
+    p = Path(path)
+    frame = table.frame.drop(columns=["pair"])
+    frame.to_csv(
+        p,
+        index=False,
+        float_format=FLOAT_FORMAT,
+        lineterminator="\n",
+        compression={"method": "gzip", "mtime": 0} if p.name.endswith(".gz") else None,
+    )
+    return p

@@ -1,0 +1,277 @@
+"""read_session / validate_session: a session directory or one .mcap file -> Session.
+
+Both run the same loader; it reads every file even after a problem (skipping only the
+checks that a failed file makes meaningless), so ``validate_session`` lists every problem
+and ``read_session`` raises the first.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from coopproc.errors import CoopprocError, InputError
+from coopproc.io import assemble
+from coopproc.io._common import InputProblems, RawTrajectory, expand
+from coopproc.io.mcap_read import McapContent, decode_mcap, read_mcap_raw
+from coopproc.io.ranges_csv import RangesRead, read_ranges_csv
+from coopproc.io.registry import find_files, read_trajectory
+from coopproc.io.session_toml import TomlRead, mcap_mapping, parse_session_toml, read_session_toml
+from coopproc.model import Session, SessionConfig, Trajectory
+
+__all__ = ["read_session", "validate_session"]
+
+
+class _Loader:
+    def __init__(self) -> None:
+        self.problems: list[CoopprocError] = []
+        self.notes: list[str] = []
+        self.inputs: list[Path] = []
+        self.failed: set[str] = set()  # platforms whose nav could not be read
+
+    def add(self, err: CoopprocError) -> None:
+        if isinstance(err, InputProblems):
+            self.problems.extend(err.errors)
+        else:
+            self.problems.append(err)
+
+    def load(self, path: str | Path) -> Session | None:
+        root = Path(path)
+        if not root.exists():
+            raise InputError(root, "no such file or directory; expected a session directory")
+        toml: TomlRead | None = None
+        nav_raw: dict[str, RawTrajectory] = {}
+        ref_raw: dict[str, RawTrajectory] = {}
+        ranges: RangesRead | None = None
+        mcap_path: Path | None = None
+        if root.is_dir():
+            toml_path = root / "session.toml"
+            if toml_path.is_file():
+                self.inputs.append(toml_path)
+                try:
+                    toml = read_session_toml(toml_path)
+                except CoopprocError as err:
+                    self.add(err)
+            config = toml.config if toml else SessionConfig()
+            files = find_files(root, config)
+            self.problems.extend(files.problems)
+            for kind, group, target in (("nav", files.nav, nav_raw), ("ref", files.ref, ref_raw)):
+                for pid, fpath in sorted(group.items()):
+                    self.inputs.append(fpath)
+                    try:
+                        target[pid] = read_trajectory(fpath, pid)
+                    except CoopprocError as err:
+                        self.add(err)
+                        if kind == "nav":
+                            self.failed.add(pid)
+            if files.ranges is not None:
+                self.inputs.append(files.ranges)
+                try:
+                    ranges = read_ranges_csv(files.ranges)
+                except CoopprocError as err:
+                    self.add(err)
+                    self.failed.add("<ranges>")
+            mcap_path = files.mcap
+        elif root.name.lower().endswith(".mcap"):
+            mcap_path = root
+        else:
+            raise InputError(root, "not a session; expected a session directory or an .mcap file")
+        if mcap_path is not None:
+            self.inputs.append(mcap_path)
+            toml, content = self._mcap(mcap_path, toml)
+            if content is not None:
+                ranges = self._merge(content, nav_raw, ref_raw, ranges, mcap_path)
+        config = toml.config if toml else SessionConfig()
+        if toml is None:
+            self.notes.append("no session.toml: every figure takes its default")
+        return self._assemble(root, config, toml, nav_raw, ref_raw, ranges)
+
+    def _mcap(
+        self, path: Path, toml: TomlRead | None
+    ) -> tuple[TomlRead | None, McapContent | None]:
+        try:
+            raw = read_mcap_raw(path)
+        except CoopprocError as err:
+            self.add(err)
+            self.failed.add("<ranges>")
+            return toml, None
+        embedded = raw.attachments.get("session.toml")
+        if embedded is not None and toml is None:
+            try:
+                toml = parse_session_toml(
+                    embedded.decode("utf-8", "replace"), f"{path} session.toml"
+                )
+            except CoopprocError as err:
+                self.add(err)
+        elif embedded is not None:
+            self.notes.append(f"{path.name}: embedded session.toml ignored; session.toml used")
+        try:
+            mapping = mcap_mapping(toml.config if toml else SessionConfig())
+            return toml, decode_mcap(raw, mapping)
+        except CoopprocError as err:
+            self.add(err)
+            self.failed.add("<ranges>")
+            return toml, None
+
+    def _merge(
+        self,
+        content: McapContent,
+        nav_raw: dict[str, RawTrajectory],
+        ref_raw: dict[str, RawTrajectory],
+        ranges: RangesRead | None,
+        path: Path,
+    ) -> RangesRead | None:
+        self.notes.extend(content.notes)
+        for group, target, what in (
+            (content.nav, nav_raw, "nav"),
+            (content.reference, ref_raw, "ref"),
+        ):
+            for pid, raw in group.items():
+                if pid in target:
+                    self.add(
+                        InputError(path, f"{what} of {pid} given twice (also {target[pid].source})")
+                    )
+                else:
+                    target[pid] = raw
+        if content.ranges is not None and ranges is not None:
+            self.add(InputError(path, f"ranges given twice (also {ranges.where.path})"))
+        return ranges if content.ranges is None else content.ranges
+
+    def _assemble(
+        self,
+        root: Path,
+        config: SessionConfig,
+        toml: TomlRead | None,
+        nav_raw: dict[str, RawTrajectory],
+        ref_raw: dict[str, RawTrajectory],
+        ranges: RangesRead | None,
+    ) -> Session | None:
+        for raw in (*nav_raw.values(), *ref_raw.values()):
+            self.notes.extend(raw.notes)
+        if ranges is not None:
+            self.notes.extend(ranges.notes)
+        if (
+            not nav_raw
+            and not self.failed
+            and not any(p.role == "anchor" for p in config.platforms.values())
+        ):
+            self.add(
+                InputError(root, "no navigation files; expected nav_<ID>.csv (or .mcap /<ID>/nav)")
+            )
+        if ranges is None and "<ranges>" not in self.failed:
+            self.add(InputError(root, "no ranges; expected ranges.csv (or .mcap /uwb/range)"))
+        # Time base.
+        session_times = [r.time_s for r in nav_raw.values() if r.time_kind == "session"]
+        if ranges is not None:
+            session_times.append(ranges.table.frame["time"].to_numpy(dtype=np.float64))
+        base = config.time_base
+        if not (toml and toml.base_given):
+            base = assemble.infer_time_base(session_times)  # type: ignore[assignment]
+            self.notes.append(f"[time] base not given: {base} assumed from the times")
+        week = config.gps_week
+        gpst = [ref_raw[p] for p in sorted(ref_raw) if ref_raw[p].time_kind == "gpst"]
+        gpst += [nav_raw[p] for p in sorted(nav_raw) if nav_raw[p].time_kind == "gpst"]
+        if base == "gps_tow" and week is None and gpst:
+            week = gpst[0].gps_week
+            self.notes.append(f"[time] gps_week not given: week {week} of {gpst[0].source} used")
+        config = replace(config, time_base=base, gps_week=week)
+        for group in (nav_raw, ref_raw):
+            for pid in sorted(group):
+                try:
+                    group[pid] = assemble.to_session_time(group[pid], base, week)
+                except CoopprocError as err:
+                    self.add(err)
+                    del group[pid]
+                    continue
+                err2 = assemble.check_time_base(group[pid].time_s, base, group[pid].source)
+                if err2 is not None:
+                    self.add(err2)
+        if ranges is not None:
+            err3 = assemble.check_time_base(
+                ranges.table.frame["time"].to_numpy(dtype=np.float64), base, ranges.where.path
+            )
+            if err3 is not None:
+                self.add(err3)
+        # Reference quality filter.
+        for pid in sorted(ref_raw):
+            kept, note = assemble.filter_quality(ref_raw[pid], tuple(config.reference_quality))
+            if note:
+                self.notes.append(note)
+            if kept.time_s.size == 0:
+                self.notes.append(f"reference of {pid} has no accepted epoch; not used")
+                del ref_raw[pid]
+            else:
+                ref_raw[pid] = kept
+        origin, note = assemble.choose_origin(config, ref_raw, nav_raw)
+        if note:
+            self.notes.append(note)
+        nav = {p: assemble.to_trajectory(r, origin) for p, r in sorted(nav_raw.items())}
+        reference = {p: assemble.to_trajectory(r, origin) for p, r in sorted(ref_raw.items())}
+        platforms = assemble.platforms_of(
+            config, set(nav) | self.failed - {"<ranges>"}, self.notes, self.problems
+        )
+        platforms = {p: v for p, v in platforms.items() if p not in self.failed}
+        for pid in sorted(set(reference) - set(nav)):
+            self.notes.append(f"reference of {pid} has no navigation beside it")
+        for pid in sorted(set(reference) & set(nav)):
+            self._check_overlap(nav[pid], reference[pid])
+        if ranges is not None:
+            skip = self.failed - {"<ranges>"}
+            self.problems.extend(assemble.check_ranges(ranges, platforms, nav, skip))
+        if self.problems or ranges is None:
+            return None
+        return Session(
+            config=config,
+            platforms=platforms,
+            nav=nav,
+            reference=reference,
+            ranges=ranges.table,
+            origin_llh=origin,
+            root=root,
+            inputs=tuple(dict.fromkeys(self.inputs)),
+            notes=tuple(self.notes),
+        )
+
+    def _check_overlap(self, nav: Trajectory, ref: Trajectory) -> None:
+        a, b = nav.span_s
+        c, d = ref.span_s
+        if d < a or c > b:
+            self.add(
+                InputError(
+                    ref.source,
+                    f"time span {c:.3f}..{d:.3f} does not overlap the navigation's "
+                    f"{a:.3f}..{b:.3f} ({nav.source}); expected the same period and time base",
+                )
+            )
+
+
+def read_session(path: str | Path) -> Session:
+    """Read and validate a session directory or one ``.mcap`` file.
+
+    Raises the first problem found as InputError / ConfigError (one line: file, line or
+    record, what was found and what was expected); ``validate_session`` lists them all.
+    """
+    loader = _Loader()
+    session = loader.load(path)
+    if loader.problems:
+        raise loader.problems[0]
+    if session is None:  # pragma: no cover - every None path records a problem
+        raise InputError(path, "no session could be read")
+    return session
+
+
+def validate_session(path: str | Path) -> list[str]:
+    """Every problem of a session, one line each; empty when it reads cleanly."""
+    loader = _Loader()
+    try:
+        loader.load(path)
+    except CoopprocError as fatal:
+        loader.add(fatal)
+    out: list[str] = []
+    for err in loader.problems:
+        for line in expand(err):
+            if line not in out:
+                out.append(line)
+    return out

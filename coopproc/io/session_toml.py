@@ -1,0 +1,278 @@
+"""session.toml: every key of DATA.md plus ``[reference]``, ``[files]`` and ``[mcap]``.
+
+Every key is optional; an unknown key (or table) is a ConfigError naming the nearest
+valid one. The tables and their defaults are the dataclasses below (one help line each);
+``docs/formats.md`` lists them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import tomli_w
+
+from coopproc.configtools import check_keys, from_table
+from coopproc.errors import ConfigError, InputError
+from coopproc.io._common import ID_PATTERN
+from coopproc.model import Platform, SessionConfig
+
+__all__ = [
+    "McapMapping",
+    "TomlRead",
+    "describe_keys",
+    "mcap_mapping",
+    "parse_session_toml",
+    "read_session_toml",
+    "session_toml_table",
+    "write_session_toml",
+]
+
+
+@dataclass(frozen=True)
+class _SessionTable:
+    name: str = field(default="", metadata={"help": "free text name of the recording"})
+
+
+@dataclass(frozen=True)
+class _TimeTable:
+    base: Literal["gps_tow", "unix", "relative"] | None = field(
+        default=None,
+        metadata={"help": "time base of every file: gps_tow | unix | relative (absent: inferred)"},
+    )
+    gps_week: int | None = field(
+        default=None,
+        metadata={"help": "GPS week of gps_tow times (absent: the week of the first .pos epoch)"},
+    )
+
+
+@dataclass(frozen=True)
+class _FrameTable:
+    origin: tuple[float, float, float] | None = field(
+        default=None, metadata={"help": "lat deg, lon deg, height m of the ENU origin"}
+    )
+
+
+@dataclass(frozen=True)
+class _PlatformTable:
+    role: Literal["follower", "leader", "anchor"] = field(
+        default="follower", metadata={"help": "follower | leader | anchor"}
+    )
+    drift_sigma: float | None = field(
+        default=None, metadata={"help": "position drift, m/s 1-sigma (sigma_k of eq. 7)"}
+    )
+    position: tuple[float, float, float] | None = field(
+        default=None, metadata={"help": "anchors only: ENU position, metres"}
+    )
+
+
+@dataclass(frozen=True)
+class _UwbTable:
+    sigma: float | None = field(
+        default=None, metadata={"help": "ranging 1-sigma, metres (absent: estimated)"}
+    )
+
+
+@dataclass(frozen=True)
+class _ReferenceTable:
+    quality: tuple[int, ...] = field(
+        default=(1,), metadata={"help": "RTKLIB Q values used as reference (1 = fix)"}
+    )
+
+
+@dataclass(frozen=True)
+class McapMapping:
+    """The ``[mcap]`` table: topics (``{id}`` = platform id) and range message fields."""
+
+    nav_topic: str = field(default="/{id}/nav", metadata={"help": "navigation topic template"})
+    reference_topic: str = field(
+        default="/{id}/reference", metadata={"help": "reference topic template"}
+    )
+    range_topic: str = field(default="/uwb/range", metadata={"help": "UWB range topic"})
+    from_field: str = field(default="from", metadata={"help": "range message: id of one end"})
+    to_field: str = field(default="to", metadata={"help": "range message: id of the other end"})
+    range_field: str = field(default="range", metadata={"help": "range message: range, metres"})
+    sigma_field: str = field(default="sigma", metadata={"help": "range message: 1-sigma, m"})
+
+
+_TABLES: dict[str, type] = {
+    "session": _SessionTable,
+    "time": _TimeTable,
+    "frame": _FrameTable,
+    "uwb": _UwbTable,
+    "reference": _ReferenceTable,
+    "mcap": McapMapping,
+}
+_TOP = (*_TABLES, "platforms", "files")
+_FILE_KEYS = ("ranges", "mcap", "nav", "ref")
+
+
+def mcap_mapping(config: SessionConfig) -> McapMapping:
+    """The ``[mcap]`` mapping of a config (defaults for keys not given)."""
+    return from_table(McapMapping, dict(config.mcap), "session.toml [mcap]")
+
+
+@dataclass(frozen=True)
+class TomlRead:
+    """A parsed session.toml and which defaults it left open."""
+
+    config: SessionConfig
+    base_given: bool
+
+
+def parse_session_toml(text: str, where: str = "session.toml") -> TomlRead:
+    """Parse session.toml text; raises ConfigError (keys, values) or InputError (syntax)."""
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise InputError(where, f"not valid TOML: {err}") from err
+    check_keys(doc, _TOP, where)
+    tables: dict[str, Any] = {}
+    for name, cls in _TABLES.items():
+        tables[name] = from_table(cls, doc.get(name), f"{where} [{name}]")
+    time_t: _TimeTable = tables["time"]
+    if time_t.gps_week is not None and not 0 <= time_t.gps_week < 10000:
+        raise ConfigError(f"{where} [time] gps_week: {time_t.gps_week}; expected 0..9999")
+    origin = tables["frame"].origin
+    if origin is not None and (abs(origin[0]) > 90 or abs(origin[1]) > 360):
+        raise ConfigError(f"{where} [frame] origin: {list(origin)}; expected [lat, lon, height]")
+    uwb_sigma = tables["uwb"].sigma
+    if uwb_sigma is not None and not uwb_sigma > 0:
+        raise ConfigError(f"{where} [uwb] sigma: {uwb_sigma}; expected a positive number")
+    quality = tables["reference"].quality
+    if not quality:
+        raise ConfigError(f"{where} [reference] quality: empty; expected e.g. [1] or [1, 2]")
+    platforms = _platforms(doc.get("platforms", {}), where)
+    files = _files(doc.get("files", {}), where)
+    config = SessionConfig(
+        name=tables["session"].name,
+        time_base=time_t.base or "gps_tow",
+        gps_week=time_t.gps_week,
+        origin_llh=origin,
+        platforms=platforms,
+        uwb_sigma_m=uwb_sigma,
+        reference_quality=tuple(quality),
+        files=files,
+        mcap=dict(doc.get("mcap", {})),
+    )
+    return TomlRead(config, base_given=time_t.base is not None)
+
+
+def _platforms(table: Any, where: str) -> dict[str, Platform]:
+    if not isinstance(table, Mapping):
+        raise ConfigError(f"{where} [platforms]: expected tables [platforms.<ID>]")
+    out = {}
+    for pid, sub in table.items():
+        if not ID_PATTERN.match(pid):
+            raise ConfigError(
+                f"{where} [platforms.{pid}]: not a platform id; expected letters, digits, _ and -"
+            )
+        p: _PlatformTable = from_table(_PlatformTable, sub, f"{where} [platforms.{pid}]")
+        if p.drift_sigma is not None and not p.drift_sigma > 0:
+            raise ConfigError(
+                f"{where} [platforms.{pid}] drift_sigma: {p.drift_sigma}; expected > 0 m/s"
+            )
+        if p.position is not None and p.role != "anchor":
+            raise ConfigError(
+                f"{where} [platforms.{pid}] position: given for a {p.role}; "
+                'expected only for role = "anchor"'
+            )
+        out[pid] = Platform(pid, p.role, p.drift_sigma, p.position)
+    return out
+
+
+def _files(table: Any, where: str) -> dict[str, str]:
+    if not isinstance(table, Mapping):
+        raise ConfigError(f"{where} [files]: expected a table")
+    check_keys(table, _FILE_KEYS, f"{where} [files]")
+    out: dict[str, str] = {}
+    for key, value in table.items():
+        if key in ("nav", "ref"):
+            if not isinstance(value, Mapping):
+                raise ConfigError(f'{where} [files] {key}: expected a table {key}.<ID> = "file"')
+            for pid, name in value.items():
+                if not isinstance(name, str) or not ID_PATTERN.match(pid):
+                    raise ConfigError(
+                        f'{where} [files.{key}] {pid}: expected <platform id> = "file name"'
+                    )
+                out[f"{key}.{pid}"] = name
+        elif isinstance(value, str):
+            out[key] = value
+        else:
+            raise ConfigError(f"{where} [files] {key}: expected a file name string")
+    for name in out.values():
+        if Path(name).is_absolute() or ".." in Path(name).parts or re.search(r"[\x00]", name):
+            raise ConfigError(
+                f"{where} [files]: {name!r}; expected a path relative to the session directory"
+            )
+    return out
+
+
+def read_session_toml(path: str | Path) -> TomlRead:
+    """Read a session.toml file."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeError) as err:
+        raise InputError(p, f"cannot read ({type(err).__name__}); expected UTF-8 TOML") from err
+    return parse_session_toml(text, str(p))
+
+
+def session_toml_table(
+    config: SessionConfig, origin_llh: tuple[float, float, float] | None = None
+) -> dict[str, Any]:
+    """The TOML document of a config (only keys that differ from the defaults)."""
+    doc: dict[str, Any] = {}
+    if config.name:
+        doc["session"] = {"name": config.name}
+    time: dict[str, Any] = {"base": config.time_base}
+    if config.gps_week is not None:
+        time["gps_week"] = config.gps_week
+    doc["time"] = time
+    origin = origin_llh or config.origin_llh
+    if origin is not None:
+        doc["frame"] = {"origin": [float(v) for v in origin]}
+    if config.platforms:
+        platforms: dict[str, Any] = {}
+        for pid in sorted(config.platforms):
+            p = config.platforms[pid]
+            entry: dict[str, Any] = {"role": p.role}
+            if p.drift_sigma_mps is not None:
+                entry["drift_sigma"] = p.drift_sigma_mps
+            if p.position_enu_m is not None:
+                entry["position"] = [float(v) for v in p.position_enu_m]
+            platforms[pid] = entry
+        doc["platforms"] = platforms
+    if config.uwb_sigma_m is not None:
+        doc["uwb"] = {"sigma": config.uwb_sigma_m}
+    if tuple(config.reference_quality) != (1,):
+        doc["reference"] = {"quality": list(config.reference_quality)}
+    if config.mcap:
+        doc["mcap"] = dict(config.mcap)
+    return doc
+
+
+def write_session_toml(
+    config: SessionConfig, path: str | Path, origin_llh: tuple[float, float, float] | None = None
+) -> Path:
+    """Write session.toml for ``config`` (``[files]`` is not written: default names)."""
+    p = Path(path)
+    p.write_text(tomli_w.dumps(session_toml_table(config, origin_llh)), encoding="utf-8")
+    return p
+
+
+# Keep the field list in one place for docs: (table, key, default, help).
+def describe_keys() -> list[tuple[str, str, object, str]]:
+    """Every session.toml key: (table, key, default, help)."""
+    rows: list[tuple[str, str, object, str]] = []
+    for name, cls in _TABLES.items():
+        for f in dataclasses.fields(cls):
+            rows.append((name, f.name, f.default, str(f.metadata.get("help", ""))))
+    for f in dataclasses.fields(_PlatformTable):
+        rows.append(("platforms.<ID>", f.name, f.default, str(f.metadata.get("help", ""))))
+    return rows
