@@ -11,6 +11,8 @@ __all__ = ["load"]
 #: (module under coopproc.cli, attribute) of every command.
 COMMANDS: tuple[tuple[str, str], ...] = (
     # registry: add one line per command
+    ("validate", "validate"),
+    ("info", "info"),
     ("report", "report"),
     ("run", "run"),
     ("config_cmd", "config"),
