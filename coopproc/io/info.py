@@ -38,7 +38,16 @@ PLATFORM_INFO_COLUMNS = (
     "ref_epochs",
     "ref_coverage",
 )
-PAIR_INFO_COLUMNS = ("pair", "ranges", "start", "end", "rate_hz", "gaps", "longest_gap_s", "sigma_given")
+PAIR_INFO_COLUMNS = (
+    "pair",
+    "ranges",
+    "start",
+    "end",
+    "rate_hz",
+    "gaps",
+    "longest_gap_s",
+    "sigma_given",
+)
 
 
 def gaps(time_s: np.ndarray) -> tuple[float, int, float]:
@@ -116,9 +125,10 @@ def session_info(session: Session) -> SessionInfo:
 
 def _fmt(value: object) -> str:
     if isinstance(value, float | np.floating):
-        if np.isnan(value):
+        v = float(value)
+        if np.isnan(v):
             return "-"
-        return f"{value:.3f}" if abs(value) < 1e6 else f"{value:.1f}"
+        return f"{v:.3f}" if abs(v) < 1e6 else f"{v:.1f}"
     return str(value)
 
 
