@@ -10,6 +10,7 @@ from coopproc.sim.engine import scenario_params, simulate
 from coopproc.sim.params import NlosSpec, OutageSpec, SimParams
 from coopproc.sim.scenarios import SCENARIOS, Scenario
 from coopproc.sim.truth import Simulation, Truth
+from coopproc.sim.writer import write_simulation, write_truth
 
 __all__ = [
     "SCENARIOS",
@@ -21,4 +22,6 @@ __all__ = [
     "Truth",
     "scenario_params",
     "simulate",
+    "write_simulation",
+    "write_truth",
 ]

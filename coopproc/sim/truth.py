@@ -35,7 +35,7 @@ NLOS_TRUTH_COLUMNS: tuple[str, ...] = (
     "epochs",
 )
 GROSS_ERROR_COLUMNS: tuple[str, ...] = ("time", "pair", "error")
-#: ``truth/dr_error.csv``: navigation solution minus truth at every nav epoch. For a
+#: ``truth/dr_error.csv``: navigation solution minus truth, at whole seconds of the nav grid. For a
 #: platform whose nav is in its own frame (single-auxiliary target) the error is taken
 #: before that frame's shift and rotation, i.e. the dead-reckoning error itself.
 DR_ERROR_COLUMNS: tuple[str, ...] = (

@@ -61,8 +61,8 @@ def test_follower_dr_error_grows_to_the_configured_range() -> None:
         err = sim.truth.dr_error
         for pid in ("A", "C"):
             e = err[err["platform"] == pid]
-            ends.append(e["error_h"].to_numpy()[-600:].mean())
-            early.append(e["error_h"].to_numpy()[:600].mean())
+            ends.append(e["error_h"].to_numpy()[-60:].mean())
+            early.append(e["error_h"].to_numpy()[:60].mean())
         lead = err[err["platform"] == "B"]["error_h"]
         assert lead.quantile(0.95) < 0.1  # GNSS/INS: centimetres
     assert all(late > first for late, first in zip(ends, early, strict=True))
@@ -148,7 +148,7 @@ def test_single_auxiliary_nav_is_in_its_own_frame() -> None:
     )
     truth = sim.truth.trajectories["T"].enu_m[:, :2]
     dr = sim.truth.dr_error[sim.truth.dr_error["platform"] == "T"]
-    assert np.allclose(np.hypot(*(back - truth).T), dr["error_h"], atol=1e-9)
+    assert np.allclose(np.hypot(*(back - truth).T)[::10], dr["error_h"], atol=1e-9)
     assert sim.session.platforms["T"].role == "follower"
     assert sim.session.platforms["A2"].role == "leader"
     dist = sim.truth.distances
