@@ -9,6 +9,7 @@ offending line and the count of others.
 
 from __future__ import annotations
 
+import difflib
 import gzip
 import re
 import struct
@@ -22,7 +23,6 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from coopproc.configtools import nearest
 from coopproc.errors import CoopprocError, InputError
 from coopproc.model import FloatArray
 
@@ -34,6 +34,7 @@ __all__ = [
     "RawTrajectory",
     "check_trajectory_times",
     "expand",
+    "missing_column",
     "numeric_column",
 ]
 
@@ -146,17 +147,14 @@ def numeric_column(
     return values
 
 
-def require_columns(
-    columns: Sequence[str], required: Sequence[str], where: Locator, what: str
-) -> list[InputError]:
-    """A problem for each required column missing, naming the nearest present one."""
-    out = []
-    present = [str(c) for c in columns]
-    for name in required:
-        if name not in present:
-            hint = nearest(name, present).replace("did you mean", "found")
-            out.append(where.error(f"missing column '{name}' of {what}{hint}"))
-    return out
+def missing_column(name: str, present: Sequence[str], where: Locator) -> InputError:
+    """'missing column X', naming a present column that looks like a misspelling of it."""
+    close = difflib.get_close_matches(name, [str(c) for c in present], n=1, cutoff=0.6)
+    if close:
+        hint = f"; found '{close[0]}' (misspelled?)"
+    else:
+        hint = f"; found columns {', '.join(str(c) for c in present)[:120] or 'none'}"
+    return where.error(f"missing column '{name}'{hint}")
 
 
 @dataclass

@@ -211,7 +211,7 @@ def check_ranges(
     for pid in sorted(set(ids.tolist()) - known):
         rows = np.flatnonzero((frame["from"].to_numpy() == pid) | (frame["to"].to_numpy() == pid))
         problems.append(
-            ranges.where.error(
+            ranges.error(
                 f"platform '{pid}' has no navigation (nav_{pid}.csv) and is not an anchor; "
                 f"expected one of {expected}",
                 int(rows[0]),

@@ -24,6 +24,7 @@ from coopproc.io._common import (
     RawTrajectory,
     check_trajectory_times,
     file_lines,
+    missing_column,
     numeric_column,
 )
 from coopproc.model import Trajectory
@@ -107,7 +108,7 @@ def trajectory_from_frame(frame: pd.DataFrame, platform: str, where: Locator) ->
                 where.error(f"unknown column '{name}'{nearest(name, TRAJECTORY_COLUMNS)}")
             )
     if "time" not in columns:
-        problems.append(where.error(f"missing column 'time'{nearest('time', columns)}"))
+        problems.append(missing_column("time", columns, where))
     form = next((f for f, cols in POSITION_FORMS.items() if set(cols) <= set(columns)), None)
     if form is None:
         partial = [c for f in POSITION_FORMS.values() for c in f if c in columns]

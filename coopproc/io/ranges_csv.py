@@ -15,7 +15,13 @@ import pandas as pd
 
 from coopproc.configtools import nearest
 from coopproc.errors import InputError
-from coopproc.io._common import ID_PATTERN, InputProblems, Locator, numeric_column
+from coopproc.io._common import (
+    ID_PATTERN,
+    InputProblems,
+    Locator,
+    missing_column,
+    numeric_column,
+)
 from coopproc.io.csv_traj import read_csv_table
 from coopproc.model import RANGE_COLUMNS, RangeTable
 from coopproc.outdir import FLOAT_FORMAT
@@ -37,10 +43,22 @@ _REQUIRED = ("time", "from", "to", "range")
 class RangesRead:
     """A validated range table and what the reader decided (notes)."""
 
-    def __init__(self, table: RangeTable, notes: list[str], where: Locator) -> None:
+    def __init__(
+        self,
+        table: RangeTable,
+        notes: list[str],
+        where: Locator,
+        order: np.ndarray | None = None,
+    ) -> None:
         self.table = table
         self.notes = notes
         self.where = where
+        #: Input row of each table row (tables are sorted; messages name input rows).
+        self.order = np.arange(len(table)) if order is None else order
+
+    def error(self, message: str, row: int, count: int = 1) -> InputError:
+        """An InputError at table row ``row``, located at its input row."""
+        return self.where.error(message, int(self.order[row]), count)
 
 
 def _ids(frame: pd.DataFrame, name: str, where: Locator, problems: list[InputError]) -> np.ndarray:
@@ -75,7 +93,7 @@ def range_table_from_frame(frame: pd.DataFrame, where: Locator) -> RangesRead:
     problems: list[InputError] = []
     for name in _REQUIRED:
         if name not in columns:
-            problems.append(where.error(f"missing column '{name}'{nearest(name, columns)}"))
+            problems.append(missing_column(name, columns, where))
     if problems:
         raise InputProblems(problems)
     if len(frame) == 0:
@@ -152,13 +170,17 @@ def range_table_from_frame(frame: pd.DataFrame, where: Locator) -> RangesRead:
         if name not in RANGE_COLUMNS:
             out[name] = frame[name].to_numpy()
     if np.any(np.diff(time_s) < 0):
-        out = out.sort_values("time", kind="stable").reset_index(drop=True)
+        order = np.argsort(time_s, kind="stable")
+        out = out.iloc[order].reset_index(drop=True)
         notes.append(f"{where.path}: times not in order; rows sorted by time")
+    else:
+        order = np.arange(len(out))
     dup = out.duplicated(keep="first")
     if dup.any():
         out = out[~dup.to_numpy()].reset_index(drop=True)
+        order = order[~dup.to_numpy()]
         notes.append(f"{where.path}: {int(dup.sum())} duplicated row(s) dropped")
-    return RangesRead(RangeTable(out, source=where.path), notes, where)
+    return RangesRead(RangeTable(out, source=where.path), notes, where, order)
 
 
 def read_ranges_csv(path: str | Path) -> RangesRead:
