@@ -6,8 +6,13 @@ with the ranges between platforms. Model (see ``fusion_ekf`` for the compiled lo
 - state: the ENU positions of all moving platforms, horizontal by default (``dims = 2``,
   heights taken from each platform's own navigation), or 3D;
 - prediction: each platform's dead-reckoning increment between epochs (its own ``nav``
-  interpolated to the epochs) with process noise (drift_sigma * dt)^2 per axis
-  (paper 000 eq. (7): sigma_k is the drift in a given interval);
+  interpolated to the epochs) with process noise from its drift sigma (paper 000
+  eq. (7): sigma_k, the position drift in a given interval). The drift sigma (m/s) is
+  read as the 1-sigma of the dead-reckoning velocity error, correlated over
+  ``drift_correlation_s`` = tau (heading and odometer-scale errors persist): the position
+  error of such a first-order Gauss-Markov rate is a random walk of variance
+  2 sigma^2 tau per second, so an epoch of dt seconds gets q = 2 sigma^2 tau dt per axis,
+  whatever the epoch rate (``drift_correlation_s = 0`` gives the plain (sigma dt)^2);
 - observations: every range of the epoch (any subset, none is fine), between two moving
   platforms or to an anchor at its known position; each leader's own fix (its nav
   position, with the nav sigma or ``leader_sigma_m``);
@@ -87,6 +92,10 @@ class FusionParams:
         default=0.02,
         metadata={"help": "dead-reckoning drift 1-sigma (m/s) of platforms without one"},
     )
+    drift_correlation_s: float = field(
+        default=5.0,
+        metadata={"help": "correlation time (s) of the DR velocity error; 0: q = (sigma dt)^2"},
+    )
     leader_sigma_m: float = field(
         default=0.05,
         metadata={"help": "1-sigma (m) of a leader's own fix when its nav has no sigma"},
@@ -118,8 +127,8 @@ class FusionParams:
         for name in ("range_sigma_m", "drift_sigma_mps", "leader_sigma_m", "initial_sigma_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} = {getattr(self, name)}, expected > 0")
-        if self.mad_floor < 0 or self.epoch_merge_s < 0:
-            raise ValueError("mad_floor and epoch_merge_s must be >= 0")
+        if self.mad_floor < 0 or self.epoch_merge_s < 0 or self.drift_correlation_s < 0:
+            raise ValueError("mad_floor, epoch_merge_s and drift_correlation_s must be >= 0")
 
 
 def fusion_params_from_toml(table: Mapping[str, Any]) -> FusionParams:
@@ -187,7 +196,11 @@ def fuse(
     u[1:] = np.diff(nav[:, :, :dim], axis=1).transpose(1, 0, 2).reshape(n_ep - 1, n)
     dt = np.diff(epochs, prepend=epochs[0])
     drift = np.array([_drift(session, p, params) for p in moving])
-    q = ((drift[:, None] * dt[None, :]) ** 2).T.repeat(dim, axis=1)  # (K, n)
+    if params.drift_correlation_s > 0:  # 2 sigma^2 tau dt, see the module docstring
+        q_plat = 2.0 * drift[:, None] ** 2 * params.drift_correlation_s * dt[None, :]
+    else:
+        q_plat = (drift[:, None] * dt[None, :]) ** 2
+    q = q_plat.T.repeat(dim, axis=1)  # (K, n)
     x0, c0 = _initial_state(session, rows, ep_idx, epochs, nav, moving, params)
     obs = _observations(session, rows, ep_idx, epochs, nav, moving, anchors, params)
     order = np.lexsort((obs["order"], obs["epoch"]))
@@ -301,6 +314,19 @@ def _observations(
     to_code = platform_codes(rows["to"], anchor_ids)
     anchor_code = np.where(from_moving, to_code, platform_codes(rows["from"], anchor_ids))
     anchor = anchor_table[np.where(anchor_code >= 0, anchor_code, len(anchor_ids))]
+    row_t = rows["time"].to_numpy()
+    late = np.flatnonzero(row_t != epochs[ep_idx])
+    if late.size:  # ranges after their (merged) epoch time: carry the DR motion to them
+        motion = np.zeros((len(rows), 2, 3))
+        for p, pid in enumerate(moving):
+            for end, ids in ((0, a), (1, b)):
+                sel = late[ids[late] == p]
+                if sel.size:
+                    at_row = session.nav[pid].interpolate(row_t[sel])
+                    motion[sel, end] = at_row - nav[p, ep_idx[sel]]
+        # OBS_RANGE: |X_a + m_a - X_b - m_b| = |X_a - X_b - (m_b - m_a)|;
+        # OBS_ANCHOR: |X_a + m_a - anchor| = |X_a - (anchor - m_a)|
+        anchor = np.where(both[:, None], motion[:, 1] - motion[:, 0], anchor - motion[:, 0])
     up_a = nav[a, ep_idx, 2]
     up_b = np.where(both, nav[np.maximum(b, 0), ep_idx, 2], anchor[:, 2])
     dz2 = (up_a - up_b) ** 2 if dim == 2 else np.zeros(len(rows))

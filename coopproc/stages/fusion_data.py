@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pandas as pd
 
@@ -96,15 +97,16 @@ def clean_ranges(session: Session, ranges: pd.DataFrame, default_sigma_m: float)
 def epoch_groups(time_s: FloatArray, merge_s: float) -> tuple[FloatArray, np.ndarray]:
     """Epoch times and the epoch index of each (sorted) time.
 
-    Equal times form one epoch; successive distinct times closer than ``merge_s`` join the
-    epoch of the first of them (the epoch keeps that first time).
+    Equal times form one epoch; with ``merge_s > 0`` an epoch opens at the first time not
+    yet taken and holds every time up to ``merge_s`` after it (the epoch keeps that first
+    time), e.g. one round of two-way ranging between several pairs.
     """
     if time_s.shape[0] == 0:
         return np.empty(0), np.empty(0, dtype=np.int64)
     unique, inverse = np.unique(time_s, return_inverse=True)
     if merge_s > 0 and unique.shape[0] > 1:
-        starts = np.concatenate(([True], np.diff(unique) > merge_s))
-        group = np.cumsum(starts) - 1
+        group = _window_groups(unique, merge_s)
+        starts = np.concatenate(([True], np.diff(group) > 0))
         return unique[starts], group[inverse].astype(np.int64)
     return unique, inverse.astype(np.int64)
 
@@ -112,3 +114,17 @@ def epoch_groups(time_s: FloatArray, merge_s: float) -> tuple[FloatArray, np.nda
 def platform_codes(ids: pd.Series, order: list[str]) -> np.ndarray:
     """Position of each id in ``order`` (-1 where absent), vectorized."""
     return np.asarray(pd.Index(order).get_indexer(pd.Index(ids)), dtype=np.int64)
+
+
+@numba.njit(cache=True)
+def _window_groups(unique: FloatArray, merge_s: float) -> np.ndarray:
+    """Group index of each sorted unique time: a group spans merge_s from its first time."""
+    group = np.empty(unique.shape[0], dtype=np.int64)
+    current = 0
+    start = unique[0]
+    for i in range(unique.shape[0]):
+        if unique[i] - start > merge_s:
+            current += 1
+            start = unique[i]
+        group[i] = current
+    return group

@@ -10,8 +10,11 @@ diagonal R), so no matrix is inverted and the cost is O(m n^2) per epoch.
 
 Observation kinds (``obs_kind``):
 
-- ``OBS_RANGE`` (0): range between moving platforms ``a`` and ``b``;
-- ``OBS_ANCHOR`` (1): range between moving platform ``a`` and the fixed point ``anchor``;
+- ``OBS_RANGE`` (0): range between moving platforms ``a`` and ``b``, |X_a - X_b - o| with
+  ``o = obs_anchor`` the difference of their dead-reckoning motion from the epoch time to
+  the range's own time (0 when the range is at the epoch time);
+- ``OBS_ANCHOR`` (1): range between moving platform ``a`` and the fixed point ``anchor``
+  (the anchor minus a's dead-reckoning motion from the epoch time to the range time);
 - ``OBS_POSITION`` (2): coordinate ``b`` (axis) of platform ``a`` (a leader's own fix).
 
 With ``dim == 2`` the range model is sqrt(de^2 + dn^2 + dz2) where ``dz2`` is the squared
@@ -57,7 +60,7 @@ def _observe(
     sq = dz2
     for ax in range(dim):
         if kind == OBS_RANGE:
-            diff = x[a * dim + ax] - x[b * dim + ax]
+            diff = x[a * dim + ax] - x[b * dim + ax] - anchor[ax]
         else:
             diff = x[a * dim + ax] - anchor[ax]
         val[ax] = diff

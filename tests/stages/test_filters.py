@@ -97,7 +97,7 @@ def test_cholesky_solve_matches_numpy() -> None:
 
 
 def _range(x: np.ndarray, kind: int, anchor: np.ndarray, dz2: float, dim: int) -> float:
-    other = x[dim : 2 * dim] if kind == OBS_RANGE else anchor[:dim]
+    other = x[dim : 2 * dim] + anchor[:dim] if kind == OBS_RANGE else anchor[:dim]
     diff = x[:dim] - other
     return float(np.sqrt(diff @ diff + dz2))
 

@@ -12,6 +12,7 @@ from coopproc.configtools import from_table
 from coopproc.errors import ConfigError, StageError
 from coopproc.model import Platform, RangeTable, Session, SessionConfig, Trajectory, pair_name
 from coopproc.stages.fusion import FusionParams, fuse, fusion_params_from_toml
+from coopproc.stages.fusion_data import epoch_groups
 
 
 def make_session(
@@ -247,3 +248,31 @@ def test_params_from_toml() -> None:
         fusion_params_from_toml({"fusion": {"smoothr": True}})
     with pytest.raises(ConfigError, match=r"1\.3\.\.2\.0"):
         from_table(FusionParams, {"lsq": {"c": 3.0}}, "run config [fusion]")
+
+
+def test_epoch_groups_window() -> None:
+    times = np.array([0.0, 0.0, 0.05, 0.1, 0.12, 0.25])
+    epochs, idx = epoch_groups(times, 0.1)
+    assert epochs == pytest.approx([0.0, 0.12, 0.25])
+    assert idx.tolist() == [0, 0, 0, 0, 1, 2]
+    epochs0, idx0 = epoch_groups(times, 0.0)
+    assert epochs0 == pytest.approx([0.0, 0.05, 0.1, 0.12, 0.25])
+    assert idx0.tolist() == [0, 0, 1, 2, 3, 4]
+
+
+def test_staggered_pair_times_merge_into_one_epoch(base) -> None:
+    session, truth, epochs = base
+    frame = session.ranges.frame.copy()
+    late = frame["pair"] == "A-C"
+    frame.loc[late, "time"] += 0.04  # one two-way-ranging round: A-C 40 ms after the others
+    each = fuse(session, frame, FusionParams())
+    merged = fuse(session, frame, FusionParams(epoch_merge_s=0.1))
+    assert each.epochs_s.shape[0] == 2 * epochs.shape[0]
+    assert merged.epochs_s == pytest.approx(epochs)
+    first = np.searchsorted(each.epochs_s, epochs)
+    for pid in "AC":
+        e_each = horizontal_error(each.smoothed[pid], np.repeat(truth[pid], 2, axis=0)).mean()
+        e_merged = horizontal_error(merged.smoothed[pid], truth[pid]).mean()
+        assert e_merged == pytest.approx(e_each, abs=0.02)
+        # ranges after the epoch time are modelled at their own time (DR motion carried)
+        assert np.abs(merged.smoothed[pid].enu_m - each.smoothed[pid].enu_m[first]).max() < 0.05
