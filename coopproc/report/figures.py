@@ -50,6 +50,8 @@ _METADATA: dict[str, dict[str, Any]] = {
     "pdf": {"Creator": None, "Producer": None, "CreationDate": None},
     "svg": {"Creator": None, "Date": None},
 }
+#: Most panels stacked in one column; more go into a 3-column grid.
+_MAX_STACK = 6
 #: Method whose events are shaded and whose estimates get one convergence panel each.
 _PRIMARY = "di"
 
@@ -60,17 +62,20 @@ def _label(i: int, text: str) -> str:
 
 
 def _stack(n: int) -> tuple[Figure, list[Axes]]:
+    """Panels stacked in one column sharing the time axis; a 3-column grid beyond 6."""
+    if n > _MAX_STACK:
+        return _grid(n, PANEL_HEIGHT_IN, sharex=True)
     fig = Figure(figsize=(COLUMN_WIDTH_IN, 0.55 + PANEL_HEIGHT_IN * n), layout="constrained")
     axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
     return fig, list(axes)
 
 
-def _grid(n: int, row_height_in: float) -> tuple[Figure, list[Axes]]:
+def _grid(n: int, row_height_in: float, *, sharex: bool = False) -> tuple[Figure, list[Axes]]:
     ncols = min(n, 3)
     nrows = math.ceil(n / ncols)
     width = COLUMN_WIDTH_IN if ncols == 1 else WIDE_WIDTH_IN * (0.67 if ncols == 2 else 1.0)
     fig = Figure(figsize=(width, 0.45 + row_height_in * nrows), layout="constrained")
-    grid = fig.subplots(nrows, ncols, squeeze=False)
+    grid = fig.subplots(nrows, ncols, squeeze=False, sharex=sharex)
     axes = list(grid.ravel())
     for ax in axes[n:]:
         fig.delaxes(ax)
@@ -92,8 +97,17 @@ def _legend(fig: Figure, axes: Sequence[Axes]) -> None:
         fig.legend(list(seen.values()), list(seen), loc="outside upper center", ncols=ncols)
 
 
-def _time_label(ax: Axes, origin_s: float) -> None:
-    ax.set_xlabel(f"Time since t0 = {origin_s:.1f} (s)" if origin_s else "Time (s)")
+def _time_label(axes: Sequence[Axes], origin_s: float) -> None:
+    """Label the time axis of the bottom panel of every column."""
+    text = f"Time since t0 = {origin_s:.1f} (s)" if origin_s else "Time (s)"
+    bottom: dict[int, Axes] = {}
+    for ax in axes:
+        spec = ax.get_subplotspec()
+        column = spec.colspan.start if spec is not None else 0
+        bottom[column] = ax
+    for ax in bottom.values():
+        ax.set_xlabel(text)
+        ax.xaxis.set_tick_params(labelbottom=True)
 
 
 def _has(frame: pd.DataFrame, column: str) -> pd.Series:
@@ -116,7 +130,7 @@ def distance_errors_figure(run: RunTables) -> Figure | None:
             ax, ranges[ranges["pair"] == pair], events[events["pair"] == pair], time_origin_s=t0
         )
         ax.set_title(_label(i, pair), loc="left")
-    _time_label(axes[-1], t0)
+    _time_label(axes, t0)
     _legend(fig, axes)
     return fig
 
@@ -132,7 +146,7 @@ def di_errors_figure(run: RunTables) -> Figure | None:
     for i, (ax, pair) in enumerate(zip(axes, pairs, strict=True)):
         plot_di_errors(ax, di[di["pair"] == pair], time_origin_s=t0)
         ax.set_title(_label(i, pair), loc="left")
-    _time_label(axes[-1], t0)
+    _time_label(axes, t0)
     _legend(fig, axes)
     return fig
 
@@ -148,7 +162,7 @@ def position_errors_figure(run: RunTables) -> Figure | None:
     for i, (ax, platform) in enumerate(zip(axes, platforms, strict=True)):
         plot_position_errors(ax, pos[pos["platform"] == platform], time_origin_s=t0)
         ax.set_title(_label(i, f"Platform {platform}"), loc="left")
-    _time_label(axes[-1], t0)
+    _time_label(axes, t0)
     _legend(fig, axes)
     return fig
 

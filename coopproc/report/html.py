@@ -20,7 +20,7 @@ import matplotlib as mpl
 from coopproc.report.figures import FIGURE_NAMES, make_figures
 from coopproc.report.formats import render_table
 from coopproc.report.rundir import RunTables
-from coopproc.report.scores import NLOS_EVENT_SCORE_COLUMNS
+from coopproc.report.scores import NLOS_EVENT_SCORE_COLUMNS, nlos_event_scores
 from coopproc.report.style import RC
 from coopproc.report.tables import POSITION_ALL, distance_table, nlos_table, position_table
 
@@ -112,6 +112,8 @@ def _facts(info: Mapping[str, Any]) -> str:
 
 def _event_table(run: RunTables) -> str:
     frame = run.nlos_event_scores
+    if frame is None and {"observed", "reference"} <= set(run.ranges.columns):
+        frame = nlos_event_scores(run.ranges, run.nlos_events)  # derived, no processing
     if frame is None or not len(frame):
         return ""
     cols = list(NLOS_EVENT_SCORE_COLUMNS)
