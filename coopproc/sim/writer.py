@@ -12,12 +12,14 @@ Layout of ``OUT``::
     truth/dr_params.csv        the dead-reckoning sensor errors each platform drew
     truth/nav_frames.csv       own-frame navigation: rotation and shift (single-auxiliary)
     truth/params.toml          the effective simulation parameters, scenario and seed
+    README.md                  what this is and the command that makes it again
 
 The output directory is written atomically (``coopproc.outdir.atomic_output_dir``).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -37,7 +39,7 @@ from coopproc.sim.truth import (
     Truth,
 )
 
-__all__ = ["write_simulation", "write_truth"]
+__all__ = ["command_line", "describe_simulation", "write_simulation", "write_truth"]
 
 
 def write_truth(
@@ -93,5 +95,97 @@ def write_simulation(
             written.append(write_mcap(sim.session, tmp / "mcap" / f"{sim.scenario}.mcap"))
         header = {"scenario": sim.scenario, "seed": sim.seed}
         written.extend(write_truth(sim.truth, tmp / "truth", header=header))
+        readme = tmp / "README.md"
+        readme.write_text(describe_simulation(sim, out_dir.name, mcap=mcap), encoding="utf-8")
+        written.append(readme)
         relative = [Path(p).resolve().relative_to(tmp.resolve()) for p in written]
     return [out_dir / rel for rel in relative]
+
+
+def command_line(sim: Simulation, out_name: str, *, mcap: bool = False) -> str:
+    """A ``coopproc simulate`` command that makes ``sim`` again (scalar overrides as --set)."""
+    from coopproc.sim.engine import scenario_params
+
+    default = scenario_params(sim.scenario)
+    params = sim.truth.params
+    parts = ["coopproc simulate", out_name, "--scenario", sim.scenario, "--seed", str(sim.seed)]
+    if params.duration_s != default.duration_s:
+        parts += ["--duration", f"{params.duration_s:g}"]
+    if params.platforms != default.platforms:
+        parts += ["--platforms", str(params.platforms)]
+    rescaled = scenario_params(sim.scenario, duration_s=params.duration_s)
+    for f in dataclasses.fields(params):
+        value, base = getattr(params, f.name), getattr(rescaled, f.name)
+        if f.name in ("duration_s", "platforms") or value == base:
+            continue
+        if isinstance(value, bool):
+            parts += ["--set", f"{f.name}={str(value).lower()}"]
+        elif isinstance(value, int | float):
+            parts += ["--set", f"{f.name}={value!r}"]
+        else:
+            parts += ["--set", f"{f.name}=...  # {f.name} was given from Python"]
+    if mcap:
+        parts.append("--mcap")
+    return " ".join(parts)
+
+
+def describe_simulation(sim: Simulation, out_name: str, *, mcap: bool = False) -> str:
+    """The README.md of a simulated session directory."""
+    from coopproc.sim.scenarios import SCENARIOS
+
+    p = sim.truth.params
+    session = sim.session
+    roles = ", ".join(f"{pid} ({session.platforms[pid].role})" for pid in session.platform_ids)
+    events = sim.truth.nlos_events
+    lines = [
+        f"# Simulated session: {sim.scenario}, seed {sim.seed}",
+        "",
+        "This directory is NOT a real recording: coopproc's simulator made it, with known",
+        f"truth, as a stand-in for {SCENARIOS[sim.scenario].description}.",
+        "",
+        "Made with (byte-for-byte reproducible):",
+        "",
+        "```",
+        command_line(sim, out_name, mcap=mcap),
+        "```",
+        "",
+        "## What is in it",
+        "",
+        f"- platforms: {roles}",
+        f"- {p.duration_s:g} s from GPS week {p.gps_week}, TOW {p.start_tow_s:g} s "
+        f"(session time base `gps_tow`); ENU origin {list(p.origin_llh)}",
+        f"- `nav_<ID>.csv`: each platform's own navigation at {p.nav_rate_hz:g} Hz (leaders: "
+        f"GNSS/INS, {100 * p.leader_sigma_m:g} cm noise; followers: INS/odometer dead "
+        f"reckoning, gyro bias up to {p.gyro_bias_dph:g} deg/h, odometer scale error "
+        f"{100 * p.odo_scale_sigma:g} % 1-sigma)",
+        f"- `ranges.csv`: UWB ranges at {p.range_rate_hz:g} Hz per pair, white noise "
+        f"{p.uwb_noise_m:g} m (declared sigma {p.uwb_declared_sigma_m:g} m), "
+        f"{100 * p.dropout_rate:g} % dropouts" + (", `rssi` column (dBm)" if p.rssi else ""),
+        f"- `ref_<ID>.pos`: GNSS-PPK reference (RTKLIB .pos, GPST) at {p.ref_rate_hz:g} Hz, "
+        f"{100 * p.ref_sigma_m:g} cm noise, a few float (Q = 2) segments",
+        "- `session.toml`: roles, drift sigmas, origin, time base, UWB sigma",
+    ]
+    if mcap:
+        lines.append(f"- `mcap/{sim.scenario}.mcap`: the same session as one MCAP file (JSON)")
+    lines += [
+        "- `truth/`: what a real recording cannot give: `traj_<ID>.csv` true trajectories, "
+        "`distances.csv` true distance and total range error at every range, "
+        "`nlos_events.csv`, `gross_errors.csv`, `dr_error.csv` (navigation error over time), "
+        "`dr_params.csv` (the sensor errors drawn), `nav_frames.csv`, `params.toml` (every "
+        "simulation parameter)",
+        "",
+        "## NLOS events",
+        "",
+    ]
+    if len(events):
+        lines += ["| pair | start (TOW s) | end (TOW s) | nominal mean (m) | realized mean (m) |"]
+        lines += ["|---|---|---|---|---|"]
+        for row in events.itertuples():
+            lines.append(
+                f"| {row.pair} | {row.start:.1f} | {row.end:.1f} | {row.nominal_mean:.3f} "
+                f"| {row.realized_mean:.4f} |"
+            )
+    else:
+        lines.append("None.")
+    lines += ["", "See docs/simulator.md for the models and every parameter.", ""]
+    return "\n".join(lines)

@@ -24,13 +24,15 @@ def test_cli_is_byte_for_byte_deterministic_by_seed(tmp_path: Path) -> None:
     runner = CliRunner()
     args = ["simulate", "--scenario", "paper-experiment", "--duration", "120", "--mcap"]
     for name, seed in (("one", "4"), ("two", "4"), ("three", "5")):
-        result = runner.invoke(main, [*args, str(tmp_path / name), "--seed", seed])
+        result = runner.invoke(main, [*args, str(tmp_path / name / "s"), "--seed", seed])
         assert result.exit_code == 0, result.output
-    one, two, three = (_files(tmp_path / n) for n in ("one", "two", "three"))
+    one, two, three = (_files(tmp_path / n / "s") for n in ("one", "two", "three"))
     assert one == two
     assert "mcap/paper-experiment.mcap" in one and "truth/nlos_events.csv" in one
     assert one["ranges.csv"] != three["ranges.csv"]
-    again = runner.invoke(main, [*args, str(tmp_path / "one")])
+    command = "coopproc simulate s --scenario paper-experiment --seed 4 --duration 120 --mcap"
+    assert command in one["README.md"].decode()
+    again = runner.invoke(main, [*args, str(tmp_path / "one" / "s")])
     assert again.exit_code == 1 and "--force" in again.output
 
 
