@@ -7,6 +7,8 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from coopproc.model import METRICS_COLUMNS, POSITION_METRICS_COLUMNS
 from coopproc.report.metrics import distance_metrics, distance_stats, position_metrics
@@ -134,3 +136,24 @@ def test_position_metrics_without_reference_rows_has_nan_axes() -> None:
     pm = position_metrics(pos[pos["method"] != "reference"])
     assert math.isnan(pm.iloc[1]["rms_east"])
     assert pm.iloc[1]["rmse"] == pytest.approx(math.sqrt(194 / 4))
+
+
+@given(
+    st.lists(
+        st.tuples(st.floats(1.0, 100.0), st.floats(-2.0, 2.0, allow_subnormal=False)),
+        min_size=2,
+        max_size=40,
+    )
+)
+@settings(max_examples=60, deadline=None)
+def test_invariants(pairs: list[tuple[float, float]]) -> None:
+    r = np.array([p[0] for p in pairs])
+    d = r + np.array([p[1] for p in pairs])
+    e = d - r  # the error as represented in floating point
+    s = distance_stats(d, r)
+    tol = 1e-9
+    assert s["max"] + tol >= s["rmse"] >= abs(s["mean"]) - tol
+    # rmse^2 = mean^2 + population variance
+    assert s["rmse"] ** 2 == pytest.approx(s["mean"] ** 2 + np.var(e), abs=1e-9)
+    if np.any(e != 0):
+        assert s["snr_db"] == pytest.approx(10 * np.log10(np.sum(r * r) / np.sum(e * e)))
