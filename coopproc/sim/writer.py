@@ -187,5 +187,18 @@ def describe_simulation(sim: Simulation, out_name: str, *, mcap: bool = False) -
             )
     else:
         lines.append("None.")
-    lines += ["", "See docs/simulator.md for the models and every parameter.", ""]
+    use = f"coopproc run {out_name} -o out/{out_name}"
+    if sim.scenario == "single-auxiliary":
+        aux = ",".join(pid for pid in session.platform_ids if pid != "T")
+        use = f"coopproc locate {out_name} --target T --aux {aux} -o out/{out_name}"
+    lines += ["", "## Use it", "", "```", f"coopproc validate {out_name}", use]
+    if mcap:
+        lines.append(f"coopproc info {out_name}/mcap/{sim.scenario}.mcap")
+    lines += [
+        "```",
+        "",
+        "The command above with `--force` makes this directory again (it replaces it).",
+        "See docs/simulator.md for the models and every parameter.",
+        "",
+    ]
     return "\n".join(lines)
