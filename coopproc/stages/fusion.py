@@ -28,6 +28,7 @@ span where every moving platform has navigation.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -272,18 +273,17 @@ def _initial_state(
             sig[p * dim : (p + 1) * dim] = _leader_sigma(session, pid, epochs[:1], params)[0, :dim]
     has_anchor = any(pl.role == "anchor" for pl in session.platforms.values())
     if params.init_from_anchors and has_anchor:
-        lsq = LsqParams(
-            robust=params.lsq.robust, c=params.lsq.c, dims=dim,
-            min_anchors=params.lsq.min_anchors, iterations=params.lsq.iterations,
-            range_sigma_m=params.range_sigma_m, epoch_merge_s=0.0,
-        )  # fmt: skip
-        first = rows[ep_idx == 0].assign(time=epochs[0])
+        lsq = dataclasses.replace(params.lsq, dims=dim)
+        window = max(lsq.epoch_merge_s, 0.0)
+        first = rows[rows["time"].to_numpy() <= epochs[0] + window]
         fixes = robust_lsq_positions(session, first, lsq)
         for p, pid in enumerate(moving):
             fix = fixes.get(pid)
             if fix is None or session.platforms[pid].role == "leader":
                 continue
-            x0[p * dim : (p + 1) * dim] = fix.enu_m[0, :dim]
+            # the first fix, carried back to the first epoch by the platform's own DR
+            back = session.nav[pid].interpolate(fix.time_s[:1])[0] - nav[p, 0]
+            x0[p * dim : (p + 1) * dim] = fix.enu_m[0, :dim] - back[:dim]
             assert fix.sigma_enu_m is not None
             sig[p * dim : (p + 1) * dim] = np.maximum(fix.sigma_enu_m[0, :dim], 1e-3)
     return x0, np.diag(sig * sig)

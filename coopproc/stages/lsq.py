@@ -67,8 +67,11 @@ class LsqParams:
         metadata={"help": "range 1-sigma (m) for rows without one when session.toml has none"},
     )
     epoch_merge_s: float = field(
-        default=0.0,
-        metadata={"help": "successive range times closer than this (s) form one epoch"},
+        default=0.25,
+        metadata={
+            "help": "ranges up to this (s) after an epoch's first range join it (one ranging "
+            "round to all anchors); the tag's own DR carries its motion to each range time"
+        },
     )
     rate_max_gap_s: float = field(
         default=2.0, metadata={"help": "longest gap (s) between ranges used as a range rate"}
@@ -83,6 +86,8 @@ class LsqParams:
             raise ValueError(f"iterations = {self.iterations}, expected at least 1")
         if self.range_sigma_m <= 0:
             raise ValueError(f"range_sigma_m = {self.range_sigma_m}, expected > 0")
+        if self.epoch_merge_s < 0 or self.rate_max_gap_s <= 0:
+            raise ValueError("epoch_merge_s must be >= 0 and rate_max_gap_s > 0")
 
 
 def _solve(n_mat: FloatArray, b: FloatArray) -> FloatArray:
@@ -149,6 +154,16 @@ def robust_lsq_positions(
     n_prob = int(problem.max()) + 1
     width = int(slot.max()) + 1
     anchor_xyz = np.stack([anchors[a] for a in table["anchor"]])
+    row_t = table["time"].to_numpy()
+    ep_t = epochs[table["epoch"].to_numpy()]
+    tags = table["tag"].to_numpy()
+    for tid in np.unique(tags):
+        sel = (tags == tid) & (row_t != ep_t)
+        if sel.any() and tid in session.nav and len(session.nav[tid]) > 1:
+            # |X(t_row) - anchor| = |X(t_epoch) + m - anchor| = |X(t_epoch) - (anchor - m)|
+            nav = session.nav[tid]
+            motion = nav.interpolate(row_t[sel]) - nav.interpolate(ep_t[sel])
+            anchor_xyz[sel] -= np.nan_to_num(motion)
     pos = np.zeros((n_prob, width, 3))
     rng = np.zeros((n_prob, width))
     var = np.ones((n_prob, width))
