@@ -227,7 +227,7 @@ def check_trajectory_times(raw: RawTrajectory, where: Locator) -> RawTrajectory:
         if not equal.all():
             first = int(same[~equal][0])
             raise where.error(
-                f"time {out.time_s[first + 1]!r} appears twice with different positions; "
+                f"time {float(out.time_s[first + 1])!r} appears twice with different positions; "
                 "expected strictly increasing times",
                 int(order[first + 1]),
                 int(np.count_nonzero(~equal)),

@@ -122,7 +122,7 @@ def range_table_from_frame(frame: pd.DataFrame, where: Locator) -> RangesRead:
                 idx.size,
             )
         )
-    big = range_m > MAX_RANGE_M
+    big = np.isfinite(range_m) & (range_m > MAX_RANGE_M)
     if big.any():
         idx = np.flatnonzero(big)
         problems.append(

@@ -54,6 +54,7 @@ class _Loader:
                     toml = read_session_toml(toml_path)
                 except CoopprocError as err:
                     self.add(err)
+                    self.failed.add("<toml>")
             config = toml.config if toml else SessionConfig()
             files = find_files(root, config)
             self.problems.extend(files.problems)
@@ -98,13 +99,14 @@ class _Loader:
             self.failed.add("<ranges>")
             return toml, None
         embedded = raw.attachments.get("session.toml")
-        if embedded is not None and toml is None:
+        if embedded is not None and toml is None and "<toml>" not in self.failed:
             try:
                 toml = parse_session_toml(
                     embedded.decode("utf-8", "replace"), f"{path} session.toml"
                 )
             except CoopprocError as err:
                 self.add(err)
+                self.failed.add("<toml>")
         elif embedded is not None:
             self.notes.append(f"{path.name}: embedded session.toml ignored; session.toml used")
         try:
@@ -219,6 +221,9 @@ class _Loader:
             self._check_overlap(nav[pid], reference[pid])
         if ranges is not None:
             skip = self.failed - {"<ranges>"}
+            if "<toml>" in self.failed:  # anchors unknown: do not blame ranges for them
+                frame = ranges.table.frame
+                skip |= set(frame["from"]) | set(frame["to"])
             self.problems.extend(assemble.check_ranges(ranges, platforms, nav, skip))
         if self.problems or ranges is None:
             return None
