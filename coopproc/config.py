@@ -4,7 +4,8 @@
 effective configuration with each key's help. Sections:
 
 - ``[run]``: what the pipeline does around the stages (this module, :class:`RunParams`);
-- the ranging stage's sections (:mod:`coopproc.stages.ranging`);
+- ``[ranging]`` with sub-tables ``di``, ``distance``, ``nlos``, ``rn``
+  (:mod:`coopproc.stages.ranging_config`);
 - ``[fusion]`` (:mod:`coopproc.stages.fusion`).
 
 Defaults reproduce paper 000's experiment (gamma = 3 sigma, M = 3 s, ...). An unknown
@@ -22,7 +23,7 @@ from typing import Any, Literal
 from coopproc.configtools import check_keys, from_table, to_table
 from coopproc.errors import ConfigError
 from coopproc.stages.fusion import FusionParams, fusion_params_from_toml
-from coopproc.stages.ranging import RANGING_SECTIONS, RangingConfig, ranging_config_from_toml
+from coopproc.stages.ranging_config import RangingConfig, ranging_config_from_toml
 
 __all__ = ["RunConfig", "RunParams", "load_run_config", "run_config_from_toml"]
 
@@ -68,13 +69,13 @@ class RunConfig:
         """Plain nested dict (for run.json and ``coopproc config``)."""
         return {
             "run": to_table(self.run),
-            **to_table(self.ranging),
+            "ranging": to_table(self.ranging),
             "fusion": to_table(self.fusion),
         }
 
 
 #: Top-level sections a run config may have.
-SECTIONS: tuple[str, ...] = ("run", *RANGING_SECTIONS, "fusion")
+SECTIONS: tuple[str, ...] = ("run", "ranging", "fusion")
 
 
 def run_config_from_toml(table: Mapping[str, Any], where: str = "run config") -> RunConfig:
