@@ -136,6 +136,11 @@ def plot_nlos_convergence(
             linestyle=":",
             linewidth=0.9,
         )
+        # keep the reference line off the frame: the y range spans data and bias, padded
+        values = np.append(_values(event_estimates, "estimate"), reference_bias_m)
+        values = values[np.isfinite(values)]
+        pad = 0.1 * max(float(np.ptp(values)), 0.01)
+        ax.set_ylim(float(values.min()) - pad, float(values.max()) + pad)
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_xlabel("Estimation step")
     ax.set_ylabel("NLOS estimate (m)")

@@ -58,9 +58,10 @@ METHOD_STYLES: dict[str, LineStyle] = {
     "reference": LineStyle("Reference", "#000000", "-", 1.2),
 }
 
+#: In drawing order: the noisiest first, so the smoother series stay visible on top.
 DI_STYLES: dict[str, LineStyle] = {
-    "di_dr": LineStyle("Dead reckoning", "#ff7f0e", "-"),
     "di_cp": LineStyle("Coop. positioning", "#1f77b4", "--"),
+    "di_dr": LineStyle("Dead reckoning", "#ff7f0e", "-"),
     "di_smoothed": LineStyle("Smoothed DI", "#2ca02c", "-."),
 }
 

@@ -132,7 +132,10 @@ def _best(name: str, values: list[float]) -> set[int]:
         return set()
     score = {"min": arr, "max": -arr, "absmin": np.abs(arr), "one": np.abs(arr - 1.0)}[better]
     best = np.min(score[ok])
-    return {int(i) for i in np.flatnonzero(ok & np.isclose(score, best, rtol=0, atol=1e-12))}
+    winners = ok & np.isclose(score, best, rtol=0, atol=1e-12)
+    if np.array_equal(winners, ok):
+        return set()  # all equal: nothing is best
+    return {int(i) for i in np.flatnonzero(winners)}
 
 
 def _build(
