@@ -1,0 +1,400 @@
+"""Distance filter (paper 000 eq. (8)) with NLOS detection (eq. (9)) and estimation (10)-(12).
+
+One compiled per-epoch loop per pair (:func:`filter_distance`). State [D, I] (distance and
+DI), observations [measured range L_D, DI L_I]; w_D = 0. Each epoch:
+
+1. predict ``D = D + I``; two transition conventions (``transition``):
+   ``"aligned"`` (default): D_k = D_{k-1} + I_k, I_k = I_{k-1} + w_k, i.e. the process noise
+   enters D and I alike (Q = q [[1, 1], [1, 1]]) and the DI observed at k moves D_k fully;
+   ``"lagged"``: eq. (8) as printed, D_k = D_{k-1} + I_{k-1}, Q = diag(0, q), so D_k uses
+   the DI one epoch late and the DI observed at k moves D_k only through P_DI.
+2. update with L_I (the smoothed DI, variance from the DI smoothing filter).
+3. residual r = L_D - D (paper 000 eq. (9): I_k - (L_D_k - D_{k-1}) up to sign);
+   |r| > gamma_max = gamma_sigma * sigma starts an NLOS event.
+4. range update with L_D (line of sight), with L_D - eps_hat (NLOS event after the
+   estimation window), or none (estimation window: the distance is D', propagated by DI).
+
+Events (DI method, ``one_shot = False``): eps_j = L_D_j - D'_j (eq. (10)), running mean over
+the epochs with t_j - t_start < window_s (eq. (11)), held as the final estimate (eq. (12)).
+Onset back-dating: when an event is detected at k, preceding epochs (within ``backdate_s``)
+whose residual had the same sign and exceeded ``onset_fraction * gamma_max`` are taken as
+the event's first epochs and the filter is rerun from before them (post-processing; their
+ranges had pulled D towards the NLOS level). A false alarm is an event whose estimate at
+the end of the window is below ``confirm_fraction * gamma_max``: its flags are cleared.
+End of an event: the raw residual is nearer 0 than eps_hat for ``end_confirm_s`` seconds
+and at least ``end_min_epochs`` epochs; those epochs are not used (predict only) while
+pending and are unflagged when the end is confirmed.
+
+RN method (``one_shot = True``, paper 000 ref. [2]): eps estimated once, at detection, from
+that epoch's residual, and held; no back-dating, no false-alarm rejection.
+
+Adaptive sigma (paper 000 ref. [37], Mohamed & Schwarz): when the UWB sigma is unknown,
+R_hat = mean(r^2) - mean(P_DD) over the last ``adaptive_n`` line-of-sight innovations
+(after the DI update), floored at ``min_sigma``; before ``adaptive_min_n`` innovations the
+initial sigma is used.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from coopproc.model import FloatArray
+
+__all__ = ["DistanceFilterOutput", "KernelParams", "filter_distance"]
+
+
+@dataclass(frozen=True)
+class KernelParams:
+    """Numbers the per-epoch loop needs (built from the TOML config by ranging.py)."""
+
+    sigma_m: float  # UWB 1-sigma; <= 0: adaptive
+    initial_sigma_m: float
+    gamma_sigma: float
+    window_s: float
+    aligned: bool
+    di_accel_sigma: float
+    one_shot: bool
+    backdate_s: float
+    onset_fraction: float
+    confirm_fraction: float
+    end_confirm_s: float
+    end_min_epochs: int
+    adaptive_n: int
+    adaptive_min_n: int
+    min_sigma_m: float
+    suspect_epochs: int
+    positive_only: bool
+    max_event_s: float
+
+
+@dataclass(frozen=True, eq=False)
+class DistanceFilterOutput:
+    """Per-epoch output of :func:`filter_distance` for one pair."""
+
+    distance_m: FloatArray
+    nlos_flag: np.ndarray  # int8 0/1
+    nlos_estimate_m: FloatArray  # current estimate, 0 where none
+    event: np.ndarray  # int64 event index (0, 1, ...) or -1
+    step_estimate_m: FloatArray  # running estimate at estimation-window epochs, NaN else
+    sigma_m: FloatArray  # UWB sigma used at each epoch
+    residual_m: FloatArray  # r = L_D - D after the DI update
+
+
+@njit(cache=True)
+def _kernel(
+    t: FloatArray,
+    rng: FloatArray,
+    di: FloatArray,
+    di_var: FloatArray,
+    sigma_known: float,
+    sigma_init: float,
+    gamma_sigma: float,
+    window_s: float,
+    aligned: bool,
+    accel: float,
+    one_shot: bool,
+    backdate_s: float,
+    onset_fraction: float,
+    confirm_fraction: float,
+    end_confirm_s: float,
+    end_min_epochs: int,
+    adaptive_n: int,
+    adaptive_min_n: int,
+    min_sigma: float,
+    suspect_epochs: int,
+    positive_only: bool,
+    max_event_s: float,
+) -> tuple[FloatArray, np.ndarray, FloatArray, np.ndarray, FloatArray, FloatArray, FloatArray]:
+    n = t.shape[0]
+    out_d = np.full(n, np.nan)
+    flag = np.zeros(n, dtype=np.int8)
+    est_out = np.zeros(n)
+    event = np.full(n, -1, dtype=np.int64)
+    step_est = np.full(n, np.nan)
+    sigma_out = np.full(n, np.nan)
+    resid = np.full(n, np.nan)
+    in_event = np.zeros(n, dtype=np.int8)  # epoch was ever processed inside an event
+    s_d = np.zeros(n)
+    s_i = np.zeros(n)
+    s_pdd = np.zeros(n)
+    s_pdi = np.zeros(n)
+    s_pii = np.zeros(n)
+    ring_v2 = np.zeros(max(adaptive_n, 1))
+    ring_p = np.zeros(max(adaptive_n, 1))
+    ring_count = 0
+    ring_pos = 0
+    sum_v2 = 0.0
+    sum_p = 0.0
+    if n == 0:
+        return out_d, flag, est_out, event, step_est, sigma_out, resid
+    adaptive = sigma_known <= 0.0
+    sigma = sigma_init if adaptive else sigma_known
+    d = rng[0]
+    i = 0.0
+    p_dd = sigma * sigma
+    p_di = 0.0
+    p_ii = 1.0
+    out_d[0] = d
+    sigma_out[0] = sigma
+    s_d[0], s_i[0], s_pdd[0], s_pdi[0], s_pii[0] = d, i, p_dd, p_di, p_ii
+    mode = 0  # 0 line of sight, 1 estimation window, 2 holding the estimate
+    n_events = 0
+    ev_start = 0
+    ev_t0 = 0.0
+    eps_sum = 0.0
+    eps_n = 0
+    est = 0.0
+    pend_n = 0
+    pend_start = 0
+    pend_t0 = 0.0
+    n_suspect = 0
+    suspect_sign = 0.0
+    k = 1
+    while k < n:
+        dt = t[k] - t[k - 1]
+        # predict, paper 000 eq. (8) with w_D = 0
+        q = (accel * dt * dt) ** 2
+        d = d + i
+        if aligned:
+            p_dd = p_dd + 2.0 * p_di + p_ii + q
+            p_di = p_di + p_ii + q
+        else:
+            p_dd = p_dd + 2.0 * p_di + p_ii
+            p_di = p_di + p_ii
+        p_ii = p_ii + q
+        # DI observation L_I
+        z_i = di[k]
+        if np.isfinite(z_i):
+            s_var = p_ii + di_var[k]
+            k_d = p_di / s_var
+            k_i = p_ii / s_var
+            v = z_i - i
+            d += k_d * v
+            i += k_i * v
+            p_dd, p_di, p_ii = p_dd - k_d * p_di, p_di - k_d * p_ii, p_ii - k_i * p_ii
+        if adaptive:
+            sigma = sigma_init
+            if ring_count >= adaptive_min_n:
+                r_hat = (sum_v2 - sum_p) / ring_count
+                sigma = np.sqrt(max(r_hat, min_sigma * min_sigma))
+        r = rng[k] - d  # paper 000, eq. (9) residual (D' = d, eq. (10))
+        resid[k] = r
+        gamma = gamma_sigma * sigma
+        use = 0  # 0 no range update, 1 raw range, 2 range - eps_hat
+        done = False
+        if mode == 0:
+            if abs(r) > gamma:
+                start = k
+                if backdate_s > 0.0:
+                    while (
+                        start - 1 >= 1
+                        and in_event[start - 1] == 0
+                        and t[k] - t[start - 1] <= backdate_s
+                        and r * resid[start - 1] > 0.0
+                        and abs(resid[start - 1]) > onset_fraction * gamma
+                    ):
+                        start -= 1
+                mode = 1
+                ev_start = start
+                ev_t0 = t[start]
+                eps_sum = 0.0
+                eps_n = 0
+                if start < k:
+                    j = start - 1
+                    d, i, p_dd, p_di, p_ii = s_d[j], s_i[j], s_pdd[j], s_pdi[j], s_pii[j]
+                    k = start
+                    continue
+            elif abs(r) > onset_fraction * gamma and suspect_epochs > 0:
+                # suspect: not used; enough suspects in a row are an event (back-dated)
+                if n_suspect > 0 and r * suspect_sign > 0.0:
+                    n_suspect += 1
+                else:
+                    n_suspect = 1
+                suspect_sign = r
+                if n_suspect >= suspect_epochs:
+                    start = k
+                    while start - 1 >= 1 and k - start + 1 < n_suspect:
+                        start -= 1
+                    mode = 1
+                    ev_start = start
+                    ev_t0 = t[start]
+                    eps_sum = 0.0
+                    eps_n = 0
+                    n_suspect = 0
+                    j = start - 1
+                    d, i, p_dd, p_di, p_ii = s_d[j], s_i[j], s_pdd[j], s_pdi[j], s_pii[j]
+                    k = start
+                    continue
+                done = True
+            else:
+                n_suspect = 0
+                use = 1
+                done = True
+        if mode == 1 and not done:
+            if t[k] - ev_t0 >= window_s - 1e-9 and eps_n > 0:
+                if not one_shot and abs(est) < confirm_fraction * gamma:
+                    # false alarm: clear the event and redo this epoch as line of sight
+                    for j in range(ev_start, k):
+                        flag[j] = 0
+                        event[j] = -1
+                        est_out[j] = 0.0
+                        step_est[j] = np.nan
+                    mode = 0
+                    est = 0.0
+                    j = k - 1
+                    d, i, p_dd, p_di, p_ii = s_d[j], s_i[j], s_pdd[j], s_pdi[j], s_pii[j]
+                    in_event[k] = 1
+                    continue
+                if positive_only and est < 0.0:
+                    # NLOS only lengthens ranges: a negative "event" means the filtered
+                    # distance had absorbed an error; re-anchor it on the ranges.
+                    for j in range(ev_start, k):
+                        flag[j] = 0
+                        event[j] = -1
+                        est_out[j] = 0.0
+                        step_est[j] = np.nan
+                        out_d[j] += est
+                    d += est
+                    r -= est
+                    est = 0.0
+                    mode = 0
+                    use = 1
+                    done = True
+                else:
+                    mode = 2
+                    pend_n = 0
+            else:
+                eps = r  # paper 000, eq. (10): eps = L_D - D'
+                if one_shot:
+                    est = eps
+                    eps_n = 1
+                    mode = 2
+                    pend_n = 0
+                else:
+                    eps_sum += eps
+                    eps_n += 1
+                    est = eps_sum / eps_n  # paper 000, eq. (11); eq. (12) at the window end
+                step_est[k] = est
+                flag[k] = 1
+                event[k] = n_events
+                est_out[k] = est
+                done = True
+        if mode == 2 and not done and t[k] - ev_t0 > max_event_s:
+            # too long to be an obstruction: end the event, re-anchor on the ranges
+            d += est
+            r -= est
+            est = 0.0
+            mode = 0
+            n_events += 1
+            use = 1
+            done = True
+        if mode == 2 and not done:
+            if abs(r) < abs(r - est):
+                if pend_n == 0:
+                    pend_start = k
+                    pend_t0 = t[k]
+                pend_n += 1
+                if pend_n >= end_min_epochs and t[k] - pend_t0 >= end_confirm_s:
+                    for j in range(pend_start, k):
+                        flag[j] = 0
+                        event[j] = -1
+                        est_out[j] = 0.0
+                    mode = 0
+                    n_events += 1
+                    pend_n = 0
+                    est = 0.0
+                    use = 1
+                else:
+                    flag[k] = 1
+                    event[k] = n_events
+                    est_out[k] = est
+            else:
+                pend_n = 0
+                flag[k] = 1
+                event[k] = n_events
+                est_out[k] = est
+                use = 2
+        if mode != 0:
+            in_event[k] = 1
+        if use > 0:
+            r2 = sigma * sigma
+            if use == 1 and adaptive:
+                if ring_count == adaptive_n:
+                    sum_v2 -= ring_v2[ring_pos]
+                    sum_p -= ring_p[ring_pos]
+                else:
+                    ring_count += 1
+                ring_v2[ring_pos] = r * r
+                ring_p[ring_pos] = p_dd
+                sum_v2 += r * r
+                sum_p += p_dd
+                ring_pos = (ring_pos + 1) % adaptive_n
+            z = rng[k] - est if use == 2 else rng[k]
+            s_var = p_dd + r2
+            k_d = p_dd / s_var
+            k_i = p_di / s_var
+            v = z - d
+            d += k_d * v
+            i += k_i * v
+            p_dd, p_di, p_ii = p_dd - k_d * p_dd, p_di - k_d * p_di, p_ii - k_i * p_di
+        out_d[k] = d
+        sigma_out[k] = sigma
+        s_d[k], s_i[k], s_pdd[k], s_pdi[k], s_pii[k] = d, i, p_dd, p_di, p_ii
+        k += 1
+    if mode == 1 and not one_shot and eps_n > 0 and abs(est) < confirm_fraction * gamma:
+        for j in range(ev_start, n):
+            flag[j] = 0
+            event[j] = -1
+            est_out[j] = 0.0
+            step_est[j] = np.nan
+    return out_d, flag, est_out, event, step_est, sigma_out, resid
+
+
+def filter_distance(
+    time_s: FloatArray,
+    range_m: FloatArray,
+    di_m: FloatArray,
+    di_var_m2: FloatArray,
+    params: KernelParams,
+) -> DistanceFilterOutput:
+    """Distance filter with NLOS detection and estimation over one pair's range epochs.
+
+    ``di_m`` is the DI observation at each epoch (NaN: none), ``di_var_m2`` its variance.
+    """
+    f64 = np.float64
+    d, flag, est, event, step, sigma, resid = _kernel(
+        np.ascontiguousarray(time_s, dtype=f64),
+        np.ascontiguousarray(range_m, dtype=f64),
+        np.ascontiguousarray(di_m, dtype=f64),
+        np.ascontiguousarray(di_var_m2, dtype=f64),
+        float(params.sigma_m),
+        float(params.initial_sigma_m),
+        float(params.gamma_sigma),
+        float(params.window_s),
+        bool(params.aligned),
+        float(params.di_accel_sigma),
+        bool(params.one_shot),
+        float(params.backdate_s),
+        float(params.onset_fraction),
+        float(params.confirm_fraction),
+        float(params.end_confirm_s),
+        int(params.end_min_epochs),
+        max(int(params.adaptive_n), 1),
+        int(params.adaptive_min_n),
+        float(params.min_sigma_m),
+        int(params.suspect_epochs),
+        bool(params.positive_only),
+        float(params.max_event_s),
+    )
+    return DistanceFilterOutput(
+        distance_m=d,
+        nlos_flag=flag,
+        nlos_estimate_m=est,
+        event=event,
+        step_estimate_m=step,
+        sigma_m=sigma,
+        residual_m=resid,
+    )

@@ -1,0 +1,364 @@
+"""The ranging stage of paper 000: DI, DI smoothing, distance filter, NLOS (DI and RN methods).
+
+:func:`run_ranging` processes every pair with ranges, independently:
+
+1. the pair's range epochs (A->B and B->A alike; several ranges at one time, or the two
+   directions at slightly different times, are consecutive epochs: their DI is the
+   distance change over the (possibly zero) interval and eq. (7) gives it a variance
+   floored at 1e-8 m^2, so a second range at one epoch is simply a second update);
+2. DR DI from each platform's own navigation solution (``session.nav``) and CP DI from the
+   cooperative solution ``cp`` (two passes in post-processing: the fusion with the
+   observed ranges runs first, over the whole session, and its solution is differenced
+   here), both interpolated at the range epochs; anchors use their fixed position;
+3. the DI smoothing filter (:mod:`coopproc.stages.di`), then the distance filter with NLOS
+   detection and estimation (:mod:`coopproc.stages.nlos`) for the DI method, and the same
+   filter driven by the relative-velocity range rate (:mod:`coopproc.stages.rn`) with a
+   one-shot NLOS estimate for the RN method.
+
+The UWB sigma of a pair: ``session.toml [uwb] sigma`` if given ("session.toml"); else the
+adaptive estimate ("adaptive", reported as the median over the pair's epochs of the
+sigma used); else ``[ranging.nlos] default_sigma_m`` ("default").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from coopproc.errors import StageError
+from coopproc.model import (
+    DI_COLUMNS,
+    NLOS_ESTIMATE_COLUMNS,
+    NLOS_EVENT_COLUMNS,
+    RANGES_OUT_COLUMNS,
+    FloatArray,
+    Session,
+    Trajectory,
+    pair_members,
+)
+from coopproc.stages.di import (
+    SmoothedDI,
+    anchored_increments,
+    di_variance,
+    range_increments,
+    smooth_di,
+)
+from coopproc.stages.nlos import DistanceFilterOutput, KernelParams, filter_distance
+from coopproc.stages.ranging_config import RangingConfig, ranging_config_from_toml
+from coopproc.stages.rn import platform_velocity, rn_increments
+
+__all__ = ["RangingConfig", "RangingOutput", "ranging_config_from_toml", "run_ranging"]
+
+
+@dataclass(frozen=True, eq=False)
+class RangingOutput:
+    """Tables of the ranging stage (columns fixed by coopproc.model)."""
+
+    ranges: pd.DataFrame  # RANGES_OUT_COLUMNS, sorted by pair then time
+    di: pd.DataFrame  # DI_COLUMNS
+    nlos_events: pd.DataFrame  # NLOS_EVENT_COLUMNS, method in {"di", "rn"}
+    nlos_estimates: pd.DataFrame  # NLOS_ESTIMATE_COLUMNS (event numbers from 1 per pair)
+    #: pair -> (UWB sigma used, "session.toml" | "adaptive" | "default")
+    sigma: Mapping[str, tuple[float, str]]
+
+
+def _positions(
+    session: Session,
+    source: Mapping[str, Trajectory],
+    platform: str,
+    time_s: FloatArray,
+    what: str,
+    required: bool,
+) -> FloatArray:
+    info = session.platforms.get(platform)
+    if info is not None and info.role == "anchor" and info.position_enu_m is not None:
+        return np.tile(np.asarray(info.position_enu_m, dtype=np.float64), (time_s.shape[0], 1))
+    traj = source.get(platform)
+    if traj is None:
+        if required:
+            raise StageError(f"ranging: no {what} for platform '{platform}'")
+        return np.full((time_s.shape[0], 3), np.nan)
+    return traj.interpolate(time_s)
+
+
+def _drift(session: Session, platform: str, config: RangingConfig) -> float:
+    info = session.platforms.get(platform)
+    if info is None:
+        return config.di.drift_follower_mps
+    if info.drift_sigma_mps is not None:
+        return float(info.drift_sigma_mps)
+    if info.role == "anchor":
+        return 0.0
+    return config.di.drift_leader_mps if info.role == "leader" else config.di.drift_follower_mps
+
+
+def _initial_sigma(range_m: FloatArray, di_m: FloatArray, config: RangingConfig) -> float:
+    """Robust first guess of the UWB sigma: MAD of (range difference - DI) / sqrt(2)."""
+    e = np.diff(range_m) - di_m[1:]
+    e = e[np.isfinite(e)]
+    if e.shape[0] < 5:
+        return config.nlos.default_sigma_m
+    mad = float(np.median(np.abs(e - np.median(e))))
+    return max(1.4826 * mad / np.sqrt(2.0), config.nlos.min_sigma_m)
+
+
+def _kernel_params(
+    config: RangingConfig, sigma_m: float, initial_sigma_m: float, adaptive_n: int, rn: bool
+) -> KernelParams:
+    nlos = config.nlos
+    return KernelParams(
+        sigma_m=sigma_m,
+        initial_sigma_m=initial_sigma_m,
+        gamma_sigma=nlos.gamma_sigma,
+        window_s=nlos.window_s,
+        aligned=config.distance.transition == "aligned",
+        di_accel_sigma=config.distance.di_accel_sigma,
+        one_shot=rn,
+        backdate_s=0.0 if rn else nlos.backdate_s,
+        onset_fraction=nlos.onset_fraction,
+        confirm_fraction=0.0 if rn else nlos.confirm_fraction,
+        end_confirm_s=nlos.end_confirm_s,
+        end_min_epochs=nlos.end_min_epochs,
+        adaptive_n=adaptive_n,
+        adaptive_min_n=nlos.adaptive_min_epochs,
+        min_sigma_m=nlos.min_sigma_m,
+        suspect_epochs=0 if rn else nlos.suspect_epochs,
+        positive_only=nlos.positive_only,
+        max_event_s=nlos.max_event_s,
+    )
+
+
+def _events(
+    pair: str, method: str, time_s: FloatArray, out: DistanceFilterOutput
+) -> tuple[list[tuple[object, ...]], list[tuple[object, ...]]]:
+    events: list[tuple[object, ...]] = []
+    steps: list[tuple[object, ...]] = []
+    ids = np.unique(out.event[out.event >= 0])
+    for number, ev in enumerate(ids, start=1):
+        idx = np.flatnonzero(out.event == ev)
+        estimate = float(out.nlos_estimate_m[idx[-1]])
+        events.append((pair, method, time_s[idx[0]], time_s[idx[-1]], idx.shape[0], estimate))
+        window = idx[np.isfinite(out.step_estimate_m[idx])]
+        for step, j in enumerate(window, start=1):
+            steps.append((pair, method, number, step, time_s[j], float(out.step_estimate_m[j])))
+    return events, steps
+
+
+@dataclass(frozen=True, eq=False)
+class _Pair:
+    """One pair's inputs at its range epochs."""
+
+    name: str
+    members: tuple[str, str]
+    time_s: FloatArray
+    observed_m: FloatArray
+    nav_m: tuple[FloatArray, FloatArray]
+    cp_m: tuple[FloatArray, FloatArray]
+    di_dr_m: FloatArray
+    di_cp_m: FloatArray
+    di_ref_m: FloatArray
+    var_m2: FloatArray
+    reference_m: FloatArray
+    rn_m: FloatArray
+    params: KernelParams
+    sigma_source: str
+
+
+def _prepare(
+    session: Session, cp: Mapping[str, Trajectory], config: RangingConfig, pair: str
+) -> _Pair:
+    frame = session.ranges.frame
+    rows = frame[frame["pair"] == pair].sort_values("time", kind="stable")
+    t = rows["time"].to_numpy(dtype=np.float64)
+    obs = rows["range"].to_numpy(dtype=np.float64)
+    a, b = pair_members(pair)
+    dr_a = _positions(session, session.nav, a, t, "navigation", True)
+    dr_b = _positions(session, session.nav, b, t, "navigation", True)
+    cp_a = _positions(session, cp, a, t, "cooperative solution", True)
+    cp_b = _positions(session, cp, b, t, "cooperative solution", True)
+    ref_a = _positions(session, session.reference, a, t, "reference", False)
+    ref_b = _positions(session, session.reference, b, t, "reference", False)
+    if config.di.dr_base == "cp":
+        di_dr = anchored_increments(cp_a, cp_b, dr_a, dr_b)
+    else:
+        di_dr = range_increments(dr_a, dr_b)
+    var = di_variance(t, _drift(session, a, config), _drift(session, b, config))
+
+    if session.config.uwb_sigma_m is not None:
+        sigma, source = float(session.config.uwb_sigma_m), "session.toml"
+    elif config.nlos.adaptive:
+        sigma, source = -1.0, "adaptive"
+    else:
+        sigma, source = config.nlos.default_sigma_m, "default"
+    dt = np.diff(t)
+    step_s = float(np.median(dt[dt > 0])) if np.any(dt > 0) else 1.0
+    adaptive_n = max(round(config.nlos.adaptive_window_s / step_s), 1)
+    initial = _initial_sigma(obs, di_dr, config)
+
+    tm = np.empty_like(t)
+    tm[:1] = t[:1]
+    tm[1:] = 0.5 * (t[1:] + t[:-1])
+    rn_inc = rn_increments(
+        t,
+        _positions(session, session.nav, a, tm, "navigation", True),
+        _positions(session, session.nav, b, tm, "navigation", True),
+        _velocity(session, a, tm, config),
+        _velocity(session, b, tm, config),
+    )
+    return _Pair(
+        name=pair,
+        members=(a, b),
+        time_s=t,
+        observed_m=obs,
+        nav_m=(dr_a, dr_b),
+        cp_m=(cp_a, cp_b),
+        di_dr_m=di_dr,
+        di_cp_m=range_increments(cp_a, cp_b),
+        di_ref_m=range_increments(ref_a, ref_b),
+        var_m2=var,
+        reference_m=np.linalg.norm(ref_a - ref_b, axis=1),
+        rn_m=rn_inc,
+        params=_kernel_params(config, sigma, initial, adaptive_n, rn=False),
+        sigma_source=source,
+    )
+
+
+def _di_method(
+    p: _Pair, config: RangingConfig, mask: NDArray[np.bool_] | None = None
+) -> tuple[SmoothedDI, FloatArray, DistanceFilterOutput]:
+    """DI smoothing + distance filter; ``mask``: epochs whose CP solution is not trusted.
+
+    At masked epochs the CP DI is not used and the DR DI is anchored (``dr_base = "cp"``)
+    on the last trusted CP position propagated by dead reckoning.
+    """
+    di_dr, di_cp = p.di_dr_m, p.di_cp_m
+    if mask is not None:
+        di_cp = np.where(mask, np.nan, di_cp)
+        if config.di.dr_base == "cp":
+            last = np.maximum.accumulate(np.where(mask, 0, np.arange(mask.shape[0])))
+            base = [cp[last] + nav - nav[last] for cp, nav in zip(p.cp_m, p.nav_m, strict=True)]
+            di_dr = anchored_increments(base[0], base[1], p.nav_m[0], p.nav_m[1])
+    smoothed = smooth_di(p.time_s, di_dr, di_cp, p.var_m2, config.di)
+    out = filter_distance(p.time_s, p.observed_m, smoothed.di_m, smoothed.var_m2, p.params)
+    return smoothed, di_dr, out
+
+
+def _event_intervals(
+    pairs: list[_Pair], outs: Mapping[str, DistanceFilterOutput], config: RangingConfig
+) -> dict[str, list[tuple[float, float]]]:
+    """Per platform, the DI-method NLOS events of its pairs widened by the CP guard."""
+    intervals: dict[str, list[tuple[float, float]]] = {}
+    for p in pairs:
+        out = outs[p.name]
+        for ev in np.unique(out.event[out.event >= 0]):
+            idx = np.flatnonzero(out.event == ev)
+            span = (
+                p.time_s[idx[0]] - config.di.cp_guard_before_s,
+                p.time_s[idx[-1]] + config.di.cp_guard_after_s,
+            )
+            for member in p.members:
+                intervals.setdefault(member, []).append(span)
+    return intervals
+
+
+def run_ranging(
+    session: Session, cp: Mapping[str, Trajectory], config: RangingConfig
+) -> RangingOutput:
+    """Process every pair's ranges with the DI-Based and the RN-Based methods (paper 000).
+
+    Two passes when ``[ranging.di] mask_nlos_cp`` (default): the cooperative solution was
+    computed with the observed ranges, so during an NLOS event it is pulled by the NLOS
+    error of every pair of the platforms involved; the second pass does not use the CP DI
+    of any pair sharing a platform with a pair in a first-pass event (widened by the
+    guard times), so there the smoothed DI follows the DR DI plus the DI deviation.
+    """
+    pairs = [_prepare(session, cp, config, pair) for pair in session.ranges.pairs]
+    results = {p.name: _di_method(p, config) for p in pairs}
+    if config.di.mask_nlos_cp:
+        intervals = _event_intervals(pairs, {k: v[2] for k, v in results.items()}, config)
+        for p in pairs:
+            mask = np.zeros(p.time_s.shape[0], dtype=bool)
+            for member in p.members:
+                for lo, hi in intervals.get(member, []):
+                    mask |= (p.time_s >= lo) & (p.time_s <= hi)
+            if mask.any():
+                results[p.name] = _di_method(p, config, mask)
+
+    ranges_parts: list[pd.DataFrame] = []
+    di_parts: list[pd.DataFrame] = []
+    events: list[tuple[object, ...]] = []
+    steps: list[tuple[object, ...]] = []
+    sigma_used: dict[str, tuple[float, str]] = {}
+    for p in pairs:
+        smoothed, di_dr, di_out = results[p.name]
+        rn_params = replace(
+            p.params, one_shot=True, backdate_s=0.0, confirm_fraction=0.0, suspect_epochs=0
+        )
+        rn_out = filter_distance(p.time_s, p.observed_m, p.rn_m, p.var_m2, rn_params)
+        sigma = p.params.sigma_m
+        if p.sigma_source == "adaptive":
+            sigma = float(np.nanmedian(di_out.sigma_m))
+        sigma_used[p.name] = (sigma, p.sigma_source)
+        ranges_parts.append(
+            pd.DataFrame(
+                {
+                    "time": p.time_s,
+                    "pair": p.name,
+                    "observed": p.observed_m,
+                    "rn": rn_out.distance_m,
+                    "di": di_out.distance_m,
+                    "reference": p.reference_m,
+                    "nlos_flag": di_out.nlos_flag.astype(np.int64),
+                    "nlos_estimate": di_out.nlos_estimate_m,
+                },
+                columns=list(RANGES_OUT_COLUMNS),
+            )
+        )
+        di_parts.append(
+            pd.DataFrame(
+                {
+                    "time": p.time_s,
+                    "pair": p.name,
+                    "di_dr": di_dr,
+                    "di_cp": p.di_cp_m,
+                    "di_smoothed": smoothed.di_m,
+                    "di_reference": p.di_ref_m,
+                },
+                columns=list(DI_COLUMNS),
+            )
+        )
+        for method, out in (("di", di_out), ("rn", rn_out)):
+            ev, st = _events(p.name, method, p.time_s, out)
+            events.extend(ev)
+            steps.extend(st)
+    return RangingOutput(
+        ranges=_concat(ranges_parts, RANGES_OUT_COLUMNS),
+        di=_concat(di_parts, DI_COLUMNS),
+        nlos_events=pd.DataFrame(events, columns=list(NLOS_EVENT_COLUMNS)),
+        nlos_estimates=pd.DataFrame(steps, columns=list(NLOS_ESTIMATE_COLUMNS)),
+        sigma=sigma_used,
+    )
+
+
+def _velocity(
+    session: Session, platform: str, time_s: FloatArray, config: RangingConfig
+) -> FloatArray:
+    info = session.platforms.get(platform)
+    if info is not None and info.role == "anchor" and info.position_enu_m is not None:
+        return np.zeros((time_s.shape[0], 3))
+    traj = session.nav.get(platform)
+    if traj is None:
+        raise StageError(f"ranging: no navigation for platform '{platform}'")
+    if config.rn.velocity == "difference" and traj.vel_enu_mps is not None:
+        traj = replace(traj, vel_enu_mps=None)
+    return platform_velocity(traj, time_s)
+
+
+def _concat(parts: list[pd.DataFrame], columns: tuple[str, ...]) -> pd.DataFrame:
+    if not parts:
+        return pd.DataFrame({c: [] for c in columns}, columns=list(columns))
+    return pd.concat(parts, ignore_index=True)

@@ -1,0 +1,174 @@
+"""Configuration of the ranging stages: the ``[ranging]`` table of a run config.
+
+One table with four sub-tables, every key optional (defaults are paper 000's):
+
+```toml
+[ranging.di]        # DI smoothing filter, eq. (4)-(7)
+[ranging.distance]  # distance filter, eq. (8)
+[ranging.nlos]      # detection eq. (9), estimation eq. (10)-(12), adaptive sigma
+[ranging.rn]        # RN-Based reference method
+```
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+from coopproc.configtools import from_table
+from coopproc.stages.di import DISmoothingParams
+
+__all__ = [
+    "DistanceParams",
+    "NLOSParams",
+    "RNParams",
+    "RangingConfig",
+    "ranging_config_from_toml",
+]
+
+
+@dataclass(frozen=True)
+class DistanceParams:
+    """Distance filter, TOML table ``[ranging.distance]``."""
+
+    transition: Literal["aligned", "lagged"] = field(
+        default="aligned",
+        metadata={
+            "help": "aligned: D_k = D_{k-1} + I_k; lagged: eq. (8) as printed, "
+            "D_k = D_{k-1} + I_{k-1} (see docs/methods-ranging.md for the measurement)"
+        },
+    )
+    di_accel_sigma: float = field(
+        default=0.5,
+        metadata={"help": "relative acceleration 1-sigma (m/s^2) behind w_I: q_I = (a * dt^2)^2"},
+    )
+
+    def __post_init__(self) -> None:
+        if self.di_accel_sigma < 0:
+            raise ValueError(f"di_accel_sigma must be >= 0, found {self.di_accel_sigma}")
+
+
+@dataclass(frozen=True)
+class NLOSParams:
+    """NLOS detection and estimation, TOML table ``[ranging.nlos]``."""
+
+    gamma_sigma: float = field(
+        default=3.0, metadata={"help": "detection threshold gamma_max in UWB sigmas, eq. (9)"}
+    )
+    window_s: float = field(
+        default=3.0,
+        metadata={"help": "estimation time M, seconds: eq. (11) averages epochs t - t0 < M"},
+    )
+    backdate_s: float = field(
+        default=2.0,
+        metadata={
+            "help": "at detection, earlier epochs (up to this many seconds) whose residual "
+            "exceeded onset_fraction * gamma_max start the event; 0 disables"
+        },
+    )
+    onset_fraction: float = field(
+        default=0.5, metadata={"help": "back-dating residual threshold, fraction of gamma_max"}
+    )
+    confirm_fraction: float = field(
+        default=0.5,
+        metadata={
+            "help": "an event whose final estimate is below this fraction of gamma_max is "
+            "a false alarm and is unflagged"
+        },
+    )
+    suspect_epochs: int = field(
+        default=3,
+        metadata={
+            "help": "residuals beyond onset_fraction * gamma_max are not used; this many in "
+            "a row (same sign) are an event too (0 disables)"
+        },
+    )
+    positive_only: bool = field(
+        default=True,
+        metadata={
+            "help": "NLOS lengthens ranges: an event whose estimate is negative re-anchors "
+            "the distance on the ranges instead of being held"
+        },
+    )
+    max_event_s: float = field(
+        default=120.0,
+        metadata={"help": "an event longer than this (s) ends and the distance is re-anchored"},
+    )
+    end_confirm_s: float = field(
+        default=1.0,
+        metadata={
+            "help": "an event ends when the raw residual stays nearer 0 than the estimate "
+            "for this long (seconds) ..."
+        },
+    )
+    end_min_epochs: int = field(default=2, metadata={"help": "... and this many epochs"})
+    adaptive: bool = field(
+        default=True,
+        metadata={
+            "help": "estimate the UWB sigma from the filter innovations when session.toml "
+            "gives none (false: use default_sigma_m)"
+        },
+    )
+    adaptive_window_s: float = field(
+        default=60.0, metadata={"help": "sliding window of the adaptive sigma, seconds"}
+    )
+    adaptive_min_epochs: int = field(
+        default=10,
+        metadata={"help": "innovations needed before the adaptive sigma replaces the initial"},
+    )
+    default_sigma_m: float = field(
+        default=0.15,
+        metadata={"help": "UWB sigma (m) when session.toml gives none and adaptive = false"},
+    )
+    min_sigma_m: float = field(default=0.01, metadata={"help": "floor of the adaptive sigma, m"})
+
+    def __post_init__(self) -> None:
+        for name in ("gamma_sigma", "window_s", "default_sigma_m", "min_sigma_m"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"{name} must be > 0, found {getattr(self, name)}")
+        for name in ("backdate_s", "onset_fraction", "confirm_fraction", "end_confirm_s"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, found {getattr(self, name)}")
+        if self.suspect_epochs < 0:
+            raise ValueError(f"suspect_epochs must be >= 0, found {self.suspect_epochs}")
+        if self.max_event_s <= self.window_s:
+            raise ValueError("max_event_s must be > window_s")
+        if self.end_min_epochs < 1:
+            raise ValueError(f"end_min_epochs must be >= 1, found {self.end_min_epochs}")
+        if self.adaptive_window_s <= 0 or self.adaptive_min_epochs < 1:
+            raise ValueError("adaptive_window_s must be > 0 and adaptive_min_epochs >= 1")
+
+
+@dataclass(frozen=True)
+class RNParams:
+    """RN-Based reference method, TOML table ``[ranging.rn]``."""
+
+    velocity: Literal["nav", "difference"] = field(
+        default="nav",
+        metadata={
+            "help": "nav: the nav files' vel_* columns where present, else differences; "
+            "difference: always central differences of nav positions"
+        },
+    )
+
+
+@dataclass(frozen=True)
+class RangingConfig:
+    """Everything the ranging stages read, TOML table ``[ranging]``."""
+
+    di: DISmoothingParams = field(
+        default_factory=DISmoothingParams, metadata={"help": "DI smoothing, eq. (4)-(7)"}
+    )
+    distance: DistanceParams = field(
+        default_factory=DistanceParams, metadata={"help": "distance filter, eq. (8)"}
+    )
+    nlos: NLOSParams = field(
+        default_factory=NLOSParams, metadata={"help": "NLOS detection / estimation"}
+    )
+    rn: RNParams = field(default_factory=RNParams, metadata={"help": "RN-Based method"})
+
+
+def ranging_config_from_toml(table: Mapping[str, Any]) -> RangingConfig:
+    """The ranging configuration from a whole parsed run-config TOML (other tables ignored)."""
+    return from_table(RangingConfig, table.get("ranging"), "run config [ranging]")
