@@ -1,0 +1,21 @@
+"""Single-auxiliary cooperative localization of paper 004: AACOPF, PF, EKF, observability."""
+
+from coopproc.stages.particle.locate import (
+    LOCATE_COLUMNS,
+    LOCATE_SUMMARY_COLUMNS,
+    LocateResult,
+    locate,
+    locate_params,
+    with_seed,
+)
+from coopproc.stages.particle.params import LocateParams
+
+__all__ = [
+    "LOCATE_COLUMNS",
+    "LOCATE_SUMMARY_COLUMNS",
+    "LocateParams",
+    "LocateResult",
+    "locate",
+    "locate_params",
+    "with_seed",
+]

@@ -1,0 +1,169 @@
+"""Adaptive ant colony optimization particle filter (AACOPF), paper 004 section 3.
+
+Steps 1-6 and Algorithm 1: ring initialization, eq. (3) propagation, adaptive rejection
+of badly ranging auxiliaries (step 3), Gaussian range weights (eq. (11)-(13)), ant
+colony resampling (eq. (14), :mod:`coopproc.stages.particle.aco`), the estimate of
+eq. (15) and the initial azimuth of the best particle, eq. (16).
+
+Choices where the text is garbled or silent (documented in docs/locate.md):
+
+- Step 3 residuals rho_j = d_1j - E[|x - p_j|] use the predicted range (the weighted
+  mean over the propagated particles of their distance to the auxiliary, eq. (11)), not
+  the distance from the mean position: while the cloud is still a ring or has several
+  modes the mean position is meaningless, its predicted range is not. Statistics run
+  over the last ``residual_window`` epochs of that auxiliary; "E[rho_j] > Omega1" is
+  read as |mean| > Omega1 (a peak shift may have either sign). An auxiliary is rejected
+  when |mean| > Omega1 and variance > Omega2.
+  Residuals against an estimate that a bad auxiliary has pulled off show a shared,
+  slowly varying error in every auxiliary; D[rho] is therefore estimated from successive
+  differences (mean square difference / 2, von Neumann), which cancels that error and
+  keeps each auxiliary's own ranging noise. The auxiliary with the smallest D[rho] is
+  the reference: never rejected. One that is kept
+  but ranges worse than its nominal sigma is down-weighted (its likelihood sigma is
+  widened by its excess variance and, if |mean| > Omega1, by its mean). A lone
+  auxiliary is never rejected.
+- With more than one auxiliary, an auxiliary whose residual window is not yet full has a
+  flat outlier floor at ``outlier_sigmas`` in its likelihood (a mixture with an outlier
+  component): before it is judged, a biased auxiliary would otherwise remove the true
+  hypotheses in the first few epochs, which no later rejection can undo. Judged
+  auxiliaries use the plain Gaussian. The PF keeps the plain Gaussian throughout.
+- The elimination "x_t^i . x < 0 -> w = 0" of step 4 is unreadable; the Gaussian weight
+  already gives particles that contradict the range a negligible weight, so no further
+  rule is applied.
+- Step 5 resets every weight to 1 / (N x M) after the moves. Taken literally this throws
+  away the measurement history (the moves follow proximity, not weight, so the cloud no
+  longer carries the posterior) and the filter does not converge. Here the moved
+  particles share the weight of the particle they moved to (:func:`share_weights`), so
+  the probability mass stays where it was; weights otherwise accumulate by eq. (12).
+  Only particles lighter than ``aco_weight_gate`` x the heaviest move, as section 1
+  describes ("particles with smaller weight move to the optimal position, and particles
+  with larger weight keep their position").
+- The estimate of eq. (15) is taken with the updated weights before the ACO moves.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from coopproc.stages.particle.aco import aco_targets, share_weights
+from coopproc.stages.particle.core import (
+    Track,
+    TrackBuilder,
+    init_cloud,
+    log_likelihood,
+    normalize_log,
+    propagate,
+)
+from coopproc.stages.particle.inputs import LocateInputs
+from coopproc.stages.particle.params import LocateParams
+
+__all__ = ["AuxMonitor", "run_aacopf"]
+
+
+class AuxMonitor:
+    """Step 3: per-auxiliary residual windows and the reject / down-weight decision."""
+
+    def __init__(self, n_aux: int, params: LocateParams) -> None:
+        self.window = params.residual_window
+        self.buf = np.full((n_aux, self.window), np.nan)
+        self.count = np.zeros(n_aux, dtype=np.int64)
+        self.omega1 = params.Omega1
+        self.omega2 = params.Omega2
+        #: Auxiliaries whose last decision was made on a full window next to another one.
+        self.judged = np.zeros(n_aux, dtype=bool)
+
+    def add(self, j: int, residual_m: float) -> None:
+        self.buf[j, self.count[j] % self.window] = residual_m
+        self.count[j] += 1
+
+    def decide(self, nominal_var_m2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(use (J,) bool, inflate_m (J,)) from the current residual windows.
+
+        Only auxiliaries with a full window are judged, and only when at least two are:
+        a lone auxiliary is never rejected (the filter would be blind). The auxiliary
+        with the smallest residual variance is the reference and is always used as is.
+        Another one is rejected when |mean| > Omega1 and variance > Omega2 (paper); if
+        kept, its likelihood sigma is widened by its excess variance and, when its
+        |mean| > Omega1, by its mean (down-weighting).
+        """
+        n_aux = self.buf.shape[0]
+        use = np.ones(n_aux, dtype=bool)
+        inflate = np.zeros(n_aux)
+        full = self.count >= self.window
+        self.judged = full if full.sum() >= 2 else np.zeros(n_aux, dtype=bool)
+        if full.sum() < 2:
+            return use, inflate
+        # buffer in time order, to difference successive residuals
+        order = (self.count[:, None] + np.arange(self.window)[None, :]) % self.window
+        buf = np.take_along_axis(np.where(full[:, None], self.buf, 0.0), order, axis=1)
+        mean = np.where(full, buf.mean(axis=1), 0.0)
+        # D[rho] from successive differences (var(diff) / 2): the slowly varying error of
+        # the estimate itself cancels, the auxiliary's own ranging noise stays
+        var = np.where(full, 0.5 * np.mean(np.diff(buf, axis=1) ** 2, axis=1), 0.0)
+        ref = int(np.argmin(np.where(full, var, np.inf)))
+        biased = full & (np.abs(mean) > self.omega1)
+        reject = biased & (var > self.omega2)  # E[rho] > Omega1 & D[rho] > Omega2
+        reject[ref] = False
+        excess = np.where(full, np.maximum(var - nominal_var_m2, 0.0), 0.0)
+        inflate = np.sqrt(excess + np.where(biased, mean**2, 0.0))
+        inflate[ref] = 0.0
+        return ~reject, np.where(reject, 0.0, inflate)
+
+
+def run_aacopf(inputs: LocateInputs, params: LocateParams, seed: int) -> Track:
+    """Run the AACOPF over all epochs of ``inputs``; returns its track."""
+    rng = np.random.default_rng(seed)
+    cloud = init_cloud(inputs, params, rng)
+    builder = TrackBuilder("aacopf", inputs, params, rng)
+    n_e, n_j = inputs.range_m.shape
+    rejected = np.zeros((n_e, n_j), dtype=bool)
+    monitor = AuxMonitor(n_j, params)
+    # several auxiliaries: one that ranges badly must not remove hypotheses before its
+    # residual window has judged it, so until then its likelihood gets an outlier floor
+    outlier = params.outlier_sigmas if n_j > 1 else 0.0
+    nominal_var = np.nanmedian(inputs.sigma_m, axis=0) ** 2 + params.likelihood_floor_m**2
+    cloud.log_w += log_likelihood(cloud, inputs, 0, params)
+    w = normalize_log(cloud.log_w)
+    builder.record(0, cloud, w)
+    for k in range(n_e - 1):
+        propagate(cloud, inputs, k, params, rng)  # step 2
+        t = k + 1
+        # step 3: residuals of each auxiliary against the predicted range
+        w_prior = normalize_log(cloud.log_w)
+        for j in range(n_j):
+            z = inputs.range_m[t, j]
+            if np.isfinite(z):
+                ax, ay = inputs.aux_en_m[t, j]
+                d_pred = float(w_prior @ np.hypot(cloud.east - ax, cloud.north - ay))
+                monitor.add(j, float(z - d_pred))
+        use, inflate = monitor.decide(nominal_var)
+        rejected[t] = ~use & np.isfinite(inputs.range_m[t])
+        # step 4: weights, eq. (12)-(13)
+        cloud.log_w += log_likelihood(
+            cloud,
+            inputs,
+            t,
+            params,
+            use=use,
+            inflate_m=inflate,
+            outlier_sigmas=outlier,
+            floor_mask=~monitor.judged,
+        )
+        w = normalize_log(cloud.log_w)
+        builder.record(t, cloud, w)  # step 6, eq. (15)-(16)
+        # step 5: ant colony resampling, eq. (14), then the moved particles share weights
+        idx = aco_targets(
+            cloud.east,
+            cloud.north,
+            w,
+            params.aco_candidates,
+            params.alpha,
+            params.beta,
+            params.lambda_,
+            params.aco_cell_m,
+            params.aco_weight_gate,
+        )
+        cloud.take(idx)
+        with np.errstate(divide="ignore"):
+            cloud.log_w = np.log(share_weights(w, idx))
+    return builder.build(rejected=rejected)

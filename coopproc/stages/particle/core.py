@@ -1,0 +1,210 @@
+"""Particle-cloud building blocks shared by the AACOPF and the standard PF (paper 004).
+
+A particle is (east, north, phi): a position and the current azimuth phi (math angle,
+rad). Particle r = k * M + i starts at position k of the ring and initial azimuth i, so
+``r mod M`` is its initial-azimuth index (eq. (16)).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from coopproc.model import FloatArray
+from coopproc.stages.particle.increments import wrap_pi
+from coopproc.stages.particle.inputs import LocateInputs
+from coopproc.stages.particle.params import LocateParams
+
+__all__ = [
+    "Cloud",
+    "Track",
+    "TrackBuilder",
+    "init_cloud",
+    "log_likelihood",
+    "normalize_log",
+    "propagate",
+]
+
+
+@dataclass(eq=False)
+class Cloud:
+    """The particles of one filter; arrays of length P = N x M, updated in place."""
+
+    east: FloatArray
+    north: FloatArray
+    phi: FloatArray
+    log_w: FloatArray
+    #: Initial azimuth of each particle's lineage (math angle, rad), eq. (16).
+    phi0: FloatArray
+
+    @property
+    def size(self) -> int:
+        return int(self.east.shape[0])
+
+    def take(self, idx: np.ndarray) -> None:
+        """Every particle takes the state of particle ``idx[i]`` (resampling, ACO moves)."""
+        self.east = self.east[idx]
+        self.north = self.north[idx]
+        self.phi = self.phi[idx]
+        self.phi0 = self.phi0[idx]
+
+
+@dataclass(frozen=True, eq=False)
+class Track:
+    """What one method estimated at every filter epoch (E epochs)."""
+
+    method: str
+    time_s: FloatArray
+    east_m: FloatArray
+    north_m: FloatArray
+    #: Estimated azimuth at each epoch (math angle, rad).
+    phi_rad: FloatArray
+    #: The initial azimuth (math angle, rad) estimated at each epoch (weighted mean over
+    #: the particles' lineages for the particle filters).
+    initial_azimuth_track_rad: FloatArray
+    #: Final initial-azimuth estimate (eq. (16) for the particle filters), math angle, rad.
+    initial_azimuth_rad: float
+    #: (time, (S, 2) east/north of a seeded subsample of the particles) at a few epochs.
+    snapshots: tuple[tuple[float, FloatArray], ...] = ()
+    #: (E, J) True where an auxiliary was rejected at that epoch (AACOPF step 3).
+    rejected: np.ndarray | None = None
+
+
+def init_cloud(inputs: LocateInputs, params: LocateParams, rng: np.random.Generator) -> Cloud:
+    """Step 1: N positions on the ring d(1) +- delta_d around the aux, times M azimuths.
+
+    Positions and azimuths are evenly spread with a seeded random offset in each slot
+    ("random generation" in the paper); weights uniform, 1 / (N x M).
+    """
+    n, m = params.N, params.M
+    center, d1 = inputs.first_fix()
+    bearing = (np.arange(n) + rng.random(n)) * (2.0 * np.pi / n)
+    radius = np.maximum(d1 + rng.uniform(-params.delta_d_m, params.delta_d_m, n), 0.0)
+    azimuth = (np.arange(m) + rng.random(m)) * (2.0 * np.pi / m)
+    east = np.repeat(center[0] + radius * np.cos(bearing), m)
+    north = np.repeat(center[1] + radius * np.sin(bearing), m)
+    phi = np.tile(azimuth, n)
+    log_w = np.full(n * m, -np.log(n * m))
+    return Cloud(east=east, north=north, phi=phi, log_w=log_w, phi0=phi.copy())
+
+
+def propagate(
+    cloud: Cloud, inputs: LocateInputs, k: int, params: LocateParams, rng: np.random.Generator
+) -> None:
+    """Step 2: move every particle from epoch k to k + 1 by eq. (3) plus process noise.
+
+    Algorithm 1, lines 7-8: phi += Delta phi; x += Delta L cos(phi); y += Delta L sin(phi).
+    The importance density is this transition prior, so eq. (12) reduces to
+    w_t = w_{t-1} p(z_t | x_t).
+    """
+    inc = inputs.increments
+    delta_l = float(inc.delta_l_m[k])
+    noise = rng.standard_normal((3, cloud.size))
+    sigma_xy = params.step_sigma_m + params.step_sigma_rel * delta_l
+    cloud.phi += float(inc.delta_phi_rad[k]) + np.radians(params.heading_sigma_deg) * noise[2]
+    cloud.east += delta_l * np.cos(cloud.phi) + sigma_xy * noise[0]
+    cloud.north += delta_l * np.sin(cloud.phi) + sigma_xy * noise[1]
+
+
+def log_likelihood(
+    cloud: Cloud,
+    inputs: LocateInputs,
+    k: int,
+    params: LocateParams,
+    use: np.ndarray | None = None,
+    inflate_m: FloatArray | None = None,
+    outlier_sigmas: float = 0.0,
+    floor_mask: np.ndarray | None = None,
+) -> FloatArray:
+    """Gaussian range log-likelihood, summed over the auxiliaries used at epoch k.
+
+    Eq. (11) predicted distance per particle, Algorithm 1 line 12 weight
+    exp(-sum_j (d_hat - d_1j)^2 / (2 s_j^2)) with s_j^2 = sigma_j^2 + floor^2 (+ inflate_j^2).
+    ``outlier_sigmas`` > 0 mixes in a flat outlier floor per auxiliary, exp(-k^2 / 2) with
+    k = outlier_sigmas: one range that disagrees by more than k sigma then costs at most
+    that factor instead of removing the particle; ``floor_mask`` (J,) limits the floor to
+    some auxiliaries.
+    """
+    out = np.zeros(cloud.size)
+    for j in range(inputs.range_m.shape[1]):
+        z = inputs.range_m[k, j]
+        if not np.isfinite(z) or (use is not None and not use[j]):
+            continue
+        s2 = inputs.sigma_m[k, j] ** 2 + params.likelihood_floor_m**2
+        if inflate_m is not None:
+            s2 += float(inflate_m[j]) ** 2
+        ax, ay = inputs.aux_en_m[k, j]
+        d_hat = np.hypot(cloud.east - ax, cloud.north - ay)  # eq. (11)
+        term = -0.5 * (d_hat - z) ** 2 / s2
+        if outlier_sigmas > 0 and (floor_mask is None or floor_mask[j]):
+            term = np.logaddexp(term, -0.5 * outlier_sigmas**2)
+        out += term
+    return out
+
+
+def normalize_log(log_w: FloatArray) -> FloatArray:
+    """Normalized weights, eq. (13), from log-weights (max subtracted first)."""
+    w = np.exp(log_w - log_w.max())
+    return np.asarray(w / w.sum())
+
+
+def _circular_mean(w: FloatArray, angle_rad: FloatArray) -> float:
+    """Weighted circular mean of angles (rad)."""
+    return float(np.arctan2(w @ np.sin(angle_rad), w @ np.cos(angle_rad)))
+
+
+class TrackBuilder:
+    """Collects per-epoch estimates (eq. (15)) and particle-cloud snapshots."""
+
+    def __init__(
+        self, method: str, inputs: LocateInputs, params: LocateParams, rng: np.random.Generator
+    ) -> None:
+        e = inputs.n_epochs
+        self.method = method
+        self.inputs = inputs
+        self.east = np.empty(e)
+        self.north = np.empty(e)
+        self.phi = np.empty(e)
+        self.mean_phi0 = np.empty(e)
+        count = min(params.snapshots, e)
+        self.snap_epochs = (
+            set(np.unique(np.geomspace(1, e, count).astype(int) - 1).tolist()) if count else set()
+        )
+        size = params.N * params.M
+        keep = min(params.snapshot_particles, size)
+        self.snap_index = np.sort(rng.choice(size, size=keep, replace=False))
+        self.snapshots: list[tuple[float, FloatArray]] = []
+        self.best_phi0 = 0.0
+
+    def record(self, k: int, cloud: Cloud, w: FloatArray) -> None:
+        """Eq. (15) weighted mean position, circular weighted mean azimuth at epoch k.
+
+        Particles lighter than 1e-12 x the heaviest are left out of the sums (they change
+        them by less than the float precision of the output).
+        """
+        sel = np.flatnonzero(w > 1e-12 * w.max())
+        ws = w[sel] / w[sel].sum()
+        self.east[k] = float(ws @ cloud.east[sel])
+        self.north[k] = float(ws @ cloud.north[sel])
+        self.phi[k] = _circular_mean(ws, cloud.phi[sel])
+        # eq. (16): the initial azimuth of the largest-weight particle's lineage
+        r = int(np.argmax(w))
+        self.best_phi0 = float(wrap_pi(cloud.phi0[r]))
+        self.mean_phi0[k] = _circular_mean(ws, cloud.phi0[sel])
+        if k in self.snap_epochs:
+            pts = np.column_stack([cloud.east[self.snap_index], cloud.north[self.snap_index]])
+            self.snapshots.append((float(self.inputs.time_s[k]), pts))
+
+    def build(self, rejected: np.ndarray | None = None) -> Track:
+        return Track(
+            method=self.method,
+            time_s=self.inputs.time_s,
+            east_m=self.east,
+            north_m=self.north,
+            phi_rad=wrap_pi(self.phi),
+            initial_azimuth_track_rad=wrap_pi(self.mean_phi0),
+            initial_azimuth_rad=self.best_phi0,
+            snapshots=tuple(self.snapshots),
+            rejected=rejected,
+        )

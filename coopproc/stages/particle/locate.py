@@ -1,0 +1,203 @@
+"""The ``locate`` stage: single-auxiliary cooperative localization (paper 004).
+
+:func:`locate` gathers the target's eq. (3) increments and the auxiliaries' ranges and
+positions, runs the AACOPF, the standard PF and the EKF on identical inputs, analyzes
+observability (eq. (17)-(19)) and returns the ``locate.csv`` / ``locate_summary.csv``
+tables of DATA.md.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from coopproc.configtools import from_table
+from coopproc.model import FloatArray, Session
+from coopproc.stages.particle.aacopf import run_aacopf
+from coopproc.stages.particle.core import Track
+from coopproc.stages.particle.ekf import run_ekf
+from coopproc.stages.particle.increments import heading_deg, rotation_between
+from coopproc.stages.particle.inputs import LocateInputs, gather_inputs
+from coopproc.stages.particle.observability import Observability, analyze
+from coopproc.stages.particle.params import LocateParams
+from coopproc.stages.particle.pf import run_pf
+
+__all__ = [
+    "LOCATE_COLUMNS",
+    "LOCATE_SUMMARY_COLUMNS",
+    "LocateResult",
+    "locate",
+    "locate_params",
+    "with_seed",
+]
+
+LOCATE_COLUMNS: tuple[str, ...] = ("time", "method", "east", "north", "heading", "error_h")
+LOCATE_SUMMARY_COLUMNS: tuple[str, ...] = (
+    "method",
+    "initial_azimuth",
+    "azimuth_error",
+    "converged_at",
+    "rmse_h",
+    "observable",
+)
+
+
+@dataclass(frozen=True, eq=False)
+class LocateResult:
+    """Tables, observability and what the figures need."""
+
+    table: pd.DataFrame  # LOCATE_COLUMNS -> locate.csv
+    summary: pd.DataFrame  # LOCATE_SUMMARY_COLUMNS -> locate_summary.csv
+    observability: Observability
+    tracks: Mapping[str, Track]
+    inputs: LocateInputs
+    #: Target reference at the filter epochs (E, 2), NaN where none; None: no reference.
+    reference_en_m: FloatArray | None
+    #: Reference initial azimuth, heading degrees; None where it cannot be fitted.
+    reference_initial_azimuth_deg: float | None
+    warnings: tuple[str, ...] = ()
+
+    def azimuth_error_track_deg(self, method: str) -> FloatArray | None:
+        """Initial-azimuth error over time (degrees, signed), None without a reference."""
+        if self.reference_initial_azimuth_deg is None:
+            return None
+        est = heading_deg(self.tracks[method].initial_azimuth_track_rad)
+        return _wrap_deg(est - self.reference_initial_azimuth_deg)
+
+
+def locate_params(table: Mapping[str, Any] | None, where: str = "[locate]") -> LocateParams:
+    """LocateParams from a ``[locate]`` TOML table (``lambda`` is accepted for ``lambda_``)."""
+    data = dict(table or {})
+    if "lambda" in data:
+        data["lambda_"] = data.pop("lambda")
+    if isinstance(data.get("methods"), list):
+        data["methods"] = tuple(data["methods"])
+    return from_table(LocateParams, data, where)
+
+
+def _wrap_deg(x: FloatArray | float) -> FloatArray:
+    return np.asarray((np.asarray(x) + 180.0) % 360.0 - 180.0)
+
+
+def _reference(
+    session: Session, inputs: LocateInputs, params: LocateParams
+) -> tuple[FloatArray | None, float | None]:
+    ref = session.reference.get(inputs.target)
+    if ref is None or len(ref) < 2:
+        return None, None
+    en = ref.interpolate(inputs.time_s)[:, :2]
+    steps = np.diff(en, axis=0)
+    psi = rotation_between(inputs.increments.step_own_m, steps, params.azimuth_window_m)
+    if psi is None:
+        return en, None
+    init = float(heading_deg(inputs.increments.theta0_rad + psi))
+    return en, init
+
+
+def _observability(inputs: LocateInputs, track: Track, tol: float) -> Observability:
+    """Eq. (17)-(19) along the dead-reckoned path placed by ``track``'s final estimate.
+
+    The linearization points must obey eq. (3) themselves (R_k assumes p_t - p_0 is the
+    sum of the steps), so the path is the target's own DR rotated to the estimated
+    initial azimuth and shifted to the estimated last position.
+    """
+    inc = inputs.increments
+    phi_step = track.initial_azimuth_rad + (inc.theta_rad - inc.theta0_rad)
+    steps = inc.delta_l_m[:, None] * np.column_stack([np.cos(phi_step), np.sin(phi_step)])
+    path = np.vstack([np.zeros((1, 2)), np.cumsum(steps, axis=0)])
+    path += np.array([track.east_m[-1], track.north_m[-1]]) - path[-1]
+    return analyze(path, inputs.aux_en_m, np.isfinite(inputs.range_m), inc.delta_l_m, phi_step, tol)
+
+
+def _converged_at(time_s: FloatArray, err: FloatArray, limit_m: float) -> float | None:
+    """First time after which the error stays below ``limit_m`` (NaN counts as not)."""
+    bad = ~(err < limit_m)
+    if bad.all():
+        return None
+    if not bad.any():
+        return float(time_s[0])
+    last_bad = int(np.nonzero(bad)[0][-1])
+    return None if last_bad + 1 >= time_s.shape[0] else float(time_s[last_bad + 1])
+
+
+def locate(session: Session, target: str, aux: Sequence[str], params: LocateParams) -> LocateResult:
+    """Localize ``target`` from its ranges to ``aux`` with every method in ``params``."""
+    inputs = gather_inputs(session, target, aux, params.range_sigma_m)
+    runners = {
+        "aacopf": lambda: run_aacopf(inputs, params, params.seed),
+        "pf": lambda: run_pf(inputs, params, params.seed),
+        "ekf": lambda: run_ekf(inputs, params),
+    }
+    tracks = {m: runners[m]() for m in params.methods}
+    obs = _observability(inputs, tracks[params.methods[0]], params.observability_tol)
+    ref_en, ref_init = _reference(session, inputs, params)
+    rows = []
+    summary = []
+    for method, tr in tracks.items():
+        if ref_en is not None:
+            err = np.hypot(tr.east_m - ref_en[:, 0], tr.north_m - ref_en[:, 1])
+        else:
+            err = np.full(inputs.n_epochs, np.nan)
+        rows.append(
+            pd.DataFrame(
+                {
+                    "time": inputs.time_s,
+                    "method": method,
+                    "east": tr.east_m,
+                    "north": tr.north_m,
+                    "heading": heading_deg(tr.phi_rad),
+                    "error_h": err,
+                }
+            )
+        )
+        init_deg = float(heading_deg(tr.initial_azimuth_rad))
+        az_err = np.nan if ref_init is None else float(_wrap_deg(init_deg - ref_init))
+        have = np.isfinite(err)
+        conv = _converged_at(inputs.time_s, err, params.converge_m) if obs.observable else None
+        summary.append(
+            {
+                "method": method,
+                "initial_azimuth": init_deg,
+                "azimuth_error": az_err,
+                "converged_at": np.nan if conv is None else conv,
+                "rmse_h": float(np.sqrt(np.mean(err[have] ** 2))) if have.any() else np.nan,
+                "observable": int(obs.observable),
+            }
+        )
+    warnings = []
+    if not obs.observable:
+        s1, s2, s3 = obs.singular_values
+        warnings.append(
+            f"locate: the geometry is not observable (singular values of R_k {s1:.4g}, "
+            f"{s2:.4g}, {s3:.4g}; eq. (19)): the auxiliary is static or keeps the same "
+            "bearing, so position and azimuth are not determined"
+        )
+    if "aacopf" in tracks and tracks["aacopf"].rejected is not None:
+        frac = tracks["aacopf"].rejected.mean(axis=0)
+        for j, a in enumerate(inputs.aux):
+            if frac[j] > 0:
+                warnings.append(
+                    f"locate: auxiliary '{a}' rejected at {100 * frac[j]:.1f}% of the epochs "
+                    "(residual mean > Omega1 and variance > Omega2)"
+                )
+    table = pd.concat(rows, ignore_index=True)[list(LOCATE_COLUMNS)]
+    return LocateResult(
+        table=table,
+        summary=pd.DataFrame(summary, columns=list(LOCATE_SUMMARY_COLUMNS)),
+        observability=obs,
+        tracks=tracks,
+        inputs=inputs,
+        reference_en_m=ref_en,
+        reference_initial_azimuth_deg=ref_init,
+        warnings=tuple(warnings),
+    )
+
+
+def with_seed(params: LocateParams, seed: int | None) -> LocateParams:
+    """``params`` with another seed (None: unchanged)."""
+    return params if seed is None else dataclasses.replace(params, seed=seed)
