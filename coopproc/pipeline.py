@@ -115,6 +115,35 @@ def _positions_rows(
     return pd.concat(frames, ignore_index=True)
 
 
+def _reference_rows(
+    session: Session, like: Mapping[str, Trajectory], max_gap_s: float
+) -> pd.DataFrame:
+    """Rows of method ``reference``: the reference trajectory at the fused output epochs
+    (an extension of DATA.md's positions.csv; epochs without reference are left out)."""
+    frames = []
+    for platform in sorted(like):
+        ref = session.reference.get(platform)
+        if ref is None or len(ref) < 2:
+            continue
+        t = like[platform].time_s
+        pos = reference_at(ref, t, max_gap_s)
+        ok = np.all(np.isfinite(pos), axis=1)
+        frames.append(
+            pd.DataFrame(
+                {
+                    "time": t[ok],
+                    "platform": platform,
+                    "method": "reference",
+                    "east": pos[ok, 0],
+                    "north": pos[ok, 1],
+                    "up": pos[ok, 2],
+                    "error_h": np.nan,
+                }
+            )
+        )
+    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+
 def _nav_at(session: Session, like: Mapping[str, Trajectory]) -> dict[str, Trajectory]:
     """Each platform's own solution at the epochs of the fused output."""
     out = {}
@@ -162,7 +191,10 @@ def run_pipeline(
     with timed("metrics"):
         max_gap = config.run.reference_max_gap_s
         nav = _nav_at(session, fused["observed"].smoothed)
-        parts = [_positions_rows(session, "nav", nav, max_gap)]
+        parts = [
+            _reference_rows(session, fused["observed"].smoothed, max_gap),
+            _positions_rows(session, "nav", nav, max_gap),
+        ]
         for method in ("observed", *PROCESSED_METHODS):
             parts.append(_positions_rows(session, method, fused[method].smoothed, max_gap))
         positions = pd.concat(parts, ignore_index=True)
