@@ -85,7 +85,9 @@ class SimParams:
     gross_error_m: float = _f(2.0, "gross error magnitude, m (sign random, +-25 % spread)")
     nlos_sigma_m: float = _f(0.1, "1-sigma of the NLOS error around its mean, m (paper 000 4.3)")
     nlos_events: tuple[NlosSpec, ...] = _f((), "NLOS events (pair, start_s, end_s, mean_m)")
-    random_nlos_per_pair_hour: float = _f(0.0, "extra random NLOS events per pair and hour")
+    random_nlos_per_pair_hour: float = _f(
+        0.0, "extra random NLOS events per pair and hour (10-30 s, means 0.4-0.6 m)"
+    )
     outages: tuple[OutageSpec, ...] = _f((), "UWB outages (start_s, end_s): no ranges at all")
     rssi: bool = _f(True, "write an 'rssi' extra column (dBm) in ranges.csv")
     # reference: GNSS-PPK

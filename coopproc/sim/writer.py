@@ -20,6 +20,7 @@ The output directory is written atomically (``coopproc.outdir.atomic_output_dir`
 from __future__ import annotations
 
 import dataclasses
+import json
 from pathlib import Path
 from typing import Any
 
@@ -102,8 +103,24 @@ def write_simulation(
     return [out_dir / rel for rel in relative]
 
 
+def _toml_value(value: Any) -> str:
+    """``value`` (a parameter: scalar, tuple, or tuple of spec dataclasses) as TOML text."""
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, int | float):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        items = (
+            f"{f.name} = {_toml_value(getattr(value, f.name))}" for f in dataclasses.fields(value)
+        )
+        return "{" + ", ".join(items) + "}"
+    return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+
+
 def command_line(sim: Simulation, out_name: str, *, mcap: bool = False) -> str:
-    """A ``coopproc simulate`` command that makes ``sim`` again (scalar overrides as --set)."""
+    """A ``coopproc simulate`` command that makes ``sim`` again (overrides as --set TOML)."""
     from coopproc.sim.engine import scenario_params
 
     default = scenario_params(sim.scenario)
@@ -118,12 +135,8 @@ def command_line(sim: Simulation, out_name: str, *, mcap: bool = False) -> str:
         value, base = getattr(params, f.name), getattr(rescaled, f.name)
         if f.name in ("duration_s", "platforms") or value == base:
             continue
-        if isinstance(value, bool):
-            parts += ["--set", f"{f.name}={str(value).lower()}"]
-        elif isinstance(value, int | float):
-            parts += ["--set", f"{f.name}={value!r}"]
-        else:
-            parts += ["--set", f"{f.name}=...  # {f.name} was given from Python"]
+        text = f"{f.name}={_toml_value(value)}"
+        parts += ["--set", f"'{text}'" if any(c in text for c in ' []{}"') else text]
     if mcap:
         parts.append("--mcap")
     return " ".join(parts)

@@ -101,3 +101,18 @@ def test_every_scenario_validates_clean(tmp_path: Path, scenario: str) -> None:
         assert (truth / f"traj_{pid}.csv").exists()
     header = (truth / "dr_error.csv").read_text().splitlines()[0]
     assert header == "time,platform,error_east,error_north,error_up,error_h"
+
+
+def test_shipped_sample_logs_are_what_the_simulator_makes(tmp_path: Path) -> None:
+    shipped = Path(__file__).resolve().parents[2] / "sample_logs"
+    if not shipped.is_dir():
+        pytest.skip("no sample_logs/ in this checkout")
+    made = tmp_path / "sample_logs"
+    write_simulation(simulate("paper-experiment", seed=0), made, mcap=True)
+    expected, actual = _files(made), _files(shipped)
+    assert sorted(actual) == sorted(expected)
+    stale = [name for name in expected if expected[name] != actual[name]]
+    assert not stale, (
+        f"sample_logs/ is stale ({stale}); regenerate: coopproc simulate sample_logs "
+        "--scenario paper-experiment --seed 0 --mcap --force"
+    )
