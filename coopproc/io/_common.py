@@ -34,8 +34,11 @@ __all__ = [
     "RawTrajectory",
     "check_trajectory_times",
     "expand",
+    "flat",
     "missing_column",
     "numeric_column",
+    "one_line",
+    "parser_error",
 ]
 
 #: Platform ids: letters, digits, ``_`` and ``-`` (DATA.md "Words").
@@ -73,11 +76,45 @@ class InputProblems(InputError):
         super().__init__(first.path, first.problem + suffix, line=first.line, record=first.record)
 
 
+def one_line(text: object, limit: int = 160) -> str:
+    """``text`` on one line (whitespace collapsed), cut to ``limit`` characters."""
+    flat = " ".join(str(text).split())
+    return flat if len(flat) <= limit else flat[: limit - 3] + "..."
+
+
+_PANDAS_FIELDS = re.compile(r"Expected (\d+) fields in line (\d+), saw (\d+)")
+
+
+def parser_error(path: str | Path, err: BaseException, layout: str) -> InputError:
+    """An InputError for a CSV/whitespace table that does not parse (pandas ParserError).
+
+    ``layout`` says what a row should hold, e.g. ``"8 fields: timestamp tx ty ..."``.
+    """
+    m = _PANDAS_FIELDS.search(str(err))
+    if m:
+        expected, line, saw = m.groups()
+        return InputError(
+            path, f"malformed row: {saw} fields, expected {expected} ({layout})", line=int(line)
+        )
+    return InputError(path, f"malformed row: {one_line(err)}; expected {layout}")
+
+
+def flat(err: CoopprocError) -> CoopprocError:
+    """``err`` itself if its message is one line, else a copy whose message is."""
+    if "\n" not in str(err) and "\r" not in str(err):
+        return err
+    if isinstance(err, InputError):
+        record = None if err.record is None else one_line(err.record, 120)
+        path = None if err.path is None else one_line(err.path, 300)
+        return InputError(path, one_line(err.problem, 300), line=err.line, record=record)
+    return type(err)(one_line(str(err), 300))
+
+
 def expand(err: CoopprocError) -> list[str]:
     """Every one-line message an error stands for."""
     if isinstance(err, InputProblems):
-        return [str(e) for e in err.errors]
-    return [str(err)]
+        return [str(flat(e)) for e in err.errors]
+    return [str(flat(err))]
 
 
 @dataclass
@@ -92,6 +129,7 @@ class Locator:
 
     def error(self, message: str, row: int | None = None, count: int = 1) -> InputError:
         """An InputError at ``row`` (0-based), mentioning ``count - 1`` other rows."""
+        message = one_line(message, 300)
         if count > 1:
             message += f" (and {count - 1} more row{'s' if count > 2 else ''})"
         if row is None:
@@ -99,7 +137,7 @@ class Locator:
         if self.lines is not None:
             return InputError(self.path, message, line=self.lines(row))
         if self.record is not None:
-            return InputError(self.path, message, record=self.record(row))
+            return InputError(self.path, message, record=one_line(self.record(row), 120))
         return InputError(self.path, message, record=f"row {row + 1}")
 
 

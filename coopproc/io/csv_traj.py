@@ -26,6 +26,8 @@ from coopproc.io._common import (
     file_lines,
     missing_column,
     numeric_column,
+    one_line,
+    parser_error,
 )
 from coopproc.model import Trajectory
 from coopproc.outdir import FLOAT_FORMAT
@@ -88,9 +90,11 @@ def read_csv_table(path: Path) -> tuple[pd.DataFrame, Locator]:
     except InputError:
         raise
     except pd.errors.ParserError as err:
-        raise InputError(path, f"malformed row: {err}".replace("\n", " ")) from err
+        raise parser_error(path, err, "the header's columns") from err
     except PARSE_ERRORS as err:
-        raise InputError(path, f"cannot read as CSV ({type(err).__name__}: {err})") from err
+        raise InputError(
+            path, f"cannot read as CSV ({type(err).__name__}: {one_line(err)})"
+        ) from err
     frame.columns = [str(c).strip() for c in frame.columns]
     unnamed = [c for c in frame.columns if c.startswith("Unnamed:")]
     if unnamed:

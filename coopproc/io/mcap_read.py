@@ -25,7 +25,13 @@ import numpy as np
 import pandas as pd
 
 from coopproc.errors import InputError
-from coopproc.io._common import InputProblems, Locator, RawTrajectory, check_trajectory_times
+from coopproc.io._common import (
+    InputProblems,
+    Locator,
+    RawTrajectory,
+    check_trajectory_times,
+    one_line,
+)
 from coopproc.io.csv_traj import trajectory_from_frame
 from coopproc.io.mcap_scan import Channel, RawMcap, scan_mcap
 from coopproc.io.ranges_csv import RangesRead, range_table_from_frame
@@ -117,7 +123,9 @@ def _json_rows(ch: Channel, where: Locator) -> list[dict[str, Any]]:
             try:
                 json.loads(data)
             except (ValueError, UnicodeError, RecursionError) as err:
-                raise where.error(f"not valid JSON ({err}); expected a JSON object", i) from err
+                raise where.error(
+                    f"not valid JSON ({one_line(err)}); expected a JSON object", i
+                ) from err
         raise where.error("not valid JSON; expected one JSON object per message") from None
     for i, row in enumerate(rows):
         if not isinstance(row, dict):

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from coopproc.errors import InputError
-from coopproc.io._common import PARSE_ERRORS
+from coopproc.io._common import PARSE_ERRORS, one_line
 
 __all__ = ["MAGIC", "Channel", "RawMcap", "scan_mcap"]
 
@@ -182,7 +182,7 @@ def scan_mcap(path: Path) -> RawMcap:
     except _Corrupt as err:
         raise InputError(path, f"corrupt MCAP at byte {err.offset}: {err.what}") from err
     except PARSE_ERRORS as err:
-        raise InputError(path, f"corrupt MCAP ({type(err).__name__}: {err})") from err
+        raise InputError(path, f"corrupt MCAP ({type(err).__name__}: {one_line(err)})") from err
     if not footer or not buf.endswith(MAGIC):
         raise InputError(path, "truncated MCAP: no footer; expected a complete recording")
     scanner.out.n_messages = sum(len(c.data) for c in scanner.out.channels.values())

@@ -32,6 +32,7 @@ from coopproc.io._common import (
     RawTrajectory,
     check_trajectory_times,
     numeric_column,
+    parser_error,
 )
 from coopproc.model import FloatArray
 
@@ -110,7 +111,7 @@ def read_pos(path: str | Path, platform: str) -> RawTrajectory:
             encoding="utf-8",
         )
     except pd.errors.ParserError as err:
-        raise InputError(p, f"malformed epoch line: {err}".replace("\n", " ")) from err
+        raise parser_error(p, err, "the columns of the % header") from err
     except PARSE_ERRORS as err:
         raise InputError(p, f"cannot read as RTKLIB .pos ({type(err).__name__})") from err
     where = Locator(str(p), lines=_pos_lines(p, first_data))

@@ -14,7 +14,7 @@ import numpy as np
 
 from coopproc.errors import CoopprocError, InputError
 from coopproc.io import assemble
-from coopproc.io._common import InputProblems, RawTrajectory, expand
+from coopproc.io._common import InputProblems, RawTrajectory, expand, flat
 from coopproc.io.mcap_read import McapContent, decode_mcap, read_mcap_raw
 from coopproc.io.ranges_csv import RangesRead, read_ranges_csv
 from coopproc.io.registry import find_files, read_trajectory
@@ -261,7 +261,7 @@ def read_session(path: str | Path) -> Session:
     loader = _Loader()
     session = loader.load(path)
     if loader.problems:
-        raise loader.problems[0]
+        raise flat(loader.problems[0])
     if session is None:  # pragma: no cover - every None path records a problem
         raise InputError(path, "no session could be read")
     return session

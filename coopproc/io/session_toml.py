@@ -19,7 +19,7 @@ import tomli_w
 
 from coopproc.configtools import check_keys, from_table
 from coopproc.errors import ConfigError, InputError
-from coopproc.io._common import ID_PATTERN
+from coopproc.io._common import ID_PATTERN, one_line
 from coopproc.model import Platform, SessionConfig
 
 __all__ = [
@@ -130,7 +130,7 @@ def parse_session_toml(text: str, where: str = "session.toml") -> TomlRead:
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
-        raise InputError(where, f"not valid TOML: {err}") from err
+        raise InputError(where, f"not valid TOML: {one_line(err)}") from err
     check_keys(doc, _TOP, where)
     tables: dict[str, Any] = {}
     for name, cls in _TABLES.items():

@@ -23,6 +23,8 @@ from coopproc.io._common import (
     check_trajectory_times,
     file_lines,
     numeric_column,
+    one_line,
+    parser_error,
 )
 from coopproc.model import Trajectory
 
@@ -47,13 +49,11 @@ def read_tum(path: str | Path, platform: str) -> RawTrajectory:
             encoding="utf-8",
         )
     except pd.errors.ParserError as err:
-        raise InputError(
-            p, f"malformed row: {err}; expected 8 fields 'timestamp tx ty tz qx qy qz qw'"
-        ) from err
+        raise parser_error(p, err, "timestamp tx ty tz qx qy qz qw") from err
     except pd.errors.EmptyDataError as err:
         raise InputError(p, "empty file; expected lines 'timestamp tx ty tz qx qy qz qw'") from err
     except PARSE_ERRORS as err:
-        raise InputError(p, f"cannot read as TUM ({type(err).__name__}: {err})") from err
+        raise InputError(p, f"cannot read as TUM ({type(err).__name__}: {one_line(err)})") from err
     where = Locator(str(p), lines=_tum_lines(p))
     if len(frame) == 0:
         raise where.error("no data rows; expected lines 'timestamp tx ty tz qx qy qz qw'")
