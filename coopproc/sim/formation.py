@@ -29,8 +29,8 @@ __all__ = [
     "wedge_layout",
 ]
 
-#: Lateral wander is this fraction of the lag wander (drivers keep their lane better).
-_LATERAL_RATIO = 0.5
+#: Lateral wander relative to the lag wander (equal: every pair of the triangle breathes).
+_LATERAL_RATIO = 1.0
 
 
 class Terrain:
@@ -65,7 +65,7 @@ def path_positions(path: LoopPath, s_m: FloatArray, terrain: Terrain) -> FloatAr
 
 
 def wedge_layout(
-    count: int, lag_m: float = 15.0, lateral_m: float = 8.0
+    count: int, lag_m: float = 18.0, lateral_m: float = 9.0
 ) -> list[tuple[float, float]]:
     """(lag, lateral) of the leader and ``count - 1`` followers in a wedge behind it.
 

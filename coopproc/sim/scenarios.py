@@ -105,13 +105,13 @@ def _paper_experiment(params: SimParams, seed: int, t: FloatArray) -> World:
         raise ConfigError(f"paper-experiment: platforms must be 2..26, found {params.platforms}")
     letters = list(_LETTERS[: params.platforms])
     ids = ["B", *[x for x in letters if x != "B"]]
-    return _formation_world(ids, (160.0, 70.0, 15.0), params, seed, t)
+    return _formation_world(ids, (160.0, 70.0, 18.0), params, seed, t)
 
 
 def _paper_table1(params: SimParams, seed: int, t: FloatArray) -> World:
     if params.platforms != 2:
         raise ConfigError(f"paper-table1: one pair, platforms must be 2, found {params.platforms}")
-    return _formation_world(["B", "A"], (160.0, 70.0, 15.0), params, seed, t)
+    return _formation_world(["B", "A"], (160.0, 70.0, 18.0), params, seed, t)
 
 
 def _large(params: SimParams, seed: int, t: FloatArray) -> World:
