@@ -73,6 +73,7 @@ def _facts(info: Mapping[str, Any]) -> str:
     for key, label in (
         ("coopproc_version", "coopproc"),
         ("version", "coopproc"),
+        ("python", "Python"),
         ("start_time", "Started"),
         ("duration_s", "Duration (s)"),
     ):
@@ -87,6 +88,12 @@ def _facts(info: Mapping[str, Any]) -> str:
             else:
                 parts.append(f"{pair}: {value} m")
         items.append(("UWB sigma", "; ".join(parts)))
+    timings = info.get("timings_s")
+    if isinstance(timings, Mapping) and timings:
+        items.append(("Stage times (s)", "; ".join(f"{k}: {v}" for k, v in timings.items())))
+    notes = info.get("notes")
+    if isinstance(notes, list) and notes:
+        items.append(("Notes", " | ".join(str(n) for n in notes)))
     out = ["<dl>"]
     out += [f"<dt>{html.escape(k)}</dt><dd>{html.escape(v)}</dd>" for k, v in items]
     out.append("</dl>")
