@@ -81,6 +81,13 @@ class DISmoothingParams:
         default=DEFAULT_DRIFT_SIGMA_MPS["leader"],
         metadata={"help": "drift sigma (m/s) of a leader when session.toml gives none"},
     )
+    drift_scaling: Literal["linear", "sqrt"] = field(
+        default="sqrt",
+        metadata={
+            "help": "eq. (7) sigma_k over an interval dt: linear = drift * dt; sqrt = drift * "
+            "sqrt(dt * 1 s) (same at 1 Hz, larger at higher range rates)"
+        },
+    )
     mask_nlos_cp: bool = field(
         default=True,
         metadata={
@@ -92,10 +99,10 @@ class DISmoothingParams:
         default=1.0, metadata={"help": "CP DI masked from this long before an event, s"}
     )
     cp_guard_after_s: float = field(
-        default=5.0, metadata={"help": "... until this long after it, s"}
+        default=15.0, metadata={"help": "... until this long after it, s"}
     )
     deviation_rw: float = field(
-        default=0.01,
+        default=1e-4,
         metadata={
             "help": "random walk of the DI deviation s (relative-velocity bias), m/s/sqrt(s): "
             "q_s = (deviation_rw * dt)^2 * dt"
@@ -159,16 +166,22 @@ def anchored_increments(
     return out
 
 
-def di_variance(time_s: FloatArray, drift1_mps: float, drift2_mps: float) -> FloatArray:
-    """Eq. (7): sigma_I^2 = sigma_k1^2 + sigma_k2^2 with sigma_ki = drift_i * dt (m^2).
+def di_variance(
+    time_s: FloatArray, drift1_mps: float, drift2_mps: float, scaling: str = "linear"
+) -> FloatArray:
+    """Eq. (7): sigma_I^2 = sigma_k1^2 + sigma_k2^2, sigma_ki the drift over the interval (m^2).
 
-    dt is the interval between consecutive range epochs; NaN at k = 0; floored at
+    ``scaling = "linear"``: sigma_ki = drift_i * dt (a velocity error, as paper 000 reads);
+    ``"sqrt"``: sigma_ki = drift_i * sqrt(dt * 1 s) (a random walk: equal at 1 s intervals,
+    larger below 1 s, where the position noise of a GNSS/INS leader dominates). dt is the
+    interval between consecutive range epochs; NaN at k = 0; floored at
     :data:`MIN_DI_VAR_M2` (several ranges at one epoch give dt = 0).
     """
     # paper 000, eq. (7)
     out = np.full(time_s.shape[0], np.nan)
     dt = np.diff(time_s)
-    out[1:] = np.maximum((drift1_mps * dt) ** 2 + (drift2_mps * dt) ** 2, MIN_DI_VAR_M2)
+    span = dt * dt if scaling == "linear" else dt
+    out[1:] = np.maximum((drift1_mps**2 + drift2_mps**2) * span, MIN_DI_VAR_M2)
     return out
 
 

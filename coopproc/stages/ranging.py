@@ -186,7 +186,9 @@ def _prepare(
         di_dr = anchored_increments(cp_a, cp_b, dr_a, dr_b)
     else:
         di_dr = range_increments(dr_a, dr_b)
-    var = di_variance(t, _drift(session, a, config), _drift(session, b, config))
+    var = di_variance(
+        t, _drift(session, a, config), _drift(session, b, config), config.di.drift_scaling
+    )
 
     if session.config.uwb_sigma_m is not None:
         sigma, source = float(session.config.uwb_sigma_m), "session.toml"
@@ -243,7 +245,10 @@ def _di_method(
             base = [cp[last] + nav - nav[last] for cp, nav in zip(p.cp_m, p.nav_m, strict=True)]
             di_dr = anchored_increments(base[0], base[1], p.nav_m[0], p.nav_m[1])
     smoothed = smooth_di(p.time_s, di_dr, di_cp, p.var_m2, config.di)
-    out = filter_distance(p.time_s, p.observed_m, smoothed.di_m, smoothed.var_m2, p.params)
+    # R_I of eq. (8): the smoothed-DI variance, at least the configured DI error floor
+    floor = di_variance(p.time_s, config.distance.di_sigma_floor_mps, 0.0, config.di.drift_scaling)
+    r_i = np.fmax(smoothed.var_m2, floor)
+    out = filter_distance(p.time_s, p.observed_m, smoothed.di_m, r_i, p.params)
     return smoothed, di_dr, out
 
 

@@ -39,12 +39,21 @@ class DistanceParams:
             "D_k = D_{k-1} + I_{k-1} (see docs/methods-ranging.md for the measurement)"
         },
     )
+    di_sigma_floor_mps: float = field(
+        default=0.02,
+        metadata={
+            "help": "floor of the DI error (relative velocity, m/s) in R_I, scaled over dt "
+            "like eq. (7): dead-reckoning DI errors are correlated, R_I must not vanish"
+        },
+    )
     di_accel_sigma: float = field(
         default=0.5,
         metadata={"help": "relative acceleration 1-sigma (m/s^2) behind w_I: q_I = (a * dt^2)^2"},
     )
 
     def __post_init__(self) -> None:
+        if self.di_sigma_floor_mps < 0:
+            raise ValueError(f"di_sigma_floor_mps must be >= 0, found {self.di_sigma_floor_mps}")
         if self.di_accel_sigma < 0:
             raise ValueError(f"di_accel_sigma must be >= 0, found {self.di_accel_sigma}")
 
