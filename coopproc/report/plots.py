@@ -52,7 +52,7 @@ def plot_distance_errors(
             continue
         err = _values(rows, method) - ref
         keep = np.isfinite(err)
-        ax.plot(t[keep], err[keep], gid=method, **method_style(method).kwargs())
+        ax.plot(t[keep], err[keep], gid=method, **method_style(method).kwargs(t[keep].size))
     if pair_events is not None:
         for i, (start, end) in enumerate(
             zip(_values(pair_events, "start"), _values(pair_events, "end"), strict=True)
@@ -80,7 +80,7 @@ def plot_di_errors(ax: Axes, pair_di: pd.DataFrame, *, time_origin_s: float = 0.
     for column, style in DI_STYLES.items():
         err = _values(rows, column) - ref
         keep = np.isfinite(err)
-        ax.plot(t[keep], err[keep], gid=column, **style.kwargs())
+        ax.plot(t[keep], err[keep], gid=column, **style.kwargs(t[keep].size))
     ax.axhline(0.0, color="0.3", linewidth=0.5, zorder=0)
     ax.set_ylabel("DI error (m)")
     return ax
@@ -102,7 +102,7 @@ def plot_position_errors(
         if not keep.any():
             continue
         t = _values(rows, "time") - time_origin_s
-        ax.plot(t[keep], err[keep], gid=method, **method_style(method).kwargs())
+        ax.plot(t[keep], err[keep], gid=method, **method_style(method).kwargs(t[keep].size))
     ax.set_ylabel("Horizontal error (m)")
     ax.set_ylim(bottom=0.0)
     return ax
@@ -162,7 +162,7 @@ def plot_trajectory(
         if not keep.any():
             continue
         style = METHOD_STYLES.get(method, method_style(method))
-        ax.plot(east[keep], north[keep], gid=method, **style.kwargs())
+        ax.plot(east[keep], north[keep], gid=method, **style.kwargs(east[keep].size))
         ax.plot(
             east[keep][:1],
             north[keep][:1],
