@@ -103,7 +103,7 @@ class FusionParams:
     )
     initial_sigma_m: float = field(
         default=1.0,
-        metadata={"help": "1-sigma (m) of a follower's first nav position"},
+        metadata={"help": "1-sigma (m) of a follower's first position when its nav has none"},
     )
     init_from_anchors: bool = field(
         default=True,
@@ -240,12 +240,10 @@ def _drift(session: Session, pid: str, params: FusionParams) -> float:
     return float(value) if value is not None and value > 0 else params.drift_sigma_mps
 
 
-def _leader_sigma(
-    session: Session, pid: str, times: FloatArray, params: FusionParams
-) -> FloatArray:
-    """1-sigma (K, 3) of a leader's own fix at ``times``."""
+def _nav_sigma(session: Session, pid: str, times: FloatArray, default_m: float) -> FloatArray:
+    """1-sigma (K, 3) of a platform's own nav at ``times``: its sigma columns, else default."""
     traj = session.nav[pid]
-    out = np.full((times.shape[0], 3), params.leader_sigma_m)
+    out = np.full((times.shape[0], 3), default_m)
     if traj.sigma_enu_m is not None:
         for axis in range(3):
             col = traj.sigma_enu_m[:, axis]
@@ -269,8 +267,10 @@ def _initial_state(
     x0 = nav[:, 0, :dim].reshape(-1).copy()
     sig = np.full(x0.shape[0], params.initial_sigma_m)
     for p, pid in enumerate(moving):
-        if session.platforms[pid].role == "leader":
-            sig[p * dim : (p + 1) * dim] = _leader_sigma(session, pid, epochs[:1], params)[0, :dim]
+        default = params.leader_sigma_m if session.platforms[pid].role == "leader" else None
+        sig[p * dim : (p + 1) * dim] = _nav_sigma(
+            session, pid, epochs[:1], default or sig[p * dim]
+        )[0, :dim]
     has_anchor = any(pl.role == "anchor" for pl in session.platforms.values())
     if params.init_from_anchors and has_anchor:
         lsq = dataclasses.replace(params.lsq, dims=dim)
@@ -349,7 +349,7 @@ def _observations(
     for pid in moving:
         if session.platforms[pid].role != "leader":
             continue
-        sig = _leader_sigma(session, pid, epochs, params)
+        sig = _nav_sigma(session, pid, epochs, params.leader_sigma_m)
         for axis in range(dim):
             parts.append(
                 {
