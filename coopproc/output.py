@@ -79,6 +79,7 @@ def run_tables(output: PipelineOutput, info: Mapping[str, Any]) -> RunTables:
         metrics=r.metrics,
         position_metrics=r.position_metrics,
         nlos_scores=output.nlos_scores,
+        nlos_event_scores=output.nlos_event_scores,
         info=dict(info),
     )
 
@@ -114,6 +115,7 @@ def write_run(
             write_csv(getattr(result, attr), tmp / name, columns) for name, attr, columns in TABLES
         ]
         tables.append(write_csv(output.nlos_scores, tmp / "nlos_scores.csv"))
+        tables.append(write_csv(output.nlos_event_scores, tmp / "nlos_event_scores.csv"))
         figures: list[Path] = []
         html = None
         if config.run.figures:

@@ -33,6 +33,7 @@ from coopproc.model import (
     pair_members,
 )
 from coopproc.report.metrics import distance_metrics, nlos_scores, position_metrics
+from coopproc.report.scores import nlos_event_scores
 from coopproc.stages.fusion import FusionOutput, fuse
 from coopproc.stages.ranging import run_ranging
 
@@ -48,6 +49,7 @@ class PipelineOutput:
 
     result: Result
     nlos_scores: pd.DataFrame
+    nlos_event_scores: pd.DataFrame
     timings_s: Mapping[str, float]
     sigma: Mapping[str, tuple[float, str]]
 
@@ -212,7 +214,13 @@ def run_pipeline(
             position_metrics=position_metrics(positions),
             facts={"sigma": {p: {"sigma_m": s, "source": src} for p, (s, src) in sigma.items()}},
         )
-    return PipelineOutput(result=result, nlos_scores=scores, timings_s=timings, sigma=sigma)
+    return PipelineOutput(
+        result=result,
+        nlos_scores=scores,
+        nlos_event_scores=nlos_event_scores(table, ranging.nlos_events),
+        timings_s=timings,
+        sigma=sigma,
+    )
 
 
 def _row_sigma(session: Session, table: pd.DataFrame) -> pd.Series:
