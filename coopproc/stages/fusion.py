@@ -204,9 +204,7 @@ def fuse(
     q = q_plat.T.repeat(dim, axis=1)  # (K, n)
     x0, c0 = _initial_state(session, rows, ep_idx, epochs, nav, moving, params)
     obs = _observations(session, rows, ep_idx, epochs, nav, moving, anchors, params)
-    order = np.lexsort((obs["order"], obs["epoch"]))
-    obs = {k: v[order] for k, v in obs.items()}
-    obs_ptr = np.searchsorted(obs["epoch"], np.arange(n_ep + 1)).astype(np.int64)
+    obs_ptr = obs["ptr"]
     smooth = params.smoother and n_ep > 1
     xs_f, var_f, covs, gamma, innov = ekf_forward(
         x0, c0, u, q, obs_ptr, obs["kind"], obs["a"], obs["b"], obs["anchor"], obs["dz2"],
@@ -299,7 +297,7 @@ def _observations(
     anchors: Mapping[str, FloatArray],
     params: FusionParams,
 ) -> dict[str, np.ndarray]:
-    """Flat observation arrays (ranges, then leader fixes), unsorted."""
+    """Flat observation arrays in epoch order and the epoch pointers ``ptr`` (K + 1)."""
     dim = params.dims
     index = {pid: i for i, pid in enumerate(moving)}
     a_from = platform_codes(rows["from"], moving)
@@ -330,42 +328,44 @@ def _observations(
     up_a = nav[a, ep_idx, 2]
     up_b = np.where(both, nav[np.maximum(b, 0), ep_idx, 2], anchor[:, 2])
     dz2 = (up_a - up_b) ** 2 if dim == 2 else np.zeros(len(rows))
-    parts = [
-        {
-            "epoch": ep_idx.astype(np.int64),
-            "order": np.arange(len(rows), dtype=np.int64) + 1_000_000_000,
-            "kind": np.where(both, OBS_RANGE, OBS_ANCHOR).astype(np.int64),
-            "a": a,
-            "b": b,
-            "anchor": anchor,
-            "dz2": dz2,
-            "z": rows["range"].to_numpy(np.float64),
-            "var": rows["var"].to_numpy(np.float64),
-            "row": np.arange(len(rows), dtype=np.int64),
-        }
-    ]
+    # layout in epoch order: each epoch's leader fixes, then its ranges (rows are sorted)
     n_ep = nav.shape[1]
-    epochs_idx = np.arange(n_ep, dtype=np.int64)
-    for pid in moving:
-        if session.platforms[pid].role != "leader":
-            continue
+    leaders = [pid for pid in moving if session.platforms[pid].role == "leader"]
+    n_lead = len(leaders) * dim
+    counts = np.bincount(ep_idx, minlength=n_ep) + n_lead
+    ptr = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
+    total = int(ptr[-1])
+    first_row = np.searchsorted(ep_idx, np.arange(n_ep))
+    at = ptr[ep_idx] + n_lead + (np.arange(len(rows)) - first_row[ep_idx])
+    obs: dict[str, np.ndarray] = {
+        "epoch": np.repeat(np.arange(n_ep, dtype=np.int64), counts),
+        "kind": np.full(total, OBS_POSITION, dtype=np.int64),
+        "a": np.zeros(total, dtype=np.int64),
+        "b": np.zeros(total, dtype=np.int64),
+        "anchor": np.zeros((total, 3)),
+        "dz2": np.zeros(total),
+        "z": np.zeros(total),
+        "var": np.ones(total),
+        "row": np.full(total, -1, dtype=np.int64),
+    }
+    obs["kind"][at] = np.where(both, OBS_RANGE, OBS_ANCHOR)
+    obs["a"][at] = a
+    obs["b"][at] = b
+    obs["anchor"][at] = anchor
+    obs["dz2"][at] = dz2
+    obs["z"][at] = rows["range"].to_numpy(np.float64)
+    obs["var"][at] = rows["var"].to_numpy(np.float64)
+    obs["row"][at] = np.arange(len(rows), dtype=np.int64)
+    for j, pid in enumerate(leaders):
         sig = _nav_sigma(session, pid, epochs, params.leader_sigma_m)
         for axis in range(dim):
-            parts.append(
-                {
-                    "epoch": epochs_idx,
-                    "order": np.full(n_ep, index[pid] * 3 + axis, dtype=np.int64),
-                    "kind": np.full(n_ep, OBS_POSITION, dtype=np.int64),
-                    "a": np.full(n_ep, index[pid], dtype=np.int64),
-                    "b": np.full(n_ep, axis, dtype=np.int64),
-                    "anchor": np.zeros((n_ep, 3)),
-                    "dz2": np.zeros(n_ep),
-                    "z": nav[index[pid], :, axis].copy(),
-                    "var": sig[:, axis] ** 2,
-                    "row": np.full(n_ep, -1, dtype=np.int64),
-                }
-            )
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+            slot = ptr[:-1] + j * dim + axis
+            obs["a"][slot] = index[pid]
+            obs["b"][slot] = axis
+            obs["z"][slot] = nav[index[pid], :, axis]
+            obs["var"][slot] = sig[:, axis] ** 2
+    obs["ptr"] = ptr
+    return obs
 
 
 def _trajectories(

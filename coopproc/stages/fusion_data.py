@@ -91,7 +91,9 @@ def clean_ranges(session: Session, ranges: pd.DataFrame, default_sigma_m: float)
         raise StageError(f"fusion: range from '{row['from']}' to itself at time {row['time']}")
     is_anchor = np.array([session.platforms[p].role == "anchor" for p in ids], dtype=bool)
     frame = frame[~(is_anchor[codes["from"]] & is_anchor[codes["to"]])]
-    return frame.sort_values("time", kind="stable").reset_index(drop=True)
+    if not frame["time"].is_monotonic_increasing:
+        frame = frame.sort_values("time", kind="stable")
+    return frame.reset_index(drop=True)
 
 
 def epoch_groups(time_s: FloatArray, merge_s: float) -> tuple[FloatArray, np.ndarray]:
