@@ -5,7 +5,7 @@ from __future__ import annotations
 import inspect
 import tomllib
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import click
 
@@ -47,6 +47,13 @@ _SCENARIO_HELP = "\n".join(f"  {name}" for name in SCENARIOS)
 @click.option("--duration", type=float, default=None, help="Session length, s (scenario default).")
 @click.option("--platforms", type=int, default=None, help="Number of platforms (scenario default).")
 @click.option("--mcap", is_flag=True, help="Also write the session as one MCAP file in OUT/mcap/.")
+@click.option(
+    "--mcap-encoding",
+    type=click.Choice(["json", "ros2"]),
+    default="json",
+    show_default=True,
+    help="Message encoding of the MCAP file.",
+)
 @click.option("--force", is_flag=True, help="Replace OUT if it exists.")
 @click.option(
     "--set",
@@ -62,6 +69,7 @@ def simulate(
     duration: float | None,
     platforms: int | None,
     mcap: bool,
+    mcap_encoding: Literal["json", "ros2"],
     force: bool,
     settings: tuple[str, ...],
 ) -> None:
@@ -72,7 +80,7 @@ def simulate(
     sim = run_simulation(
         scenario, seed=seed, duration_s=duration, platforms=platforms, **_parse_set(settings)
     )
-    files = write_simulation(sim, out, mcap=mcap, force=force)
+    files = write_simulation(sim, out, mcap=mcap, force=force, mcap_encoding=mcap_encoding)
     session = sim.session
     click.echo(
         f"{out}: {scenario} seed {seed}, {sim.truth.params.duration_s:g} s, "

@@ -22,7 +22,7 @@ from __future__ import annotations
 import dataclasses
 import json
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import pandas as pd
 import tomli_w
@@ -79,11 +79,17 @@ def write_truth(
 
 
 def write_simulation(
-    sim: Simulation, out_dir: Path, *, mcap: bool = False, force: bool = False
+    sim: Simulation,
+    out_dir: Path,
+    *,
+    mcap: bool = False,
+    force: bool = False,
+    mcap_encoding: Literal["json", "ros2"] = "json",
 ) -> list[Path]:
     """Write the session files and ``truth/`` into ``out_dir``; returns the final paths.
 
-    ``mcap``: also write the same session as one MCAP file ``mcap/<scenario>.mcap``.
+    ``mcap``: also write the same session as one MCAP file ``mcap/<scenario>.mcap``
+    (``mcap_encoding``: JSON channels or ROS 2 CDR messages).
     An existing non-empty ``out_dir`` is replaced only with ``force``.
     """
     from coopproc.io import write_mcap, write_session
@@ -93,11 +99,13 @@ def write_simulation(
         written = list(write_session(sim.session, tmp))
         if mcap:
             (tmp / "mcap").mkdir()
-            written.append(write_mcap(sim.session, tmp / "mcap" / f"{sim.scenario}.mcap"))
+            target = tmp / "mcap" / f"{sim.scenario}.mcap"
+            written.append(write_mcap(sim.session, target, encoding=mcap_encoding))
         header = {"scenario": sim.scenario, "seed": sim.seed}
         written.extend(write_truth(sim.truth, tmp / "truth", header=header))
         readme = tmp / "README.md"
-        readme.write_text(describe_simulation(sim, out_dir.name, mcap=mcap), encoding="utf-8")
+        text = describe_simulation(sim, out_dir.name, mcap=mcap, mcap_encoding=mcap_encoding)
+        readme.write_text(text, encoding="utf-8")
         written.append(readme)
         relative = [Path(p).resolve().relative_to(tmp.resolve()) for p in written]
     return [out_dir / rel for rel in relative]
@@ -119,7 +127,9 @@ def _toml_value(value: Any) -> str:
     return "[" + ", ".join(_toml_value(v) for v in value) + "]"
 
 
-def command_line(sim: Simulation, out_name: str, *, mcap: bool = False) -> str:
+def command_line(
+    sim: Simulation, out_name: str, *, mcap: bool = False, mcap_encoding: str = "json"
+) -> str:
     """A ``coopproc simulate`` command that makes ``sim`` again (overrides as --set TOML)."""
     from coopproc.sim.engine import scenario_params
 
@@ -139,10 +149,14 @@ def command_line(sim: Simulation, out_name: str, *, mcap: bool = False) -> str:
         parts += ["--set", f"'{text}'" if any(c in text for c in ' []{}"') else text]
     if mcap:
         parts.append("--mcap")
+        if mcap_encoding != "json":
+            parts += ["--mcap-encoding", mcap_encoding]
     return " ".join(parts)
 
 
-def describe_simulation(sim: Simulation, out_name: str, *, mcap: bool = False) -> str:
+def describe_simulation(
+    sim: Simulation, out_name: str, *, mcap: bool = False, mcap_encoding: str = "json"
+) -> str:
     """The README.md of a simulated session directory."""
     from coopproc.sim.scenarios import SCENARIOS
 
@@ -159,7 +173,7 @@ def describe_simulation(sim: Simulation, out_name: str, *, mcap: bool = False) -
         "Made with (byte-for-byte reproducible):",
         "",
         "```",
-        command_line(sim, out_name, mcap=mcap),
+        command_line(sim, out_name, mcap=mcap, mcap_encoding=mcap_encoding),
         "```",
         "",
         "## What is in it",
@@ -179,7 +193,10 @@ def describe_simulation(sim: Simulation, out_name: str, *, mcap: bool = False) -
         "- `session.toml`: roles, drift sigmas, origin, time base, UWB sigma",
     ]
     if mcap:
-        lines.append(f"- `mcap/{sim.scenario}.mcap`: the same session as one MCAP file (JSON)")
+        encoding = "ROS 2 CDR" if mcap_encoding == "ros2" else "JSON"
+        lines.append(
+            f"- `mcap/{sim.scenario}.mcap`: the same session as one MCAP file ({encoding})"
+        )
     lines += [
         "- `truth/`: what a real recording cannot give: `traj_<ID>.csv` true trajectories, "
         "`distances.csv` true distance and total range error at every range, "

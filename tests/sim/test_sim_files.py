@@ -116,3 +116,20 @@ def test_shipped_sample_logs_are_what_the_simulator_makes(tmp_path: Path) -> Non
         f"sample_logs/ is stale ({stale}); regenerate: coopproc simulate sample_logs "
         "--scenario paper-experiment --seed 0 --mcap --force"
     )
+
+
+def test_anchors_through_ros2_mcap(tmp_path: Path) -> None:
+    sim = simulate("anchors", seed=2, duration_s=120.0)
+    write_simulation(sim, tmp_path / "a", mcap=True, mcap_encoding="ros2")
+    back = read_session(tmp_path / "a" / "mcap" / "anchors.mcap")
+    anchors = {p: spec for p, spec in back.platforms.items() if spec.role == "anchor"}
+    assert sorted(anchors) == [f"AN{k}" for k in range(1, 7)]
+    for pid, spec in anchors.items():
+        assert spec.position_enu_m is not None
+        np.testing.assert_allclose(
+            spec.position_enu_m, sim.session.platforms[pid].position_enu_m, atol=1e-6
+        )
+    np.testing.assert_allclose(
+        back.ranges.frame["range"], sim.session.ranges.frame["range"], atol=1e-6
+    )
+    np.testing.assert_allclose(back.nav["tag"].enu_m, sim.session.nav["tag"].enu_m, atol=1e-5)
