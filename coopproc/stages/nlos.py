@@ -29,9 +29,11 @@ RN method (``one_shot = True``, paper 000 ref. [2]): eps estimated once, at dete
 that epoch's residual, and held; no back-dating, no false-alarm rejection.
 
 Adaptive sigma (paper 000 ref. [37], Mohamed & Schwarz): when the UWB sigma is unknown,
-R_hat = mean(r^2) - mean(P_DD) over the last ``adaptive_n`` line-of-sight innovations
-(after the DI update), floored at ``min_sigma``; before ``adaptive_min_n`` innovations the
-initial sigma is used.
+sigma'^2 = mean(r^2) over the last ``adaptive_n`` line-of-sight residuals (after the DI
+update, winsorized at gamma_max), floored at ``min_sigma``: the windowed innovation
+covariance C_v without subtracting H P- H^T (sigma' sets gamma_max, and the eq. (9)
+residual includes the prediction error). Before ``adaptive_min_n`` residuals the initial
+sigma is used (a robust MAD estimate from the range differences, see ranging.py).
 """
 
 from __future__ import annotations
@@ -123,11 +125,9 @@ def _kernel(
     s_pdi = np.zeros(n)
     s_pii = np.zeros(n)
     ring_v2 = np.zeros(max(adaptive_n, 1))
-    ring_p = np.zeros(max(adaptive_n, 1))
     ring_count = 0
     ring_pos = 0
     sum_v2 = 0.0
-    sum_p = 0.0
     if n == 0:
         return out_d, flag, est_out, event, step_est, sigma_out, resid
     adaptive = sigma_known <= 0.0
@@ -178,13 +178,27 @@ def _kernel(
         if adaptive:
             sigma = sigma_init
             if ring_count >= adaptive_min_n:
-                r_hat = (sum_v2 - sum_p) / ring_count
+                # Mohamed & Schwarz's windowed innovation covariance C_v. Their R = C_v -
+                # H P- H^T is not subtracted: the eq. (9) residual carries the prediction
+                # error too, and sigma' sets gamma_max (measured: fewer false flags).
+                r_hat = sum_v2 / ring_count
                 sigma = np.sqrt(max(r_hat, min_sigma * min_sigma))
         r = rng[k] - d  # paper 000, eq. (9) residual (D' = d, eq. (10))
         resid[k] = r
         gamma = gamma_sigma * sigma
         use = 0  # 0 no range update, 1 raw range, 2 range - eps_hat
         done = False
+        if mode == 0 and adaptive:
+            # every line-of-sight innovation, winsorized at gamma_max (excluding the
+            # suspects would truncate the sample and shrink the estimate)
+            v2 = min(r * r, gamma * gamma)
+            if ring_count == adaptive_n:
+                sum_v2 -= ring_v2[ring_pos]
+            else:
+                ring_count += 1
+            ring_v2[ring_pos] = v2
+            sum_v2 += v2
+            ring_pos = (ring_pos + 1) % adaptive_n
         if mode == 0:
             if abs(r) > gamma:
                 start = k
@@ -321,17 +335,6 @@ def _kernel(
             in_event[k] = 1
         if use > 0:
             r2 = sigma * sigma
-            if use == 1 and adaptive:
-                if ring_count == adaptive_n:
-                    sum_v2 -= ring_v2[ring_pos]
-                    sum_p -= ring_p[ring_pos]
-                else:
-                    ring_count += 1
-                ring_v2[ring_pos] = r * r
-                ring_p[ring_pos] = p_dd
-                sum_v2 += r * r
-                sum_p += p_dd
-                ring_pos = (ring_pos + 1) % adaptive_n
             z = rng[k] - est if use == 2 else rng[k]
             s_var = p_dd + r2
             k_d = p_dd / s_var
