@@ -53,6 +53,7 @@ from coopproc.stages.fusion_ekf import (
     ekf_forward,
     rts_backward,
 )
+from coopproc.stages.fusion_output import trajectories_from_states
 from coopproc.stages.lsq import LsqParams, robust_lsq_positions
 
 __all__ = ["FusionOutput", "FusionParams", "fuse", "fusion_params_from_toml"]
@@ -216,8 +217,9 @@ def fuse(
     else:
         xs_s, var_s = xs_f, var_f
     del covs
-    forward = _trajectories(session, moving, epochs, nav, xs_f, var_f, dim, output, hold=True)
-    smoothed = _trajectories(session, moving, epochs, nav, xs_s, var_s, dim, output, hold=False)
+    common = (session, moving, epochs, nav)
+    forward = trajectories_from_states(*common, xs_f, var_f, dim, output, hold=True)
+    smoothed = trajectories_from_states(*common, xs_s, var_s, dim, output, hold=False)
     is_range = obs["kind"] != OBS_POSITION
     row_of = obs["row"][is_range]
     table = pd.DataFrame(
@@ -366,48 +368,3 @@ def _observations(
             obs["var"][slot] = sig[:, axis] ** 2
     obs["ptr"] = ptr
     return obs
-
-
-def _trajectories(
-    session: Session,
-    moving: list[str],
-    epochs: FloatArray,
-    nav: FloatArray,
-    xs: FloatArray,
-    var: FloatArray,
-    dim: int,
-    output: str,
-    *,
-    hold: bool,
-) -> dict[str, Trajectory]:
-    """One Trajectory per platform at the epochs, or at its nav times (``output="nav"``).
-
-    At nav rate the correction (fused minus nav) is carried between epochs: held from the
-    last epoch for the causal ``forward`` solution, linearly interpolated for the smoothed.
-    """
-    out: dict[str, Trajectory] = {}
-    for p, pid in enumerate(moving):
-        est = xs[:, p * dim : (p + 1) * dim]
-        sig = np.full((epochs.shape[0], 3), np.nan)
-        sig[:, :dim] = np.sqrt(np.maximum(var[:, p * dim : (p + 1) * dim], 0.0))
-        if output == "ranges":
-            enu = nav[p].copy()
-            enu[:, :dim] = est
-            out[pid] = Trajectory(pid, epochs.copy(), enu, sigma_enu_m=sig, source="fusion")
-            continue
-        traj = session.nav[pid]
-        sel = (traj.time_s >= epochs[0]) & (traj.time_s <= epochs[-1])
-        times = traj.time_s[sel]
-        enu = traj.enu_m[sel].copy()
-        corr = est - nav[p, :, :dim]
-        if hold:
-            k = np.clip(np.searchsorted(epochs, times, side="right") - 1, 0, None)
-            enu[:, :dim] += corr[k]
-            sig_t = sig[k]
-        else:
-            sig_t = np.full((times.shape[0], 3), np.nan)
-            for axis in range(dim):
-                enu[:, axis] += np.interp(times, epochs, corr[:, axis])
-                sig_t[:, axis] = np.interp(times, epochs, sig[:, axis])
-        out[pid] = Trajectory(pid, times, enu, sigma_enu_m=sig_t, source="fusion")
-    return out
