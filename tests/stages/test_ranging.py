@@ -98,7 +98,7 @@ def test_tables_follow_the_data_contract(result) -> None:
 
 
 def test_nlos_event_detected_and_estimated(result) -> None:
-    session, out = result
+    _, out = result
     ev = out.nlos_events
     di = ev[(ev["pair"] == "A-B") & (ev["method"] == "di")]
     assert len(di) == 1
@@ -134,7 +134,7 @@ def test_processed_ranges_beat_the_observed(result) -> None:
 
 
 def test_di_table(result) -> None:
-    session, out = result
+    _, out = result
     d = out.di[out.di["pair"] == "A-C"]
     ref = out.ranges[out.ranges["pair"] == "A-C"]["reference"].to_numpy()
     assert d["di_reference"].to_numpy()[1:] == pytest.approx(np.diff(ref))

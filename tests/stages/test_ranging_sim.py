@@ -46,7 +46,7 @@ def _estimate_errors(events: pd.DataFrame, truth: pd.DataFrame, method: str) -> 
 
 
 def test_paper_table1() -> None:
-    ranges, truth, out = _run("paper-table1")
+    _, truth, out = _run("paper-table1")
     di = _estimate_errors(out.nlos_events, truth, "di")
     rn = _estimate_errors(out.nlos_events, truth, "rn")
     print("\nTable 1 (paper-table1, seed 0): NLOS estimate error against the realized mean")
