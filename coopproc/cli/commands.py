@@ -11,6 +11,7 @@ __all__ = ["load"]
 #: (module under coopproc.cli, attribute) of every command.
 COMMANDS: tuple[tuple[str, str], ...] = (
     # registry: add one line per command
+    ("locate", "locate"),
     ("simulate", "simulate"),
     ("validate", "validate"),
     ("info", "info"),

@@ -6,6 +6,7 @@ from coopproc.stages.particle.locate import (
     LocateResult,
     locate,
     locate_params,
+    observability_table,
     with_seed,
 )
 from coopproc.stages.particle.params import LocateParams
@@ -17,5 +18,6 @@ __all__ = [
     "LocateResult",
     "locate",
     "locate_params",
+    "observability_table",
     "with_seed",
 ]

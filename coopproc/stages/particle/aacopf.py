@@ -56,6 +56,7 @@ from coopproc.stages.particle.core import (
 )
 from coopproc.stages.particle.inputs import LocateInputs
 from coopproc.stages.particle.params import LocateParams
+from coopproc.stages.particle.pf import systematic_resample
 
 __all__ = ["AuxMonitor", "run_aacopf"]
 
@@ -164,6 +165,14 @@ def run_aacopf(inputs: LocateInputs, params: LocateParams, seed: int) -> Track:
             params.aco_weight_gate,
         )
         cloud.take(idx)
-        with np.errstate(divide="ignore"):
-            cloud.log_w = np.log(share_weights(w, idx))
+        w = share_weights(w, idx)
+        settled = n_j == 1 or bool(monitor.judged.all())
+        if settled and 1.0 / float(w @ w) < params.ess_min * cloud.size:
+            # degeneracy guard (once every auxiliary is judged): systematic resampling,
+            # weights 1 / (N x M) as step 5 says
+            cloud.take(systematic_resample(w, float(rng.random())))
+            cloud.log_w = np.full(cloud.size, -np.log(cloud.size))
+        else:
+            with np.errstate(divide="ignore"):
+                cloud.log_w = np.log(w)
     return builder.build(rejected=rejected)

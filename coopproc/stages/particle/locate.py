@@ -33,6 +33,7 @@ __all__ = [
     "LocateResult",
     "locate",
     "locate_params",
+    "observability_table",
     "with_seed",
 ]
 
@@ -201,3 +202,18 @@ def locate(session: Session, target: str, aux: Sequence[str], params: LocatePara
 def with_seed(params: LocateParams, seed: int | None) -> LocateParams:
     """``params`` with another seed (None: unchanged)."""
     return params if seed is None else dataclasses.replace(params, seed=seed)
+
+
+def observability_table(result: LocateResult) -> pd.DataFrame:
+    """``observability.csv``: the singular values of R_k (eq. (19)) and the verdict."""
+    obs = result.observability
+    start = obs.observable_from
+    return pd.DataFrame(
+        {
+            "sigma1": [obs.singular_values[0]],
+            "sigma2": [obs.singular_values[1]],
+            "sigma3": [obs.singular_values[2]],
+            "observable": [int(obs.observable)],
+            "observable_from": [np.nan if start is None else float(result.inputs.time_s[start])],
+        }
+    )

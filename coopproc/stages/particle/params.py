@@ -43,6 +43,10 @@ class LocateParams:
         default=0.001,
         metadata={"help": "only particles lighter than this x the heaviest move (ACO step)"},
     )
+    ess_min: float = field(
+        default=0.5,
+        metadata={"help": "AACOPF: resample systematically when ESS < this x N x M (0: never)"},
+    )
     Omega1: float = field(
         default=0.3, metadata={"help": "rejection threshold on |mean| of an aux's residuals, m"}
     )

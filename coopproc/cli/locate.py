@@ -1,0 +1,102 @@
+"""``coopproc locate SESSION --target ID --aux ID[,ID] -o OUT``: paper 004 localization."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import click
+
+from coopproc.errors import ConfigError
+
+__all__ = ["locate"]
+
+
+def _read_config(path: Path | None) -> dict[str, object]:
+    """The ``[locate]`` table of a TOML file (the whole file if it has no such table)."""
+    if path is None:
+        return {}
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
+        raise ConfigError(f"{path}: cannot read the configuration: {err}") from err
+    table = data.get("locate", data)
+    if not isinstance(table, dict):
+        raise ConfigError(f"{path} [locate]: expected a table")
+    return table
+
+
+@click.command()
+@click.argument("session", type=click.Path(exists=True, path_type=Path))
+@click.option("--target", required=True, help="Id of the platform to localize.")
+@click.option("--aux", "aux", required=True, help="Auxiliary platform id(s), comma separated.")
+@click.option(
+    "-o",
+    "--output",
+    "out_dir",
+    required=True,
+    type=click.Path(path_type=Path),
+    help="Output directory (replaced only with --force).",
+)
+@click.option(
+    "-c",
+    "--config",
+    "config_path",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    help="TOML file with a [locate] table (N, M, alpha, beta, lambda, Omega1, ...).",
+)
+@click.option("--force", is_flag=True, help="Replace an existing output directory.")
+@click.option("--seed", type=int, default=None, help="Random seed (overrides the config).")
+@click.option("--no-figures", is_flag=True, help="Write the tables only.")
+def locate(
+    session: Path,
+    target: str,
+    aux: str,
+    out_dir: Path,
+    config_path: Path | None,
+    force: bool,
+    seed: int | None,
+    no_figures: bool,
+) -> None:
+    """Localize TARGET (dead reckoning only, unknown start and azimuth) from its UWB
+    ranges to one or more moving auxiliaries (paper 004): AACOPF, standard PF and EKF.
+
+    Writes OUT/locate.csv, OUT/locate_summary.csv, OUT/observability.csv and
+    OUT/figures/; see docs/locate.md.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+
+    from coopproc.io import read_session
+    from coopproc.outdir import atomic_output_dir, write_csv
+    from coopproc.report.locate_figures import write_locate_figures
+    from coopproc.stages.particle import (
+        LOCATE_COLUMNS,
+        LOCATE_SUMMARY_COLUMNS,
+        locate_params,
+        observability_table,
+        with_seed,
+    )
+    from coopproc.stages.particle import locate as run_locate
+
+    params = with_seed(locate_params(_read_config(config_path), f"{config_path} [locate]"), seed)
+    aux_ids = [a.strip() for a in aux.split(",") if a.strip()]
+    data = read_session(session)
+    result = run_locate(data, target, aux_ids, params)
+    for warning in result.warnings:
+        click.echo(f"warning: {warning}", err=True)
+    with atomic_output_dir(out_dir, force=force, protect=[session]) as tmp:
+        write_csv(result.table, tmp / "locate.csv", LOCATE_COLUMNS)
+        write_csv(result.summary, tmp / "locate_summary.csv", LOCATE_SUMMARY_COLUMNS)
+        write_csv(observability_table(result), tmp / "observability.csv")
+        if not no_figures:
+            write_locate_figures(result, tmp / "figures")
+    for row in result.summary.itertuples(index=False):
+        err = "" if row.azimuth_error != row.azimuth_error else f" ({row.azimuth_error:+.2f})"
+        rmse = "-" if row.rmse_h != row.rmse_h else f"{row.rmse_h:.3f} m"
+        click.echo(
+            f"{row.method:>6}: initial azimuth {row.initial_azimuth:.2f} deg{err}, "
+            f"rmse_h {rmse}, observable {row.observable}"
+        )
+    click.echo(f"wrote {out_dir}")
