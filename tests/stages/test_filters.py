@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from coopproc.stages.filters import (
     GAMMA_REJECT,
@@ -163,3 +165,19 @@ def test_compiled_epoch_update_equals_batch_ekf_update() -> None:
     assert covs[0] == pytest.approx(c_ref, abs=1e-12)
     assert var[0] == pytest.approx(np.diag(c_ref), abs=1e-12)
     assert gamma == pytest.approx(np.ones(3))
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    s=st.floats(-50, 50, allow_nan=False),
+    t=st.floats(-50, 50, allow_nan=False),
+    k0=st.floats(2.5, 3.5),
+    k1=st.floats(3.6, 4.5),
+)
+def test_igg3_invariants(s: float, t: float, k0: float, k1: float) -> None:
+    gs, gt = float(igg3_factor(s, k0, k1)), float(igg3_factor(t, k0, k1))
+    assert GAMMA_REJECT <= gs <= 1.0
+    assert float(igg3_factor(-s, k0, k1)) == gs  # symmetric in the innovation's sign
+    if abs(s) <= abs(t):
+        assert gs >= gt  # a larger standardized innovation never gets more weight
+    assert igg3_scalar(s, k0, k1) == pytest.approx(gs, rel=1e-12)
