@@ -65,6 +65,7 @@ def locate(
     OUT/figures/; see docs/locate.md.
     """
     import matplotlib
+    import numpy as np
 
     matplotlib.use("Agg")
 
@@ -92,11 +93,13 @@ def locate(
         write_csv(observability_table(result), tmp / "observability.csv")
         if not no_figures:
             write_locate_figures(result, tmp / "figures")
-    for row in result.summary.itertuples(index=False):
-        err = "" if row.azimuth_error != row.azimuth_error else f" ({row.azimuth_error:+.2f})"
-        rmse = "-" if row.rmse_h != row.rmse_h else f"{row.rmse_h:.3f} m"
+    for row in result.summary.to_dict("records"):
+        az_err = float(row["azimuth_error"])
+        rmse = float(row["rmse_h"])
+        err = "" if np.isnan(az_err) else f" ({az_err:+.2f})"
+        rmse_text = "-" if np.isnan(rmse) else f"{rmse:.3f} m"
         click.echo(
-            f"{row.method:>6}: initial azimuth {row.initial_azimuth:.2f} deg{err}, "
-            f"rmse_h {rmse}, observable {row.observable}"
+            f"{row['method']:>6}: initial azimuth {float(row['initial_azimuth']):.2f} deg{err}, "
+            f"rmse_h {rmse_text}, observable {int(row['observable'])}"
         )
     click.echo(f"wrote {out_dir}")
