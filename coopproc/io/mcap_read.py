@@ -33,6 +33,7 @@ from coopproc.io._common import (
     one_line,
 )
 from coopproc.io.csv_traj import trajectory_from_frame
+from coopproc.io.mcap_json import fast_json_frame
 from coopproc.io.mcap_scan import Channel, RawMcap, scan_mcap
 from coopproc.io.ranges_csv import RangesRead, range_table_from_frame
 from coopproc.io.session_toml import McapMapping
@@ -72,7 +73,7 @@ def decode_mcap(raw: RawMcap, mapping: McapMapping) -> McapContent:
     range_frames: list[pd.DataFrame] = []
     range_where: Locator | None = None
     for ch in raw.channels.values():
-        if not ch.data:
+        if not len(ch):
             continue
         where = Locator(raw.path, record=_record_namer(ch.topic))
         try:
@@ -95,7 +96,7 @@ def decode_mcap(raw: RawMcap, mapping: McapMapping) -> McapContent:
         except InputError as err:
             problems.append(err)
             continue
-        out.notes.append(f"{raw.path}: topic {ch.topic} ({len(ch.data)} messages) not used")
+        out.notes.append(f"{raw.path}: topic {ch.topic} ({len(ch)} messages) not used")
     if range_frames and range_where is not None:
         frame = (
             pd.concat(range_frames, ignore_index=True) if len(range_frames) > 1 else range_frames[0]
@@ -134,7 +135,9 @@ def _json_rows(ch: Channel, where: Locator) -> list[dict[str, Any]]:
 
 
 def _json_frame(ch: Channel, where: Locator) -> pd.DataFrame:
-    frame = pd.DataFrame.from_records(_json_rows(ch, where))
+    frame = fast_json_frame(ch)
+    if frame is None:
+        frame = pd.DataFrame.from_records(_json_rows(ch, where))
     if "time" not in frame.columns:
         frame.insert(0, "time", np.asarray(ch.log_time_ns, dtype=np.float64) * 1e-9)
     return frame
