@@ -173,6 +173,12 @@ def _stamp_times(msgs: list[Any], ch: Channel) -> np.ndarray:
 
 
 def _trajectory(ch: Channel, pid: str, where: Locator) -> RawTrajectory:
+    raw = _read_trajectory(ch, pid, where)
+    raw.source = f"{where.path} {ch.topic}"
+    return raw
+
+
+def _read_trajectory(ch: Channel, pid: str, where: Locator) -> RawTrajectory:
     if ch.message_encoding == "json":
         return trajectory_from_frame(_json_frame(ch, where), pid, where)
     msgs = _decoded(ch, where)
