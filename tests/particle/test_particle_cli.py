@@ -59,7 +59,7 @@ def test_locate_writes_the_tables_and_figures(session_dir, config_file, tmp_path
     assert (s["observable"] == 1).all()
     aacopf = table[table["method"] == "aacopf"]
     assert np.max(aacopf["error_h"].to_numpy()[-60:]) < 0.5
-    assert abs(s.loc["aacopf", "azimuth_error"]) < 3.0
+    assert abs(s.loc["aacopf", "azimuth_error"]) < 1.0
     obs = pd.read_csv(out / "observability.csv")
     assert obs.loc[0, "observable"] == 1 and obs.loc[0, "sigma3"] > 0
     for name in ("locate_trajectories", "locate_errors", "locate_particles"):

@@ -15,7 +15,7 @@ from coopproc.stages.particle import (
     locate_params,
 )
 
-# 40 ring positions x 120 azimuths: the azimuth grid (3 deg) bounds the eq. (16) error
+# 40 ring positions x 120 azimuths: small enough for a fast test, fine enough to converge
 SMALL = {"N": 40, "M": 120, "seed": 2}
 
 
@@ -44,11 +44,11 @@ def test_moving_auxiliary_converges(moving) -> None:
         err = result.table[result.table["method"] == method]["error_h"].to_numpy()
         assert err[0] > 5.0  # no prior: it starts anywhere on the ring
         assert np.max(err[-60:]) < 0.5, method  # and tracks once observable
-        assert abs(s.loc[method, "azimuth_error"]) < 3.0, method  # grid step 3 deg
+        assert abs(s.loc[method, "azimuth_error"]) < 1.0, method  # acceptance: < 1 deg
         assert s.loc[method, "converged_at"] < 60.0, method
     # the reference initial azimuth is the simulated truth
     assert result.reference_initial_azimuth_deg == pytest.approx(heading0[0], abs=0.5)
-    assert abs(s.loc["aacopf", "initial_azimuth"] - heading0[0]) < 3.0
+    assert abs(s.loc["aacopf", "initial_azimuth"] - heading0[0]) < 1.5
 
 
 def test_observability_of_the_run(moving) -> None:

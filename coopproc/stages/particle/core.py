@@ -60,15 +60,17 @@ class Track:
     north_m: FloatArray
     #: Estimated azimuth at each epoch (math angle, rad).
     phi_rad: FloatArray
-    #: The initial azimuth (math angle, rad) estimated at each epoch (weighted mean over
-    #: the particles' lineages for the particle filters).
+    #: The initial azimuth (math angle, rad) estimated at each epoch: the estimated azimuth
+    #: minus the target's own-frame turn since the first epoch.
     initial_azimuth_track_rad: FloatArray
-    #: Final initial-azimuth estimate (eq. (16) for the particle filters), math angle, rad.
+    #: Final initial-azimuth estimate (the last value of the track), math angle, rad.
     initial_azimuth_rad: float
     #: (time, (S, 2) east/north of a seeded subsample of the particles) at a few epochs.
     snapshots: tuple[tuple[float, FloatArray], ...] = ()
     #: (E, J) True where an auxiliary was rejected at that epoch (AACOPF step 3).
     rejected: np.ndarray | None = None
+    #: Eq. (16) literally: the initial azimuth of the heaviest particle's lineage (rad).
+    initial_azimuth_eq16_rad: float | None = None
 
 
 def init_cloud(inputs: LocateInputs, params: LocateParams, rng: np.random.Generator) -> Cloud:
@@ -166,7 +168,6 @@ class TrackBuilder:
         self.east = np.empty(e)
         self.north = np.empty(e)
         self.phi = np.empty(e)
-        self.mean_phi0 = np.empty(e)
         count = min(params.snapshots, e)
         self.snap_epochs = (
             set(np.unique(np.geomspace(1, e, count).astype(int) - 1).tolist()) if count else set()
@@ -176,6 +177,11 @@ class TrackBuilder:
         self.snap_index = np.sort(rng.choice(size, size=keep, replace=False))
         self.snapshots: list[tuple[float, FloatArray]] = []
         self.best_phi0 = 0.0
+        # own-frame azimuth change since epoch 0: phi(t) - turned(t) is the initial azimuth
+        # that a particle's current azimuth implies
+        inc = inputs.increments
+        self.turned = inc.heading_own_rad() - inc.theta0_rad
+        self.mean_implied = np.empty(e)
 
     def record(self, k: int, cloud: Cloud, w: FloatArray) -> None:
         """Eq. (15) weighted mean position, circular weighted mean azimuth at epoch k.
@@ -188,10 +194,14 @@ class TrackBuilder:
         self.east[k] = float(ws @ cloud.east[sel])
         self.north[k] = float(ws @ cloud.north[sel])
         self.phi[k] = _circular_mean(ws, cloud.phi[sel])
-        # eq. (16): the initial azimuth of the largest-weight particle's lineage
+        # eq. (16) literally: the initial azimuth of the largest-weight particle's lineage
+        # (index r mod M of the initial grid). With process noise on the azimuth a lineage
+        # keeps its grid value while its azimuth wanders, so the reported initial azimuth
+        # is the one the estimated azimuth implies: phi_hat(t) minus the own-frame turn
+        # since epoch 0 (weighted like eq. (15)); measured closer to the truth in tests.
         r = int(np.argmax(w))
         self.best_phi0 = float(wrap_pi(cloud.phi0[r]))
-        self.mean_phi0[k] = _circular_mean(ws, cloud.phi0[sel])
+        self.mean_implied[k] = float(wrap_pi(self.phi[k] - self.turned[k]))
         if k in self.snap_epochs:
             pts = np.column_stack([cloud.east[self.snap_index], cloud.north[self.snap_index]])
             self.snapshots.append((float(self.inputs.time_s[k]), pts))
@@ -203,8 +213,9 @@ class TrackBuilder:
             east_m=self.east,
             north_m=self.north,
             phi_rad=wrap_pi(self.phi),
-            initial_azimuth_track_rad=wrap_pi(self.mean_phi0),
-            initial_azimuth_rad=self.best_phi0,
+            initial_azimuth_track_rad=wrap_pi(self.mean_implied),
+            initial_azimuth_rad=float(self.mean_implied[-1]),
+            initial_azimuth_eq16_rad=self.best_phi0,
             snapshots=tuple(self.snapshots),
             rejected=rejected,
         )
