@@ -282,20 +282,27 @@ def _kernel(
                     pend_n = 0
             else:
                 eps = r  # paper 000, eq. (10): eps = L_D - D'
-                if one_shot:
-                    est = eps
-                    eps_n = 1
-                    mode = 2
-                    pend_n = 0
-                else:
-                    eps_sum += eps
-                    eps_n += 1
-                    est = eps_sum / eps_n  # paper 000, eq. (11); eq. (12) at the window end
-                step_est[k] = est
-                flag[k] = 1
-                event[k] = n_events
-                est_out[k] = est
                 done = True
+                if one_shot and positive_only and eps < 0.0:
+                    # negative one-shot estimate: re-anchor on the ranges (see above)
+                    d += eps
+                    r = 0.0
+                    mode = 0
+                    use = 1
+                else:
+                    if one_shot:
+                        est = eps
+                        eps_n = 1
+                        mode = 2
+                        pend_n = 0
+                    else:
+                        eps_sum += eps
+                        eps_n += 1
+                        est = eps_sum / eps_n  # paper 000, eq. (11); (12) at the window end
+                    step_est[k] = est
+                    flag[k] = 1
+                    event[k] = n_events
+                    est_out[k] = est
         if mode == 2 and not done and t[k] - ev_t0 > max_event_s:
             # too long to be an obstruction: end the event, re-anchor on the ranges
             d += est

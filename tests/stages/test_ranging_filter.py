@@ -135,6 +135,17 @@ def test_negative_event_re_anchors_the_distance() -> None:
     assert out.distance_m[100:] == pytest.approx(np.full(200, 19.4), abs=1e-6)
 
 
+def test_rn_negative_estimate_re_anchors() -> None:
+    t = np.arange(300) / 10.0
+    rng_m = np.where(np.arange(300) < 100, 20.0, 19.4)
+    di = np.zeros(300)
+    di[0] = np.nan
+    params = replace(BASE, one_shot=True, backdate_s=0.0, confirm_fraction=0.0)
+    out = filter_distance(t, rng_m, di, np.full(300, 1e-10), params)
+    assert out.nlos_flag.sum() == 0
+    assert out.distance_m[100:] == pytest.approx(np.full(200, 19.4), abs=1e-6)
+
+
 def test_adaptive_sigma_from_innovations() -> None:
     rng = np.random.default_rng(5)
     n = 3000
