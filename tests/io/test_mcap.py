@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import tomli_w
-from mcap.writer import Writer
+from mcap.writer import CompressionType, Writer
 from mcap_ros2.writer import Writer as Ros2Writer
 
 from coopproc.io import read_session, validate_session
@@ -196,3 +196,18 @@ def test_fast_json_path_equals_json_loads(tmp_path: Path) -> None:
 )
 def test_fast_json_path_declines_what_it_cannot_do(tmp_path: Path, messages: list[bytes]) -> None:
     assert fast_json_frame(_channel(tmp_path, messages)) is None
+
+
+@pytest.mark.parametrize("compression", ["LZ4", "NONE"])
+def test_lz4_and_uncompressed_chunks(
+    tmp_path: Path, kit: Any, monkeypatch: pytest.MonkeyPatch, compression: str
+) -> None:
+    import coopproc.io.mcap_write as mcap_write
+    from coopproc.io import write_mcap
+
+    chosen = getattr(CompressionType, compression)
+    monkeypatch.setattr(
+        mcap_write, "JsonWriter", lambda fh, compression=None: Writer(fh, compression=chosen)
+    )
+    s = kit.make_session()
+    kit.assert_same_session(s, read_session(write_mcap(s, tmp_path / "c.mcap")))
