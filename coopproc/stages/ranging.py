@@ -85,6 +85,27 @@ def _positions(
     return traj.interpolate(time_s)
 
 
+def _reference_positions(session: Session, platform: str, time_s: FloatArray) -> FloatArray:
+    """Reference positions at ``time_s``; NaN inside gaps of the reference.
+
+    A gap (dropped float epochs, an outage) is an interval longer than 2.5 times the
+    reference's median interval: a platform turning inside it would make a straight-line
+    interpolation a wrong reference, and DATA.md wants none where there is none.
+    """
+    out = _positions(session, session.reference, platform, time_s, "reference", False)
+    traj = session.reference.get(platform)
+    info = session.platforms.get(platform)
+    if traj is None or len(traj) < 2 or (info is not None and info.role == "anchor"):
+        return out
+    steps = np.diff(traj.time_s)
+    limit = 2.5 * float(np.median(steps))
+    idx = np.clip(np.searchsorted(traj.time_s, time_s), 1, len(traj) - 1)
+    exact = traj.time_s[np.minimum(np.searchsorted(traj.time_s, time_s), len(traj) - 1)]
+    in_gap = (steps[idx - 1] > limit) & (exact != time_s)
+    out[in_gap] = np.nan
+    return out
+
+
 def _drift(session: Session, platform: str, config: RangingConfig) -> float:
     info = session.platforms.get(platform)
     if info is None:
@@ -180,8 +201,8 @@ def _prepare(
     dr_b = _positions(session, session.nav, b, t, "navigation", True)
     cp_a = _positions(session, cp, a, t, "cooperative solution", True)
     cp_b = _positions(session, cp, b, t, "cooperative solution", True)
-    ref_a = _positions(session, session.reference, a, t, "reference", False)
-    ref_b = _positions(session, session.reference, b, t, "reference", False)
+    ref_a = _reference_positions(session, a, t)
+    ref_b = _reference_positions(session, b, t)
     if config.di.dr_base == "cp":
         di_dr = anchored_increments(cp_a, cp_b, dr_a, dr_b)
     else:

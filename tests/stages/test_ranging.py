@@ -180,3 +180,16 @@ def test_config_from_toml() -> None:
         ranging_config_from_toml({"ranging": {"nlos": {"gama_sigma": 3}}})
     with pytest.raises(ConfigError, match="is not one of"):
         ranging_config_from_toml({"ranging": {"distance": {"transition": "late"}}})
+
+
+def test_reference_is_empty_inside_reference_gaps() -> None:
+    session, cp = _session(anchor=False)
+    ref_a = session.reference["A"]
+    keep = (ref_a.time_s < 100.0) | (ref_a.time_s > 105.0)  # e.g. dropped float epochs
+    gappy = Trajectory("A", ref_a.time_s[keep], ref_a.enu_m[keep])
+    out = run_ranging(replace(session, reference={**session.reference, "A": gappy}), cp,
+                      RangingConfig())  # fmt: skip
+    rg = out.ranges
+    inside = (rg["time"] > 100.0) & (rg["time"] < 105.0)
+    assert rg.loc[inside, "reference"].isna().all()
+    assert rg.loc[~inside, "reference"].notna().all()
