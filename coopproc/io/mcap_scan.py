@@ -92,6 +92,8 @@ class Channel:
     message_encoding: str
     schema_name: str = ""
     schema_encoding: str = ""
+    #: The schema's text (``ros2msg`` definitions for ROS 2 channels).
+    schema_data: bytes = b""
     decoder: Callable[[bytes], Any] | None = None
     #: Message bytes are buffer[starts[i]:ends[i]].
     buffer: bytes = b""
@@ -222,7 +224,7 @@ class _Scanner:
             ch = Channel(topic=topic, message_encoding=enc)
             if sid in self.schemas:
                 name, senc, sdata = self.schemas[sid]
-                ch.schema_name, ch.schema_encoding = name, senc
+                ch.schema_name, ch.schema_encoding, ch.schema_data = name, senc, sdata
                 if enc == "cdr" and senc == "ros2msg":
                     ch.decoder = _ros2_decoder(sid, name, sdata)
             self.out.channels.setdefault(cid, ch)

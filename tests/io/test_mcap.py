@@ -211,3 +211,50 @@ def test_lz4_and_uncompressed_chunks(
     )
     s = kit.make_session()
     kit.assert_same_session(s, read_session(write_mcap(s, tmp_path / "c.mcap")))
+
+
+def test_fixed_layout_cdr_reads_equal_the_ros2_decoder(tmp_path: Path, kit: Any) -> None:
+    from coopproc.io import cdr_fast, write_mcap
+    from coopproc.io._common import Locator
+    from coopproc.io.mcap_ros2_read import RosFields
+
+    raw = scan_mcap(write_mcap(kit.make_session(), tmp_path / "r.mcap", encoding="ros2"))
+    paths = {
+        "nav_msgs/msg/Odometry": ["pose.pose.position.x", "pose.covariance", "header.stamp.sec"],
+        "sensor_msgs/msg/NavSatFix": ["latitude", "position_covariance", "status.status"],
+        "coopproc_msgs/msg/UwbRange": ["from_id", "to_id", "range", "sigma"],
+    }
+    for ch in raw.channels.values():
+        plan = cdr_fast.plan(ch)
+        assert plan is not None, ch.topic
+        slow = RosFields.__new__(RosFields)
+        slow.ch, slow.where, slow.plan = ch, Locator("x"), None
+        slow.msgs = slow._decode()
+        for path in paths[ch.schema_name]:
+            fast_values, slow_values = plan.read(ch, path), slow.get(path)
+            if fast_values.dtype == object:
+                assert list(fast_values) == list(slow_values)
+            else:
+                np.testing.assert_array_equal(fast_values, slow_values)
+
+
+def test_varying_frame_ids_fall_back_to_the_decoder(tmp_path: Path) -> None:
+    from coopproc.io import cdr_fast
+
+    path = tmp_path / "v.mcap"
+    with open(path, "wb") as fh:
+        w = Ros2Writer(fh)
+        odom = w.register_msgdef("nav_msgs/msg/Odometry", ODOMETRY)
+        for i in range(12):
+            msg = _odom(T0 + 0.1 * i, float(i), 0.0)
+            msg["child_frame_id"] = "b" * (1 + i % 3)
+            w.write_message("/A/nav", odom, msg, int((T0 + 0.1 * i) * 1e9), 0, i)
+        w.finish()
+    (ch,) = scan_mcap(path).channels.values()
+    assert cdr_fast.plan(ch) is None
+    from coopproc.io._common import Locator
+    from coopproc.io.mcap_ros2_read import ros_trajectory
+
+    raw = ros_trajectory(ch, "A", Locator(str(path)))
+    np.testing.assert_allclose(raw.position[:, 0], np.arange(12.0))
+    np.testing.assert_allclose(raw.time_s, T0 + 0.1 * np.arange(12), atol=1e-9)
