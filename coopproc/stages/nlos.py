@@ -155,19 +155,21 @@ def _kernel(
     k = 1
     while k < n:
         dt = t[k] - t[k - 1]
-        # predict, paper 000 eq. (8) with w_D = 0
-        q = (accel * dt * dt) ** 2
-        d = d + i
-        if aligned:
-            p_dd = p_dd + 2.0 * p_di + p_ii + q
-            p_di = p_di + p_ii + q
-        else:
-            p_dd = p_dd + 2.0 * p_di + p_ii
-            p_di = p_di + p_ii
-        p_ii = p_ii + q
-        # DI observation L_I
+        # predict, paper 000 eq. (8) with w_D = 0 (a second range at the same time is a
+        # second observation of the same distance: no prediction, no DI)
+        if dt > 1e-9:
+            q = (accel * dt * dt) ** 2
+            d = d + i
+            if aligned:
+                p_dd = p_dd + 2.0 * p_di + p_ii + q
+                p_di = p_di + p_ii + q
+            else:
+                p_dd = p_dd + 2.0 * p_di + p_ii
+                p_di = p_di + p_ii
+            p_ii = p_ii + q
+        # DI observation L_I (none between two ranges at one time: no interval)
         z_i = di[k]
-        if np.isfinite(z_i):
+        if np.isfinite(z_i) and dt > 1e-9:
             s_var = p_ii + di_var[k]
             k_d = p_di / s_var
             k_i = p_ii / s_var

@@ -5,7 +5,8 @@
 1. the pair's range epochs (A->B and B->A alike; several ranges at one time, or the two
    directions at slightly different times, are consecutive epochs: their DI is the
    distance change over the (possibly zero) interval and eq. (7) gives it a variance
-   floored at 1e-8 m^2, so a second range at one epoch is simply a second update);
+   floored at 1e-8 m^2; the distance filter takes a second range at one time as a
+   second observation of the same distance: no prediction, no DI update);
 2. DR DI from each platform's own navigation solution (``session.nav``) and CP DI from the
    cooperative solution ``cp`` (two passes in post-processing: the fusion with the
    observed ranges runs first, over the whole session, and its solution is differenced

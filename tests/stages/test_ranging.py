@@ -193,3 +193,19 @@ def test_reference_is_empty_inside_reference_gaps() -> None:
     inside = (rg["time"] >= 100.0) & (rg["time"] < 105.1)  # samples resume at 105.1
     assert rg.loc[inside, "reference"].isna().all()
     assert rg.loc[~inside, "reference"].notna().all()
+
+
+def test_duplicate_epochs_and_a_single_range_pair() -> None:
+    session, cp = _session()
+    frame = session.ranges.frame
+    ab = frame[frame["pair"] == "A-B"].iloc[:40]
+    twice = ab.assign(range=ab["range"] + 0.01)  # a second range at the same times
+    lone = frame[frame["pair"] == "A-C"].iloc[:1]
+    rows = pd.concat([ab, twice, lone]).sort_values("time", kind="stable")
+    out = run_ranging(replace(session, ranges=RangeTable(rows.reset_index(drop=True))), cp,
+                      RangingConfig())  # fmt: skip
+    assert len(out.ranges) == 81
+    assert out.ranges["di"].notna().all()
+    got = out.ranges[out.ranges["pair"] == "A-B"]
+    assert np.sqrt(np.mean((got["di"] - got["reference"]) ** 2)) < 0.08
+    assert out.ranges.loc[out.ranges["pair"] == "A-C", "di"].iloc[0] == lone["range"].iloc[0]
