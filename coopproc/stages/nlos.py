@@ -38,6 +38,7 @@ sigma is used (a robust MAD estimate from the range differences, see ranging.py)
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -70,6 +71,7 @@ class KernelParams:
     suspect_epochs: int
     positive_only: bool
     max_event_s: float
+    restart_gap_s: float = np.inf
 
 
 @dataclass(frozen=True, eq=False)
@@ -375,7 +377,48 @@ def filter_distance(
     """Distance filter with NLOS detection and estimation over one pair's range epochs.
 
     ``di_m`` is the DI observation at each epoch (NaN: none), ``di_var_m2`` its variance.
+    The series is cut at every gap longer than ``params.restart_gap_s`` and the filter
+    restarts on the first range after it: an outage ends any event, and no distance or
+    NLOS estimate is propagated across it. Event indices run on across the pieces.
     """
+    t = np.ascontiguousarray(time_s, dtype=np.float64)
+    cuts = np.flatnonzero(np.diff(t) > params.restart_gap_s) + 1
+    bounds = [0, *cuts.tolist(), t.shape[0]]
+    pieces = []
+    offset = 0
+    for lo, hi in itertools.pairwise(bounds):
+        piece = _filter_piece(t[lo:hi], range_m[lo:hi], di_m[lo:hi], di_var_m2[lo:hi], params)
+        if offset:
+            piece.event[piece.event >= 0] += offset
+        if np.any(piece.event >= 0):
+            offset = int(piece.event.max()) + 1
+        pieces.append(piece)
+    if len(pieces) == 1:
+        return pieces[0]
+    return DistanceFilterOutput(
+        *(np.concatenate([getattr(p, f) for p in pieces]) for f in _OUTPUT_FIELDS)
+    )
+
+
+_OUTPUT_FIELDS: tuple[str, ...] = (
+    "distance_m",
+    "nlos_flag",
+    "nlos_estimate_m",
+    "event",
+    "step_estimate_m",
+    "sigma_m",
+    "residual_m",
+)
+
+
+def _filter_piece(
+    time_s: FloatArray,
+    range_m: FloatArray,
+    di_m: FloatArray,
+    di_var_m2: FloatArray,
+    params: KernelParams,
+) -> DistanceFilterOutput:
+    """:func:`filter_distance` over a piece of series without restart gaps."""
     f64 = np.float64
     d, flag, est, event, step, sigma, resid = _kernel(
         np.ascontiguousarray(time_s, dtype=f64),

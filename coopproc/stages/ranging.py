@@ -151,6 +151,7 @@ def _kernel_params(
         suspect_epochs=0 if rn else nlos.suspect_epochs,
         positive_only=nlos.positive_only,
         max_event_s=nlos.max_event_s,
+        restart_gap_s=nlos.restart_gap_s,
     )
 
 

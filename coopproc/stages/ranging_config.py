@@ -100,6 +100,14 @@ class NLOSParams:
             "the distance on the ranges instead of being held"
         },
     )
+    restart_gap_s: float = field(
+        default=5.0,
+        metadata={
+            "help": "a gap between two ranges of a pair longer than this (s) ends any event "
+            "and restarts the distance filter on the next range (nothing is propagated "
+            "across an outage)"
+        },
+    )
     max_event_s: float = field(
         default=120.0,
         metadata={"help": "an event longer than this (s) ends and the distance is re-anchored"},
@@ -141,6 +149,8 @@ class NLOSParams:
                 raise ValueError(f"{name} must be >= 0, found {getattr(self, name)}")
         if self.suspect_epochs < 0:
             raise ValueError(f"suspect_epochs must be >= 0, found {self.suspect_epochs}")
+        if self.restart_gap_s <= 0:
+            raise ValueError(f"restart_gap_s must be > 0, found {self.restart_gap_s}")
         if self.max_event_s <= self.window_s:
             raise ValueError("max_event_s must be > window_s")
         if self.end_min_epochs < 1:
