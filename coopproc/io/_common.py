@@ -42,7 +42,7 @@ __all__ = [
 ]
 
 #: Platform ids: letters, digits, ``_`` and ``-`` (DATA.md "Words").
-ID_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
+ID_PATTERN = re.compile(r"\A[A-Za-z0-9_-]+\Z")
 
 #: Exceptions third-party parsers raise on bad bytes; readers turn them into InputError.
 PARSE_ERRORS: tuple[type[BaseException], ...] = (

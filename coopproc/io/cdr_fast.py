@@ -129,7 +129,8 @@ def plan(ch: Channel) -> CdrPlan | None:
             return None
         out = CdrPlan(length=len(first))
         end = _layout(defs, ch.schema_name.replace("/msg/", "/"), first, 4, "", out)
-        if end != len(first) and not (len(first) - end < 4 and not any(first[end:])):
+        # The layout must cover the message exactly (up to 3 zero padding bytes).
+        if end > len(first) or len(first) - end >= 4 or any(first[end:]):
             return None
     except (_NotFixed, struct.error, KeyError, IndexError, ValueError, UnicodeError):
         return None

@@ -17,6 +17,7 @@ import numpy as np
 import tomli_w
 from mcap.writer import CompressionType
 from mcap.writer import Writer as JsonWriter
+from mcap_ros2.writer import Writer as Ros2Writer
 
 from coopproc.errors import OutputError
 from coopproc.frames import enu2geodetic
@@ -36,11 +37,25 @@ def _log_ns(time_s: np.ndarray, what: str) -> np.ndarray:
     return np.round(time_s * 1e9).astype(np.int64)
 
 
+_COMPRESSION = {
+    "zstd": CompressionType.ZSTD,
+    "lz4": CompressionType.LZ4,
+    "none": CompressionType.NONE,
+}
+
+
 def write_mcap(
-    session: Session, path: str | Path, *, encoding: Literal["json", "ros2"] = "json"
+    session: Session,
+    path: str | Path,
+    *,
+    encoding: Literal["json", "ros2"] = "json",
+    compression: Literal["zstd", "lz4", "none"] = "zstd",
 ) -> Path:
-    """Write ``session`` as one MCAP file; returns the path."""
+    """Write ``session`` as one MCAP file (chunks compressed as given); returns the path."""
     p = Path(path)
+    if compression not in _COMPRESSION:
+        raise OutputError(f"compression {compression!r}; expected zstd, lz4 or none")
+    chunks = _COMPRESSION[compression]
     mapping = McapMapping(**(UWB_RANGE_MAPPING if encoding == "ros2" else {}))
     defaults = McapMapping()
     mcap_table = {
@@ -52,14 +67,15 @@ def write_mcap(
     toml_text = tomli_w.dumps(session_toml_table(config, session.origin_llh)).encode()
     with open(p, "wb") as fh:
         if encoding == "json":
-            _write_json(session, fh, mapping, toml_text)
+            _write_json(session, JsonWriter(fh, compression=chunks), mapping, toml_text)
         else:
-            _write_ros2(session, fh, mapping, toml_text)
+            _write_ros2(session, Ros2Writer(fh, compression=chunks), mapping, toml_text)
     return p
 
 
-def _write_json(session: Session, fh: Any, mapping: McapMapping, toml_text: bytes) -> None:
-    writer = JsonWriter(fh, compression=CompressionType.ZSTD)
+def _write_json(
+    session: Session, writer: JsonWriter, mapping: McapMapping, toml_text: bytes
+) -> None:
     writer.start(profile="", library="coopproc")
     writer.add_attachment(0, 0, "session.toml", "application/toml", toml_text)
     schema_id = writer.register_schema(name="", encoding="", data=b"")
@@ -126,10 +142,9 @@ def _odometry(traj: Trajectory, i: int, frame_id: str) -> dict[str, Any]:
     }
 
 
-def _write_ros2(session: Session, fh: Any, mapping: McapMapping, toml_text: bytes) -> None:
-    from mcap_ros2.writer import Writer as Ros2Writer
-
-    writer = Ros2Writer(fh)
+def _write_ros2(
+    session: Session, writer: Ros2Writer, mapping: McapMapping, toml_text: bytes
+) -> None:
     writer.add_attachment(0, 0, "session.toml", "application/toml", toml_text)
     odom = writer.register_msgdef("nav_msgs/msg/Odometry", ODOMETRY)
     fix = writer.register_msgdef("sensor_msgs/msg/NavSatFix", NAVSATFIX)

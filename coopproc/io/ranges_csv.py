@@ -74,7 +74,7 @@ def _ids(frame: pd.DataFrame, name: str, where: Locator, problems: list[InputErr
     uniq = pd.unique(out[~empty])
     bad_ids = [u for u in uniq if not ID_PATTERN.match(str(u))]
     if bad_ids:
-        mask = np.isin(out, bad_ids)
+        mask = pd.Series(out).isin(bad_ids).to_numpy()
         idx = np.flatnonzero(mask)
         problems.append(
             where.error(

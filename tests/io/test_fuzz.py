@@ -44,6 +44,9 @@ READERS: dict[str, tuple[str, Reader]] = {
     "ranges": ("ranges.csv", read_ranges_csv),
     "toml": ("session.toml", read_session_toml),
     "mcap": ("s.mcap", read_session),
+    "mcap_ros2": ("r.mcap", read_session),
+    "mcap_plain": ("p.mcap", read_session),
+    "mcap_ros2_plain": ("q.mcap", read_session),
 }
 
 
@@ -56,6 +59,9 @@ def _samples(kit: Any) -> dict[str, bytes]:
         write_session(s, d / "gz", compress=True)
         write_tum(s.nav["A"], d / "nav_A.tum")
         write_mcap(s, d / "s.mcap")
+        write_mcap(s, d / "r.mcap", encoding="ros2")
+        write_mcap(s, d / "p.mcap", compression="none")
+        write_mcap(s, d / "q.mcap", encoding="ros2", compression="none")
         files = {k: (d / name) for k, (name, _) in READERS.items()}
         files["nav_csv_gz"] = d / "gz" / "nav_A.csv.gz"
         return {k: p.read_bytes() for k, p in files.items()}
@@ -114,7 +120,7 @@ def _corrupt(data: bytes, ops: list[tuple[float, str, str]]) -> bytes:
 def test_corrupted_files(kit: Any, kind: str, ops: list[tuple[float, str, str]]) -> None:
     samples = _samples_cached(kit)
     data = samples[kind]
-    if kind in ("nav_csv_gz", "mcap"):
+    if kind in ("nav_csv_gz", "mcap", "mcap_ros2", "mcap_plain", "mcap_ros2_plain"):
         # Compressed containers: corrupt the bytes; also corrupt the text inside for gz.
         _check(kind, _corrupt(data, ops))
         if kind == "nav_csv_gz":

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import tomli_w
-from mcap.writer import CompressionType, Writer
+from mcap.writer import Writer
 from mcap_ros2.writer import Writer as Ros2Writer
 
 from coopproc.io import read_session, validate_session
@@ -198,19 +198,16 @@ def test_fast_json_path_declines_what_it_cannot_do(tmp_path: Path, messages: lis
     assert fast_json_frame(_channel(tmp_path, messages)) is None
 
 
-@pytest.mark.parametrize("compression", ["LZ4", "NONE"])
+@pytest.mark.parametrize("encoding", ["json", "ros2"])
+@pytest.mark.parametrize("compression", ["lz4", "none"])
 def test_lz4_and_uncompressed_chunks(
-    tmp_path: Path, kit: Any, monkeypatch: pytest.MonkeyPatch, compression: str
+    tmp_path: Path, kit: Any, compression: str, encoding: str
 ) -> None:
-    import coopproc.io.mcap_write as mcap_write
     from coopproc.io import write_mcap
 
-    chosen = getattr(CompressionType, compression)
-    monkeypatch.setattr(
-        mcap_write, "JsonWriter", lambda fh, compression=None: Writer(fh, compression=chosen)
-    )
     s = kit.make_session()
-    kit.assert_same_session(s, read_session(write_mcap(s, tmp_path / "c.mcap")))
+    path = write_mcap(s, tmp_path / "c.mcap", encoding=encoding, compression=compression)  # type: ignore[arg-type]
+    kit.assert_same_session(s, read_session(path))
 
 
 def test_fixed_layout_cdr_reads_equal_the_ros2_decoder(tmp_path: Path, kit: Any) -> None:
