@@ -50,6 +50,7 @@ from coopproc.stages.particle.core import (
     Track,
     TrackBuilder,
     init_cloud,
+    kernel_jitter,
     log_likelihood,
     normalize_log,
     propagate,
@@ -72,6 +73,10 @@ class AuxMonitor:
         self.omega2 = params.Omega2
         #: Auxiliaries whose last decision was made on a full window next to another one.
         self.judged = np.zeros(n_aux, dtype=bool)
+        #: The reference auxiliary (smallest D[rho]), -1 before the first decision.
+        self.ref = -1
+        #: Eliminated auxiliaries; one stays out until its window is clean again.
+        self.out = np.zeros(n_aux, dtype=bool)
 
     def add(self, j: int, residual_m: float) -> None:
         self.buf[j, self.count[j] % self.window] = residual_m
@@ -101,10 +106,17 @@ class AuxMonitor:
         # D[rho] from successive differences (var(diff) / 2): the slowly varying error of
         # the estimate itself cancels, the auxiliary's own ranging noise stays
         var = np.where(full, 0.5 * np.mean(np.diff(buf, axis=1) ** 2, axis=1), 0.0)
-        ref = int(np.argmin(np.where(full, var, np.inf)))
+        # the reference changes only to an auxiliary at least twice as consistent
+        cand = int(np.argmin(np.where(full, var, np.inf)))
+        if self.ref < 0 or not full[self.ref] or var[cand] < 0.5 * var[self.ref]:
+            self.ref = cand
+        ref = self.ref
         biased = full & (np.abs(mean) > self.omega1)
-        reject = biased & (var > self.omega2)  # E[rho] > Omega1 & D[rho] > Omega2
-        reject[ref] = False
+        noisy = full & (var > self.omega2)
+        # E[rho] > Omega1 & D[rho] > Omega2 eliminates; back only once both are below
+        self.out = (self.out & (biased | noisy)) | (biased & noisy)
+        self.out[ref] = False
+        reject = self.out.copy()
         excess = np.where(full, np.maximum(var - nominal_var_m2, 0.0), 0.0)
         inflate = np.sqrt(excess + np.where(biased, mean**2, 0.0))
         inflate[ref] = 0.0
@@ -121,7 +133,8 @@ def run_aacopf(inputs: LocateInputs, params: LocateParams, seed: int) -> Track:
     monitor = AuxMonitor(n_j, params)
     # several auxiliaries: one that ranges badly must not remove hypotheses before its
     # residual window has judged it, so until then its likelihood gets an outlier floor
-    outlier = params.outlier_sigmas if n_j > 1 else 0.0
+    outlier = params.outlier_sigmas if n_j > 1 and params.warmup == "floor" else 0.0
+    j_first = int(np.argmax(np.isfinite(inputs.range_m[0])))
     nominal_var = np.nanmedian(inputs.sigma_m, axis=0) ** 2 + params.likelihood_floor_m**2
     cloud.log_w += log_likelihood(cloud, inputs, 0, params)
     w = normalize_log(cloud.log_w)
@@ -138,6 +151,9 @@ def run_aacopf(inputs: LocateInputs, params: LocateParams, seed: int) -> Track:
                 d_pred = float(w_prior @ np.hypot(cloud.east - ax, cloud.north - ay))
                 monitor.add(j, float(z - d_pred))
         use, inflate = monitor.decide(nominal_var)
+        if params.warmup == "first":
+            # until judged, only the auxiliary of the initial ring is used
+            use &= monitor.judged | (np.arange(n_j) == j_first)
         rejected[t] = ~use & np.isfinite(inputs.range_m[t])
         # step 4: weights, eq. (12)-(13)
         cloud.log_w += log_likelihood(
@@ -152,6 +168,8 @@ def run_aacopf(inputs: LocateInputs, params: LocateParams, seed: int) -> Track:
         )
         w = normalize_log(cloud.log_w)
         builder.record(t, cloud, w)  # step 6, eq. (15)-(16)
+        if not (use & np.isfinite(inputs.range_m[t])).any():
+            continue  # no range used at this epoch: the weights did not change
         # step 5: ant colony resampling, eq. (14), then the moved particles share weights
         idx = aco_targets(
             cloud.east,
@@ -164,13 +182,19 @@ def run_aacopf(inputs: LocateInputs, params: LocateParams, seed: int) -> Track:
             params.aco_cell_m,
             params.aco_weight_gate,
         )
+        w_before = w
         cloud.take(idx)
         w = share_weights(w, idx)
+        kernel_jitter(cloud, w_before, idx != np.arange(cloud.size), params, rng)
         settled = n_j == 1 or bool(monitor.judged.all())
         if settled and 1.0 / float(w @ w) < params.ess_min * cloud.size:
             # degeneracy guard (once every auxiliary is judged): systematic resampling,
             # weights 1 / (N x M) as step 5 says
-            cloud.take(systematic_resample(w, float(rng.random())))
+            res = systematic_resample(w, float(rng.random()))
+            cloud.take(res)
+            dup = np.ones(cloud.size, dtype=bool)
+            dup[np.unique(res, return_index=True)[1]] = False  # first copies stay exact
+            kernel_jitter(cloud, w, dup, params, rng)
             cloud.log_w = np.full(cloud.size, -np.log(cloud.size))
         else:
             with np.errstate(divide="ignore"):

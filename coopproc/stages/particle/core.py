@@ -21,6 +21,7 @@ __all__ = [
     "Track",
     "TrackBuilder",
     "init_cloud",
+    "kernel_jitter",
     "log_likelihood",
     "normalize_log",
     "propagate",
@@ -102,11 +103,41 @@ def propagate(
     """
     inc = inputs.increments
     delta_l = float(inc.delta_l_m[k])
+    root_dt = float(np.sqrt(max(inc.time_s[k + 1] - inc.time_s[k], 0.0)))
     noise = rng.standard_normal((3, cloud.size))
-    sigma_xy = params.step_sigma_m + params.step_sigma_rel * delta_l
-    cloud.phi += float(inc.delta_phi_rad[k]) + np.radians(params.heading_sigma_deg) * noise[2]
+    sigma_xy = params.step_sigma_m * root_dt + params.step_sigma_rel * delta_l
+    sigma_phi = np.radians(params.heading_sigma_deg) * root_dt
+    cloud.phi += float(inc.delta_phi_rad[k]) + sigma_phi * noise[2]
     cloud.east += delta_l * np.cos(cloud.phi) + sigma_xy * noise[0]
     cloud.north += delta_l * np.sin(cloud.phi) + sigma_xy * noise[1]
+
+
+def kernel_jitter(
+    cloud: Cloud, w: FloatArray, moved: np.ndarray, params: LocateParams, rng: np.random.Generator
+) -> None:
+    """Regularized resampling: moved (copied) particles land near their source.
+
+    Each particle with ``moved`` True gets Gaussian noise of h x the cloud's weighted
+    standard deviation in east, north and azimuth, with the optimal Gaussian-kernel
+    bandwidth h = kernel_scale x (4 / (P (d + 2)))^(1 / (d + 4)), d = 3 (Musso et al.
+    2001). Particles that did not move keep their exact paths.
+    """
+    count = int(moved.sum())
+    if count == 0 or params.kernel_scale <= 0:
+        return
+    d = 3
+    h = params.kernel_scale * (4.0 / (cloud.size * (d + 2))) ** (1.0 / (d + 4))
+    sel = np.flatnonzero(w > 1e-12 * w.max())
+    ws = w[sel] / w[sel].sum()
+    e, n = cloud.east[sel], cloud.north[sel]
+    sd_e = float(np.sqrt(ws @ (e - ws @ e) ** 2))
+    sd_n = float(np.sqrt(ws @ (n - ws @ n) ** 2))
+    r = float(np.hypot(ws @ np.cos(cloud.phi[sel]), ws @ np.sin(cloud.phi[sel])))
+    sd_phi = float(np.sqrt(-2.0 * np.log(min(max(r, 1e-12), 1.0))))
+    noise = rng.standard_normal((3, count))
+    cloud.east[moved] += h * sd_e * noise[0]
+    cloud.north[moved] += h * sd_n * noise[1]
+    cloud.phi[moved] += h * sd_phi * noise[2]
 
 
 def log_likelihood(

@@ -44,8 +44,9 @@ def run_ekf(inputs: LocateInputs, params: LocateParams) -> Track:
             x[1] += dl * s
             # eq. (17) transition Phi, linearized at the propagated azimuth
             phi_mat = np.array([[1.0, 0.0, -dl * s], [0.0, 1.0, dl * c], [0.0, 0.0, 1.0]])
-            sxy = params.step_sigma_m + params.step_sigma_rel * dl
-            q = np.diag([sxy**2, sxy**2, np.radians(params.heading_sigma_deg) ** 2])
+            dt = max(float(inputs.time_s[t] - inputs.time_s[t - 1]), 0.0)
+            sxy = params.step_sigma_m * np.sqrt(dt) + params.step_sigma_rel * dl
+            q = np.diag([sxy**2, sxy**2, np.radians(params.heading_sigma_deg) ** 2 * dt])
             p = phi_mat @ p @ phi_mat.T + q
         for j in range(n_j):
             z = inputs.range_m[t, j]

@@ -54,12 +54,16 @@ class LocateParams:
         default=0.04,
         metadata={"help": "rejection threshold on the variance of an aux's residuals, m^2"},
     )
+    warmup: str = field(
+        default="first",
+        metadata={"help": "2+ auxiliaries before they are judged: first | floor | all"},
+    )
     outlier_sigmas: float = field(
         default=1.0,
         metadata={"help": "AACOPF, 2+ auxiliaries: likelihood outlier floor until judged, sigmas"},
     )
     residual_window: int = field(
-        default=8, metadata={"help": "epochs of residuals behind Omega1/Omega2 (step 3)"}
+        default=16, metadata={"help": "epochs of residuals behind Omega1/Omega2 (step 3)"}
     )
     range_sigma_m: float = field(
         default=0.0,
@@ -73,14 +77,19 @@ class LocateParams:
         metadata={"help": "added in quadrature to the ranging sigma in the likelihood, m"},
     )
     step_sigma_m: float = field(
-        default=0.05,
-        metadata={"help": "propagation noise per step and per axis, m (+ step_sigma_rel)"},
+        default=0.02,
+        metadata={"help": "propagation noise per axis, m per sqrt(s) (+ step_sigma_rel)"},
     )
     step_sigma_rel: float = field(
-        default=0.02, metadata={"help": "propagation noise proportional to Delta L, 1-sigma"}
+        default=0.01, metadata={"help": "propagation noise proportional to Delta L, 1-sigma"}
     )
     heading_sigma_deg: float = field(
-        default=0.3, metadata={"help": "propagation noise on the azimuth per step, degrees"}
+        default=0.05,
+        metadata={"help": "propagation noise on the azimuth, degrees per sqrt(s)"},
+    )
+    kernel_scale: float = field(
+        default=0.2,
+        metadata={"help": "AACOPF: jitter of moved particles, x the optimal kernel bandwidth"},
     )
     ekf_initial_bearing_deg: float = field(
         default=0.0,
