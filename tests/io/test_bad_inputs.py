@@ -173,6 +173,10 @@ def test_corrupt_mcap(tmp_path: Path, kit: object) -> None:
     path.write_bytes(bytes(data))
     (msg,) = _problems(path)
     assert msg.startswith(f"{path}: corrupt MCAP")
+    (tmp_path / "e.mcap").write_bytes(b"")
+    assert validate_session(tmp_path / "e.mcap") == [
+        f"{tmp_path / 'e.mcap'}: empty file; expected an MCAP recording"
+    ]
     (tmp_path / "x.mcap").write_bytes(b"not an mcap at all")
     assert validate_session(tmp_path / "x.mcap") == [
         f"{tmp_path / 'x.mcap'}: not an MCAP file (bad magic); expected an MCAP recording"
@@ -260,3 +264,19 @@ def test_cli_validate_and_info(sample_dir: Path) -> None:
     err = runner.invoke(main, ["info", str(sample_dir)])
     assert err.exit_code == 1 and "Traceback" not in err.output
     assert err.output.startswith("error: ") and err.output.count("\n") == 1
+
+
+def test_mcap_mapping_and_files_keys_are_checked(sample_dir: Path) -> None:
+    toml = sample_dir / "session.toml"
+    toml.write_text(toml.read_text() + '\n[mcap]\nrange_topc = "/uwb"\n')
+    assert validate_session(sample_dir) == [
+        f"{toml} [mcap]: unknown key 'range_topc' (did you mean 'range_topic'?)"
+    ]
+    toml.write_text(toml.read_text().replace("[mcap]\nrange_topc", '[files]\nrange = "r.csv"\n#'))
+    assert validate_session(sample_dir) == [
+        f"{toml} [files]: unknown key 'range' (did you mean 'ranges'?)"
+    ]
+    toml.write_text(toml.read_text().replace('range = "r.csv"', 'ranges = "uwb.csv"'))
+    (sample_dir / "ranges.csv").rename(sample_dir / "uwb.csv")
+    assert validate_session(sample_dir) == []
+    assert read_session(sample_dir).ranges.source.endswith("uwb.csv")
