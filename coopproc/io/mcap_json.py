@@ -63,7 +63,7 @@ def fast_json_frame(ch: Channel) -> pd.DataFrame | None:
             dtype=dtypes,  # type: ignore[arg-type]
             skipinitialspace=True,
             keep_default_na=False,
-            na_values=["null"],
+            na_values=["null", "NaN"],
             true_values=["true"],
             false_values=["false"],
             engine="c",

@@ -173,6 +173,12 @@ def test_fast_json_path_equals_json_loads(tmp_path: Path) -> None:
             zip(rng.uniform(0, 1e6, 500), rng.normal(0, 1e3, 500), strict=True)
         )
     ]
+    rows[5]["range"] = float("nan")  # json.dumps writes NaN
+    rows[6]["range"] = float("inf")
+    rows[7]["from"] = "a, {b}"  # braces inside a string: not the fast path
+    ch = _channel(tmp_path, [json.dumps(r).encode() for r in rows])
+    assert fast_json_frame(ch) is None
+    rows[7]["from"] = "a, b"
     ch = _channel(tmp_path, [json.dumps(r).encode() for r in rows])
     fast = fast_json_frame(ch)
     assert fast is not None
