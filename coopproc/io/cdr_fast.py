@@ -44,7 +44,7 @@ _FIELD = re.compile(
 
 
 class _NotFixed(Exception):
-    pass
+    """The message layout is not the same in every message (or not parsed)."""
 
 
 def _definitions(text: str, name: str) -> dict[str, list[tuple[str, int | None, str]]]:
