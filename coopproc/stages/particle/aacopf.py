@@ -3,41 +3,37 @@
 Steps 1-6 and Algorithm 1: ring initialization, eq. (3) propagation, adaptive rejection
 of badly ranging auxiliaries (step 3), Gaussian range weights (eq. (11)-(13)), ant
 colony resampling (eq. (14), :mod:`coopproc.stages.particle.aco`), the estimate of
-eq. (15) and the initial azimuth of the best particle, eq. (16).
+eq. (15) and the initial azimuth, eq. (16) (see core.TrackBuilder.record).
 
-Choices where the text is garbled or silent (documented in docs/locate.md):
+Choices where the text is garbled or silent (docs/locate.md explains each):
 
-- Step 3 residuals rho_j = d_1j - E[|x - p_j|] use the predicted range (the weighted
-  mean over the propagated particles of their distance to the auxiliary, eq. (11)), not
-  the distance from the mean position: while the cloud is still a ring or has several
-  modes the mean position is meaningless, its predicted range is not. Statistics run
-  over the last ``residual_window`` epochs of that auxiliary; "E[rho_j] > Omega1" is
-  read as |mean| > Omega1 (a peak shift may have either sign). An auxiliary is rejected
-  when |mean| > Omega1 and variance > Omega2.
-  Residuals against an estimate that a bad auxiliary has pulled off show a shared,
-  slowly varying error in every auxiliary; D[rho] is therefore estimated from successive
-  differences (mean square difference / 2, von Neumann), which cancels that error and
-  keeps each auxiliary's own ranging noise. The auxiliary with the smallest D[rho] is
-  the reference: never rejected. One that is kept
-  but ranges worse than its nominal sigma is down-weighted (its likelihood sigma is
-  widened by its excess variance and, if |mean| > Omega1, by its mean). A lone
-  auxiliary is never rejected.
-- With more than one auxiliary, an auxiliary whose residual window is not yet full has a
-  flat outlier floor at ``outlier_sigmas`` in its likelihood (a mixture with an outlier
-  component): before it is judged, a biased auxiliary would otherwise remove the true
-  hypotheses in the first few epochs, which no later rejection can undo. Judged
-  auxiliaries use the plain Gaussian. The PF keeps the plain Gaussian throughout.
+- Step 3 residuals rho_j = d_1j - E[|x - p_j|] use the predicted range (weighted mean
+  over the propagated particles, eq. (11)), not the range from the mean position, which
+  is meaningless while the cloud is a ring or multi-modal. Over the last
+  ``residual_window`` epochs of the auxiliary, "E[rho_j] > Omega1" is read as |mean|
+  (a peak shift may have either sign) and D[rho_j] is the von Neumann estimate (mean
+  square successive difference / 2), which cancels the slowly varying error that a
+  pulled-off estimate puts into every auxiliary's residuals. The auxiliary with the
+  smallest D[rho] is the reference, never rejected (it changes only to one twice as
+  consistent); a lone auxiliary is never rejected; an eliminated one stays out until
+  its mean and D[rho] are both below the thresholds; one kept although it ranges worse
+  than its nominal sigma is down-weighted (sigma widened by its excess variance and,
+  when |mean| > Omega1, by its mean).
+- With 2+ auxiliaries, until they are judged only the auxiliary that built the ring is
+  used (``warmup = "first"``; ``"floor"`` mixes an outlier floor into the others'
+  likelihoods instead): a biased auxiliary would otherwise remove the true hypotheses
+  in the first seconds, which no later rejection undoes. The PF uses every range.
 - The elimination "x_t^i . x < 0 -> w = 0" of step 4 is unreadable; the Gaussian weight
-  already gives particles that contradict the range a negligible weight, so no further
-  rule is applied.
-- Step 5 resets every weight to 1 / (N x M) after the moves. Taken literally this throws
-  away the measurement history (the moves follow proximity, not weight, so the cloud no
-  longer carries the posterior) and the filter does not converge. Here the moved
-  particles share the weight of the particle they moved to (:func:`share_weights`), so
-  the probability mass stays where it was; weights otherwise accumulate by eq. (12).
-  Only particles lighter than ``aco_weight_gate`` x the heaviest move, as section 1
-  describes ("particles with smaller weight move to the optimal position, and particles
-  with larger weight keep their position").
+  already gives particles that contradict the range a negligible weight.
+- Step 5 resets every weight to 1 / (N x M) after the moves; taken literally this throws
+  away the measurement history (the moves follow proximity as much as weight) and the
+  filter did not converge. Only particles lighter than ``aco_weight_gate`` x the
+  heaviest move (section 1: "particles with smaller weight move to the optimal
+  position, particles with larger weight keep their position"); a moved particle shares
+  the weight of its target (:func:`share_weights`: mass preserved) and lands near it
+  with a kernel jitter (regularized resampling, :func:`kernel_jitter`). Once every
+  auxiliary is judged, an effective sample size below ``ess_min`` x N x M triggers a
+  systematic resampling that resets the weights to 1 / (N x M), as step 5 does.
 - The estimate of eq. (15) is taken with the updated weights before the ACO moves.
 """
 
