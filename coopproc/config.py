@@ -86,8 +86,8 @@ def run_config_from_toml(table: Mapping[str, Any], where: str = "run config") ->
             raise ConfigError(f"{where}: '{name}' must be a table ([{name}])")
     return RunConfig(
         run=from_table(RunParams, table.get("run"), f"{where} [run]"),
-        ranging=ranging_config_from_toml(table),
-        fusion=fusion_params_from_toml(table),
+        ranging=ranging_config_from_toml(table, where),
+        fusion=fusion_params_from_toml(table, where),
     )
 
 

@@ -18,11 +18,30 @@ import pandas as pd
 
 from coopproc.errors import OutputError
 
-__all__ = ["atomic_output_dir", "write_csv"]
+__all__ = ["atomic_output_dir", "check_output_dir", "write_csv"]
 
 #: Float format of every output CSV: enough digits for millimetres on any time base, and
 #: the same bytes for the same numbers (determinism).
 FLOAT_FORMAT = "%.6f"
+
+
+def check_output_dir(
+    path: str | Path, *, force: bool = False, protect: Sequence[Path] = ()
+) -> Path:
+    """Raise OutputError now if ``path`` cannot be the output (see atomic_output_dir).
+
+    Called before long work so that a user learns of an existing directory at once.
+    """
+    target = Path(path).resolve()
+    for item in protect:
+        p = Path(item).resolve()
+        if target == p or p.is_relative_to(target):
+            raise OutputError(f"{path}: refusing to write output over the input {item}")
+    if target.exists() and not target.is_dir():
+        raise OutputError(f"{path}: exists and is not a directory")
+    if target.exists() and any(target.iterdir()) and not force:
+        raise OutputError(f"{path}: output directory exists; use --force to replace it")
+    return target
 
 
 @contextlib.contextmanager
@@ -34,15 +53,7 @@ def atomic_output_dir(
     ``protect``: input paths that must never be overwritten or deleted (a run into the
     session directory itself is refused).
     """
-    target = Path(path).resolve()
-    for item in protect:
-        p = Path(item).resolve()
-        if target == p or p.is_relative_to(target):
-            raise OutputError(f"{path}: refusing to write output over the input {item}")
-    if target.exists() and not target.is_dir():
-        raise OutputError(f"{path}: exists and is not a directory")
-    if target.exists() and any(target.iterdir()) and not force:
-        raise OutputError(f"{path}: output directory exists; use --force to replace it")
+    target = check_output_dir(path, force=force, protect=protect)
     target.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
     try:

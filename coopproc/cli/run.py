@@ -62,6 +62,7 @@ def run(
 
     from coopproc.config import load_run_config
     from coopproc.io import read_session
+    from coopproc.outdir import check_output_dir
     from coopproc.output import write_run
     from coopproc.pipeline import run_pipeline
     from coopproc.summary import summarize
@@ -71,7 +72,9 @@ def run(
     config = load_run_config(config_path)
     if no_figures:
         config = dataclasses.replace(config, run=dataclasses.replace(config.run, figures=False))
+    check_output_dir(out_dir, force=force, protect=[session])
     data = read_session(session)
+    check_output_dir(out_dir, force=force, protect=[data.root, *data.inputs])
     say(
         f"session {data.name}: {len(data.platforms)} platforms, "
         f"{len(data.ranges.pairs)} pairs, {len(data.ranges)} ranges"

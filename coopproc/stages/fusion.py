@@ -133,9 +133,12 @@ class FusionParams:
             raise ValueError("mad_floor, epoch_merge_s and drift_correlation_s must be >= 0")
 
 
-def fusion_params_from_toml(table: Mapping[str, Any]) -> FusionParams:
-    """FusionParams from a whole run-config TOML table (only ``[fusion]`` is read)."""
-    return from_table(FusionParams, table.get("fusion"), "run config [fusion]")
+def fusion_params_from_toml(table: Mapping[str, Any], where: str = "run config") -> FusionParams:
+    """FusionParams from a whole run-config TOML table (only ``[fusion]`` is read).
+
+    ``where`` names the file for messages.
+    """
+    return from_table(FusionParams, table.get("fusion"), f"{where} [fusion]")
 
 
 @dataclass(frozen=True, eq=False)

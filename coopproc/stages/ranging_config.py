@@ -188,6 +188,9 @@ class RangingConfig:
     rn: RNParams = field(default_factory=RNParams, metadata={"help": "RN-Based method"})
 
 
-def ranging_config_from_toml(table: Mapping[str, Any]) -> RangingConfig:
-    """The ranging configuration from a whole parsed run-config TOML (other tables ignored)."""
-    return from_table(RangingConfig, table.get("ranging"), "run config [ranging]")
+def ranging_config_from_toml(table: Mapping[str, Any], where: str = "run config") -> RangingConfig:
+    """The ranging configuration from a whole parsed run-config TOML (other tables ignored).
+
+    ``where`` names the file for messages.
+    """
+    return from_table(RangingConfig, table.get("ranging"), f"{where} [ranging]")
