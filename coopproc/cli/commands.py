@@ -11,12 +11,13 @@ __all__ = ["load"]
 #: (module under coopproc.cli, attribute) of every command.
 COMMANDS: tuple[tuple[str, str], ...] = (
     # registry: add one line per command
-    ("locate", "locate"),
-    ("simulate", "simulate"),
+    ("run", "run"),
+    ("report", "report"),
     ("validate", "validate"),
     ("info", "info"),
-    ("report", "report"),
-    ("run", "run"),
+    ("simulate", "simulate"),
+    ("locate", "locate"),
+    ("batch", "batch"),
     ("config_cmd", "config"),
 )
 
