@@ -146,6 +146,38 @@ def _reference_rows(
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
 
 
+def _own_epochs(session: Session) -> dict[str, FloatArray]:
+    """Per platform, the times of the ranges it took part in (sorted, unique)."""
+    frame = session.ranges.frame
+    times = frame["time"].to_numpy(dtype=np.float64)
+    out = {}
+    for platform in session.platform_ids:
+        involved = (frame["from"] == platform).to_numpy() | (frame["to"] == platform).to_numpy()
+        out[platform] = np.unique(times[involved])
+    return out
+
+
+def _at_own_epochs(
+    trajectories: Mapping[str, Trajectory], own: Mapping[str, FloatArray] | None
+) -> dict[str, Trajectory]:
+    """Each platform's solution only at the epochs of its own ranges (``positions_at =
+    "ranges"``): the fusion runs at every range time of the session (with staggered pair
+    polling, many per second), but a platform's position is reported, and scored, at
+    the epochs where it was ranged, as paper 000's 1 Hz cooperative updates are."""
+    if own is None:
+        return dict(trajectories)
+    out = {}
+    for platform, traj in trajectories.items():
+        keep = np.isin(traj.time_s, own.get(platform, np.empty(0)))
+        out[platform] = Trajectory(
+            platform,
+            traj.time_s[keep],
+            traj.enu_m[keep],
+            None if traj.sigma_enu_m is None else traj.sigma_enu_m[keep],
+        )
+    return out
+
+
 def _nav_at(session: Session, like: Mapping[str, Trajectory]) -> dict[str, Trajectory]:
     """Each platform's own solution at the epochs of the fused output."""
     out = {}
@@ -192,13 +224,15 @@ def run_pipeline(
 
     with timed("metrics"):
         max_gap = config.run.reference_max_gap_s
-        nav = _nav_at(session, fused["observed"].smoothed)
+        own = _own_epochs(session) if output == "ranges" else None
+        solutions = {m: _at_own_epochs(f.smoothed, own) for m, f in fused.items()}
+        nav = _nav_at(session, solutions["observed"])
         parts = [
-            _reference_rows(session, fused["observed"].smoothed, max_gap),
+            _reference_rows(session, solutions["observed"], max_gap),
             _positions_rows(session, "nav", nav, max_gap),
         ]
         for method in ("observed", *PROCESSED_METHODS):
-            parts.append(_positions_rows(session, method, fused[method].smoothed, max_gap))
+            parts.append(_positions_rows(session, method, solutions[method], max_gap))
         positions = pd.concat(parts, ignore_index=True)
         positions = positions.sort_values(["platform", "method", "time"], kind="stable")
         positions = positions.reset_index(drop=True)[list(POSITIONS_COLUMNS)]
