@@ -48,15 +48,7 @@ def render_config(cfg: Any) -> str:
     """The configuration as commented TOML that ``--config`` reads back."""
     lines: list[str] = []
     for f in dataclasses.fields(cfg):
-        value = getattr(cfg, f.name)
-        nested = [
-            g for g in dataclasses.fields(value) if dataclasses.is_dataclass(getattr(value, g.name))
-        ]
-        if nested and len(nested) == len(dataclasses.fields(value)):
-            for g in nested:  # a group of sections (e.g. the ranging stage's)
-                lines.extend(_section_lines(g.name, getattr(value, g.name)))
-        else:
-            lines.extend(_section_lines(f.name, value))
+        lines.extend(_section_lines(f.name, getattr(cfg, f.name)))
     return "\n".join(lines).rstrip() + "\n"
 
 
