@@ -38,6 +38,8 @@ class Cloud:
     log_w: FloatArray
     #: Initial azimuth of each particle's lineage (math angle, rad), eq. (16).
     phi0: FloatArray
+    #: Odometer scale error k of each particle: a step moves (1 + k) Delta L (see propagate).
+    scale: FloatArray
 
     @property
     def size(self) -> int:
@@ -49,6 +51,7 @@ class Cloud:
         self.north = self.north[idx]
         self.phi = self.phi[idx]
         self.phi0 = self.phi0[idx]
+        self.scale = self.scale[idx]
 
 
 @dataclass(frozen=True, eq=False)
@@ -89,7 +92,9 @@ def init_cloud(inputs: LocateInputs, params: LocateParams, rng: np.random.Genera
     north = np.repeat(center[1] + radius * np.sin(bearing), m)
     phi = np.tile(azimuth, n)
     log_w = np.full(n * m, -np.log(n * m))
-    return Cloud(east=east, north=north, phi=phi, log_w=log_w, phi0=phi.copy())
+    # odometer scale error of each particle, drawn from its prior (0: eq. (3) exactly)
+    scale = params.odometer_scale_sigma * rng.standard_normal(n * m)
+    return Cloud(east=east, north=north, phi=phi, log_w=log_w, phi0=phi.copy(), scale=scale)
 
 
 def propagate(
@@ -97,7 +102,12 @@ def propagate(
 ) -> None:
     """Step 2: move every particle from epoch k to k + 1 by eq. (3) plus process noise.
 
-    Algorithm 1, lines 7-8: phi += Delta phi; x += Delta L cos(phi); y += Delta L sin(phi).
+    Algorithm 1, lines 7-8: phi += Delta phi; x += Delta L cos(phi); y += Delta L sin(phi),
+    with Delta L scaled by the particle's odometer scale error, (1 + k) Delta L: a
+    dead-reckoned path is not rigid, its length is off by the odometer's scale factor
+    (0.1-0.5 %), which over the 100-300 m a single auxiliary needs to fix the rotation
+    is 0.3-1 m, more than the ranges allow. Eq. (3) has no such term; k is a constant
+    per particle, drawn from N(0, odometer_scale_sigma^2) at step 1 (0 restores eq. (3)).
     The importance density is this transition prior, so eq. (12) reduces to
     w_t = w_{t-1} p(z_t | x_t).
     """
@@ -108,8 +118,9 @@ def propagate(
     sigma_xy = params.step_sigma_m * root_dt + params.step_sigma_rel * delta_l
     sigma_phi = np.radians(params.heading_sigma_deg) * root_dt
     cloud.phi += float(inc.delta_phi_rad[k]) + sigma_phi * noise[2]
-    cloud.east += delta_l * np.cos(cloud.phi) + sigma_xy * noise[0]
-    cloud.north += delta_l * np.sin(cloud.phi) + sigma_xy * noise[1]
+    step = delta_l * (1.0 + cloud.scale)
+    cloud.east += step * np.cos(cloud.phi) + sigma_xy * noise[0]
+    cloud.north += step * np.sin(cloud.phi) + sigma_xy * noise[1]
 
 
 def kernel_jitter(
@@ -117,27 +128,52 @@ def kernel_jitter(
 ) -> None:
     """Regularized resampling: moved (copied) particles land near their source.
 
-    Each particle with ``moved`` True gets Gaussian noise of h x the cloud's weighted
-    standard deviation in east, north and azimuth, with the optimal Gaussian-kernel
-    bandwidth h = kernel_scale x (4 / (P (d + 2)))^(1 / (d + 4)), d = 3 (Musso et al.
-    2001). Particles that did not move keep their exact paths.
+    Each particle with ``moved`` True is redrawn from a Gaussian kernel around its source
+    whose covariance is h^2 x the cloud's weighted covariance of (east, north, azimuth,
+    odometer scale), with the optimal bandwidth
+    h = kernel_scale x (4 / (P (d + 2)))^(1 / (d + 4)), d = 4
+    (Musso et al. 2001). The full covariance keeps the kernel on the posterior's
+    correlation between position and azimuth (a rotation about the auxiliary moves both).
+    With ``kernel_shrink`` the kernel is centred on a x source + (1 - a) x mean,
+    a = sqrt(1 - h^2) (Liu & West 2001), so the jitter does not add h^2 of the cloud's
+    variance at every resampling: without it that inflation balances the little
+    information an epoch brings on the weakly observable rotation about the auxiliary,
+    and the cloud stalls metres wide. Particles that did not move keep their paths.
     """
     count = int(moved.sum())
     if count == 0 or params.kernel_scale <= 0:
         return
-    d = 3
+    d = 4
     h = params.kernel_scale * (4.0 / (cloud.size * (d + 2))) ** (1.0 / (d + 4))
+    h = min(h, 0.99)
     sel = np.flatnonzero(w > 1e-12 * w.max())
     ws = w[sel] / w[sel].sum()
-    e, n = cloud.east[sel], cloud.north[sel]
-    sd_e = float(np.sqrt(ws @ (e - ws @ e) ** 2))
-    sd_n = float(np.sqrt(ws @ (n - ws @ n) ** 2))
-    r = float(np.hypot(ws @ np.cos(cloud.phi[sel]), ws @ np.sin(cloud.phi[sel])))
-    sd_phi = float(np.sqrt(-2.0 * np.log(min(max(r, 1e-12), 1.0))))
-    noise = rng.standard_normal((3, count))
-    cloud.east[moved] += h * sd_e * noise[0]
-    cloud.north[moved] += h * sd_n * noise[1]
-    cloud.phi[moved] += h * sd_phi * noise[2]
+    phi_mean = _circular_mean(ws, cloud.phi[sel])
+    x = np.vstack(
+        [
+            cloud.east[sel],
+            cloud.north[sel],
+            wrap_pi(cloud.phi[sel] - phi_mean) + phi_mean,
+            cloud.scale[sel],
+        ]
+    )
+    mean = x @ ws
+    dev = x - mean[:, None]
+    cov = (dev * ws) @ dev.T
+    # Cholesky of the covariance, regularized so a degenerate cloud still factorizes
+    scale = np.sqrt(np.maximum(np.diag(cov), 1e-18))
+    corr = cov / np.outer(scale, scale) + 1e-9 * np.eye(d)
+    chol = scale[:, None] * np.linalg.cholesky(corr)
+    noise = chol @ rng.standard_normal((d, count))
+    src = np.vstack([cloud.east[moved], cloud.north[moved], cloud.phi[moved], cloud.scale[moved]])
+    if params.kernel_shrink:
+        a = np.sqrt(1.0 - h * h)
+        src[2] = wrap_pi(src[2] - phi_mean) + phi_mean
+        src = a * src + (1.0 - a) * mean[:, None]
+    cloud.east[moved] = src[0] + h * noise[0]
+    cloud.north[moved] = src[1] + h * noise[1]
+    cloud.phi[moved] = src[2] + h * noise[2]
+    cloud.scale[moved] = src[3] + h * noise[3]
 
 
 def log_likelihood(

@@ -77,19 +77,32 @@ class LocateParams:
         metadata={"help": "added in quadrature to the ranging sigma in the likelihood, m"},
     )
     step_sigma_m: float = field(
-        default=0.02,
+        default=0.01,
         metadata={"help": "propagation noise per axis, m per sqrt(s) (+ step_sigma_rel)"},
     )
     step_sigma_rel: float = field(
-        default=0.01, metadata={"help": "propagation noise proportional to Delta L, 1-sigma"}
+        default=0.003, metadata={"help": "propagation noise proportional to Delta L, 1-sigma"}
     )
     heading_sigma_deg: float = field(
-        default=0.05,
+        default=0.01,
         metadata={"help": "propagation noise on the azimuth, degrees per sqrt(s)"},
     )
+    odometer_scale_sigma: float = field(
+        default=0.005,
+        metadata={
+            "help": "prior 1-sigma of the target's odometer scale error, estimated per "
+            "particle (0: eq. (3) exactly)"
+        },
+    )
     kernel_scale: float = field(
-        default=0.2,
+        default=0.4,
         metadata={"help": "AACOPF: jitter of moved particles, x the optimal kernel bandwidth"},
+    )
+    kernel_shrink: bool = field(
+        default=True,
+        metadata={
+            "help": "AACOPF: Liu-West shrinkage of the kernel jitter (keeps the cloud's variance)"
+        },
     )
     ekf_initial_bearing_deg: float = field(
         default=0.0,
@@ -131,7 +144,14 @@ class LocateParams:
             raise ValueError(f"residual_window must be >= 2, found {self.residual_window}")
         if self.aco_cell_m <= 0:
             raise ValueError(f"aco_cell_m must be > 0, found {self.aco_cell_m}")
-        for name in ("delta_d_m", "step_sigma_m", "step_sigma_rel", "heading_sigma_deg"):
+        nonneg = (
+            "delta_d_m",
+            "odometer_scale_sigma",
+            "step_sigma_m",
+            "step_sigma_rel",
+            "heading_sigma_deg",
+        )
+        for name in nonneg:
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, found {getattr(self, name)}")
         bad = [m for m in self.methods if m not in METHOD_NAMES]
