@@ -116,6 +116,18 @@ def test_ekf_runs_from_a_coarse_guess(moving) -> None:
     _, _, result = moving
     ekf = result.table[result.table["method"] == "ekf"]
     assert np.isfinite(ekf[["east", "north", "heading"]].to_numpy()).all()
+    # the default bank of 16 x 16 EKFs (initial bearings x azimuths) converges
+    assert np.max(ekf["error_h"].to_numpy()[-60:]) < 0.5
+    assert abs(result.summary.set_index("method").loc["ekf", "azimuth_error"]) < 1.0
+
+
+def test_a_single_coarse_ekf_does_not_converge(single_aux_session) -> None:
+    session, _ = single_aux_session(seed=1)
+    params = locate_params(
+        {"methods": ["ekf"], "ekf_bearings": 1, "ekf_azimuths": 1, "ekf_initial_azimuth_deg": 200}
+    )
+    result = locate(session, "T", ["A1"], params)
+    assert np.min(result.table["error_h"].to_numpy()[-60:]) > 2.0
 
 
 def test_bad_requests_are_one_line_errors(single_aux_session) -> None:

@@ -111,6 +111,14 @@ class LocateParams:
     ekf_initial_azimuth_deg: float = field(
         default=0.0, metadata={"help": "EKF coarse guess: initial heading, degrees from north"}
     )
+    ekf_bearings: int = field(
+        default=16,
+        metadata={"help": "EKF bank: initial bearings on the ring (1: one coarse guess)"},
+    )
+    ekf_azimuths: int = field(
+        default=16,
+        metadata={"help": "EKF bank: initial azimuths per bearing (1: one coarse guess)"},
+    )
     azimuth_window_m: float = field(
         default=10.0,
         metadata={"help": "path length over which the reference initial azimuth is fitted, m"},
@@ -136,6 +144,11 @@ class LocateParams:
     def __post_init__(self) -> None:
         if self.N < 1 or self.M < 1:
             raise ValueError(f"N and M must be >= 1, found N={self.N}, M={self.M}")
+        if self.ekf_bearings < 1 or self.ekf_azimuths < 1:
+            raise ValueError(
+                f"ekf_bearings and ekf_azimuths must be >= 1, found "
+                f"{self.ekf_bearings}, {self.ekf_azimuths}"
+            )
         if self.aco_candidates < 1:
             raise ValueError(f"aco_candidates must be >= 1, found {self.aco_candidates}")
         if not 0.0 <= self.lambda_ <= 1.0:
