@@ -1,7 +1,8 @@
 """Particle-cloud building blocks shared by the AACOPF and the standard PF (paper 004).
 
-A particle is (east, north, phi): a position and the current azimuth phi (math angle,
-rad). Particle r = k * M + i starts at position k of the ring and initial azimuth i, so
+A particle is (east, north, phi, k): a position, the current azimuth phi (math angle,
+rad) and the odometer scale error k of its dead reckoning (see :func:`propagate`).
+Particle r = n * M + i starts at position n of the ring and initial azimuth i, so
 ``r mod M`` is its initial-azimuth index (eq. (16)).
 """
 
