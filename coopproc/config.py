@@ -74,8 +74,9 @@ class RunConfig:
         }
 
 
-#: Top-level sections a run config may have.
-SECTIONS: tuple[str, ...] = ("run", "ranging", "fusion")
+#: Top-level sections a run config may have (``[locate]`` is read by ``coopproc locate``
+#: and only checked here, so that one file can configure both commands).
+SECTIONS: tuple[str, ...] = ("run", "ranging", "fusion", "locate")
 
 
 def run_config_from_toml(table: Mapping[str, Any], where: str = "run config") -> RunConfig:
@@ -84,6 +85,10 @@ def run_config_from_toml(table: Mapping[str, Any], where: str = "run config") ->
     for name, value in table.items():
         if not isinstance(value, Mapping):
             raise ConfigError(f"{where}: '{name}' must be a table ([{name}])")
+    if "locate" in table:
+        from coopproc.stages.particle.locate import locate_params
+
+        locate_params(table["locate"], f"{where} [locate]")
     return RunConfig(
         run=from_table(RunParams, table.get("run"), f"{where} [run]"),
         ranging=ranging_config_from_toml(table, where),
