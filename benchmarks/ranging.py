@@ -19,28 +19,11 @@ import time
 import numpy as np
 
 from coopproc.stages.di import DISmoothingParams, di_variance, smooth_di
-from coopproc.stages.nlos import KernelParams, filter_distance
+from coopproc.stages.nlos import filter_distance
+from coopproc.stages.ranging import RangingConfig, kernel_params
 
-PARAMS = KernelParams(
-    sigma_m=0.15,
-    initial_sigma_m=0.15,
-    gamma_sigma=3.0,
-    window_s=3.0,
-    aligned=True,
-    di_accel_sigma=0.5,
-    one_shot=False,
-    backdate_s=2.0,
-    onset_fraction=0.5,
-    confirm_fraction=0.5,
-    end_confirm_s=1.0,
-    end_min_epochs=2,
-    adaptive_n=60,
-    adaptive_min_n=10,
-    min_sigma_m=0.01,
-    suspect_epochs=3,
-    positive_only=True,
-    max_event_s=120.0,
-)
+#: The stage's defaults (paper 000: gamma = 3 sigma, M = 3 s), sigma 0.15 m, 60 s window.
+PARAMS = kernel_params(RangingConfig(), 0.15, 0.15, 60, rn=False)
 
 
 def make_pair(n: int, seed: int) -> dict[str, np.ndarray]:

@@ -52,7 +52,13 @@ from coopproc.stages.nlos import DistanceFilterOutput, KernelParams, filter_dist
 from coopproc.stages.ranging_config import RangingConfig, ranging_config_from_toml
 from coopproc.stages.rn import platform_velocity, rn_increments
 
-__all__ = ["RangingConfig", "RangingOutput", "ranging_config_from_toml", "run_ranging"]
+__all__ = [
+    "RangingConfig",
+    "RangingOutput",
+    "kernel_params",
+    "ranging_config_from_toml",
+    "run_ranging",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,9 +134,11 @@ def _initial_sigma(range_m: FloatArray, di_m: FloatArray, config: RangingConfig)
     return max(1.4826 * mad / np.sqrt(2.0), config.nlos.min_sigma_m)
 
 
-def _kernel_params(
+def kernel_params(
     config: RangingConfig, sigma_m: float, initial_sigma_m: float, adaptive_n: int, rn: bool
 ) -> KernelParams:
+    """The distance filter's numbers from the config: DI-Based, or RN-Based (``rn``: one-shot
+    estimate at detection, no back-dating, no false-alarm check, no suspects)."""
     nlos = config.nlos
     return KernelParams(
         sigma_m=sigma_m,
@@ -247,7 +255,7 @@ def _prepare(
         var_m2=var,
         reference_m=np.linalg.norm(ref_a - ref_b, axis=1),
         rn_m=rn_inc,
-        params=_kernel_params(config, sigma, initial, adaptive_n, rn=False),
+        params=kernel_params(config, sigma, initial, adaptive_n, rn=False),
         sigma_source=source,
     )
 

@@ -6,29 +6,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from coopproc.stages.nlos import KernelParams, filter_distance
+from coopproc.stages.nlos import filter_distance
+from coopproc.stages.ranging import RangingConfig, kernel_params
 
-PARAMS = KernelParams(
-    sigma_m=0.15,
-    initial_sigma_m=0.15,
-    gamma_sigma=3.0,
-    window_s=3.0,
-    aligned=True,
-    di_accel_sigma=0.5,
-    one_shot=True,
-    backdate_s=0.0,
-    onset_fraction=0.5,
-    confirm_fraction=0.0,
-    end_confirm_s=1.0,
-    end_min_epochs=2,
-    adaptive_n=600,
-    adaptive_min_n=10,
-    min_sigma_m=0.01,
-    suspect_epochs=0,
-    positive_only=True,
-    max_event_s=120.0,
-    restart_gap_s=5.0,
-)
+#: The stage's RN-mode defaults (one-shot estimate, no back-dating), sigma 0.15 m.
+PARAMS = kernel_params(RangingConfig(), 0.15, 0.15, 600, rn=True)
 
 
 def _series_with_outage() -> tuple[np.ndarray, ...]:
