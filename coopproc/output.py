@@ -106,7 +106,7 @@ def write_run(
             {"file": _relative(p, session.root), "sha256": sha256_of(p)} for p in session.inputs
         ],
         "notes": list(session.notes),
-        "sigma": dict(result.facts.get("sigma", {})),  # type: ignore[call-overload]
+        "sigma": {p: {"sigma_m": s, "source": src} for p, (s, src) in output.sigma.items()},
         "timings_s": dict(output.timings_s),
         "start_time": started.isoformat(timespec="seconds"),
     }
