@@ -91,8 +91,6 @@ def run(
 
         output = run_pipeline(data, config, progress=progress)
         progress("writing outputs")
-        for pair, (sigma, source) in sorted(output.sigma.items()):
-            say(f"UWB sigma {pair}: {sigma:.3f} m ({source})")
         summary = summarize(output)
         formats = ("png",) + (("pdf",) if pdf else ()) + (("svg",) if svg else ())
         files = write_run(
@@ -105,6 +103,8 @@ def run(
             started=started,
             summary=summary.facts,
         )
+    for pair, (sigma, source) in sorted(output.sigma.items()):
+        say(f"UWB sigma {pair}: {sigma:.3f} m ({source})")
     for line in summary.lines:
         say(line)
     say(f"tables: {files.out_dir}/ ({len(files.tables)} CSV), figures: {len(files.figures)}")
