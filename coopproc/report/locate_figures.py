@@ -67,13 +67,19 @@ def plot_locate_errors(ax_pos: Axes, ax_az: Axes, result: LocateResult) -> tuple
     start = result.observability.observable_from
     for ax in (ax_pos, ax_az):
         if start is not None:
-            ax.axvline(float(result.inputs.time_s[start]) - t0, color="0.5", ls=":", lw=1.0)
+            ax.axvline(
+                float(result.inputs.time_s[start]) - t0,
+                color="0.5",
+                ls=":",
+                lw=1.0,
+                label="observable from",
+            )
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize="small")
     ax_pos.set_yscale("log")
     ax_pos.set_ylabel("horizontal error (m)")
     ax_az.set_ylabel("initial azimuth error (deg)")
-    ax_az.set_xlabel(f"time since {t0:.1f} s (s)")
+    ax_az.set_xlabel(f"time since t0 = {t0:.1f} s (s)")
     return ax_pos, ax_az
 
 
@@ -90,6 +96,8 @@ def plot_particle_cloud(ax: Axes, result: LocateResult, index: int) -> Axes:
         ax.plot(ref[0], ref[1], "*", color="black", ms=10, label="reference")
     ax.plot(track.east_m[k], track.north_m[k], "x", color="tab:blue", ms=8, label="estimate")
     ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("east (m)")
+    ax.set_ylabel("north (m)")
     ax.set_title(f"t = {time_s - float(result.inputs.time_s[0]):.1f} s", fontsize="small")
     return ax
 
