@@ -110,6 +110,12 @@ def load_run(out_dir: str | Path) -> RunTables:
     root = Path(out_dir)
     if not root.is_dir():
         raise InputError(root, "not an output directory of coopproc run")
+    if not (root / "run.json").is_file() and any(root.glob("nav_*")):
+        raise InputError(
+            root,
+            "this is a session (input) directory; report reads what `coopproc run "
+            f"{root} -o OUT` writes: run it first, then `coopproc report OUT`",
+        )
     tables: dict[str, pd.DataFrame | None] = {}
     for name, attr, columns, required in RUN_FILES:
         path = root / name
