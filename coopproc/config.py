@@ -47,13 +47,6 @@ class RunParams:
             "navigation rate (dead reckoning between range updates)"
         },
     )
-    reference_max_gap_s: float = field(
-        default=2.0,
-        metadata={
-            "help": "longest gap in a reference trajectory that is interpolated across, "
-            "seconds; epochs in longer gaps get no reference"
-        },
-    )
     figures: bool = field(default=True, metadata={"help": "write figures/ and report.html"})
 
 

@@ -161,6 +161,26 @@ class Trajectory:
         out[outside] = np.nan
         return out
 
+    def interpolate_within(self, time_s: FloatArray, max_gap_s: float | None = None) -> FloatArray:
+        """Like :meth:`interpolate`, but NaN inside gaps too: nothing is invented across them.
+
+        A gap is an interval between two consecutive epochs longer than ``max_gap_s``
+        (default: 2.5 times the median interval), e.g. reference epochs dropped by the
+        RTKLIB Q filter or an outage; a platform turning inside it would make a
+        straight line a wrong position. Times that fall exactly on an epoch are kept.
+        """
+        t = np.asarray(time_s, dtype=np.float64)
+        out = self.interpolate(t)
+        if len(self) < 2:
+            return out
+        steps = np.diff(self.time_s)
+        limit = 2.5 * float(np.median(steps)) if max_gap_s is None else max_gap_s
+        right = np.searchsorted(self.time_s, t)
+        idx = np.clip(right, 1, len(self) - 1)
+        exact = self.time_s[np.minimum(right, len(self) - 1)] == t
+        out[(steps[idx - 1] > limit) & ~exact] = np.nan
+        return out
+
     def frame(self) -> pd.DataFrame:
         """The trajectory as a DataFrame with the nav CSV column names."""
         data: dict[str, FloatArray | NDArray[np.int64]] = {

@@ -37,7 +37,7 @@ from coopproc.report.scores import nlos_event_scores
 from coopproc.stages.fusion import FusionOutput, fuse
 from coopproc.stages.ranging import run_ranging
 
-__all__ = ["PipelineOutput", "reference_at", "run_pipeline"]
+__all__ = ["PipelineOutput", "run_pipeline"]
 
 #: Processed range methods that are fused again (the observed fusion is step 1).
 PROCESSED_METHODS: tuple[str, ...] = ("rn", "di")
@@ -52,21 +52,6 @@ class PipelineOutput:
     nlos_event_scores: pd.DataFrame
     timings_s: Mapping[str, float]
     sigma: Mapping[str, tuple[float, str]]
-
-
-def reference_at(traj: Trajectory, time_s: FloatArray, max_gap_s: float) -> FloatArray:
-    """Reference positions (m, 3) at ``time_s``; NaN outside the span or inside a gap.
-
-    A gap is two consecutive reference epochs more than ``max_gap_s`` apart (epochs
-    dropped by the RTKLIB Q filter leave such gaps): nothing is invented across it.
-    """
-    pos = traj.interpolate(time_s)
-    idx = np.searchsorted(traj.time_s, time_s, side="right")
-    idx = np.clip(idx, 1, len(traj) - 1)
-    gap = traj.time_s[idx] - traj.time_s[idx - 1]
-    exact = np.isin(time_s, traj.time_s)
-    pos[(gap > max_gap_s) & ~exact] = np.nan
-    return pos
 
 
 def _ranges_for(method_table: pd.DataFrame, method: str, sigma: pd.Series) -> pd.DataFrame:
@@ -89,7 +74,6 @@ def _positions_rows(
     session: Session,
     method: str,
     trajectories: Mapping[str, Trajectory],
-    max_gap_s: float,
 ) -> pd.DataFrame:
     frames = []
     for platform in sorted(trajectories):
@@ -97,7 +81,7 @@ def _positions_rows(
         error_h = np.full(len(traj), np.nan)
         ref = session.reference.get(platform)
         if ref is not None and len(ref) >= 2:
-            truth = reference_at(ref, traj.time_s, max_gap_s)
+            truth = ref.interpolate_within(traj.time_s)
             error_h = np.hypot(traj.enu_m[:, 0] - truth[:, 0], traj.enu_m[:, 1] - truth[:, 1])
         frames.append(
             pd.DataFrame(
@@ -117,9 +101,7 @@ def _positions_rows(
     return pd.concat(frames, ignore_index=True)
 
 
-def _reference_rows(
-    session: Session, like: Mapping[str, Trajectory], max_gap_s: float
-) -> pd.DataFrame:
+def _reference_rows(session: Session, like: Mapping[str, Trajectory]) -> pd.DataFrame:
     """Rows of method ``reference``: the reference trajectory at the fused output epochs
     (an extension of DATA.md's positions.csv; epochs without reference are left out)."""
     frames = []
@@ -128,7 +110,7 @@ def _reference_rows(
         if ref is None or len(ref) < 2:
             continue
         t = like[platform].time_s
-        pos = reference_at(ref, t, max_gap_s)
+        pos = ref.interpolate_within(t)
         ok = np.all(np.isfinite(pos), axis=1)
         frames.append(
             pd.DataFrame(
@@ -223,16 +205,15 @@ def run_pipeline(
             fused[method] = fuse(session, ranges, config.fusion, output=output)
 
     with timed("metrics"):
-        max_gap = config.run.reference_max_gap_s
         own = _own_epochs(session) if output == "ranges" else None
         solutions = {m: _at_own_epochs(f.smoothed, own) for m, f in fused.items()}
         nav = _nav_at(session, solutions["observed"])
         parts = [
-            _reference_rows(session, solutions["observed"], max_gap),
-            _positions_rows(session, "nav", nav, max_gap),
+            _reference_rows(session, solutions["observed"]),
+            _positions_rows(session, "nav", nav),
         ]
         for method in ("observed", *PROCESSED_METHODS):
-            parts.append(_positions_rows(session, method, solutions[method], max_gap))
+            parts.append(_positions_rows(session, method, solutions[method]))
         positions = pd.concat(parts, ignore_index=True)
         positions = positions.sort_values(["platform", "method", "time"], kind="stable")
         positions = positions.reset_index(drop=True)[list(POSITIONS_COLUMNS)]

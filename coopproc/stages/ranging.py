@@ -93,23 +93,14 @@ def _positions(
 
 
 def _reference_positions(session: Session, platform: str, time_s: FloatArray) -> FloatArray:
-    """Reference positions at ``time_s``; NaN inside gaps of the reference.
-
-    A gap (dropped float epochs, an outage) is an interval longer than 2.5 times the
-    reference's median interval: a platform turning inside it would make a straight-line
-    interpolation a wrong reference, and DATA.md wants none where there is none.
-    """
+    """Reference positions at ``time_s``; NaN inside gaps of the reference
+    (:meth:`Trajectory.interpolate_within`: DATA.md wants none where there is none)."""
     out = _positions(session, session.reference, platform, time_s, "reference", False)
     traj = session.reference.get(platform)
     info = session.platforms.get(platform)
     if traj is None or len(traj) < 2 or (info is not None and info.role == "anchor"):
         return out
-    steps = np.diff(traj.time_s)
-    limit = 2.5 * float(np.median(steps))
-    idx = np.clip(np.searchsorted(traj.time_s, time_s), 1, len(traj) - 1)
-    exact = traj.time_s[np.minimum(np.searchsorted(traj.time_s, time_s), len(traj) - 1)]
-    in_gap = (steps[idx - 1] > limit) & (exact != time_s)
-    out[in_gap] = np.nan
+    out[np.isnan(traj.interpolate_within(time_s))] = np.nan
     return out
 
 

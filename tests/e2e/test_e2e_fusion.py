@@ -35,7 +35,6 @@ def _fused_mean_errors(run: E2ERun, column: str) -> dict[str, float]:
     from coopproc.config import RunConfig
     from coopproc.io import read_session
     from coopproc.model import pair_members
-    from coopproc.pipeline import reference_at
     from coopproc.stages.fusion import fuse
 
     session = read_session(run.session)
@@ -54,7 +53,7 @@ def _fused_mean_errors(run: E2ERun, column: str) -> dict[str, float]:
     out = {}
     for platform in ("A", "C"):
         traj = fused.smoothed[platform]
-        ref = reference_at(session.reference[platform], traj.time_s, 2.0)
+        ref = session.reference[platform].interpolate_within(traj.time_s)
         out[platform] = float(np.nanmean(np.hypot(*(traj.enu_m[:, :2] - ref[:, :2]).T)))
     return out
 
