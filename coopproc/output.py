@@ -17,34 +17,14 @@ from typing import Any
 
 from coopproc import __version__
 from coopproc.config import RunConfig
-from coopproc.model import (
-    DI_COLUMNS,
-    METRICS_COLUMNS,
-    NLOS_ESTIMATE_COLUMNS,
-    NLOS_EVENT_COLUMNS,
-    POSITION_METRICS_COLUMNS,
-    POSITIONS_COLUMNS,
-    RANGES_OUT_COLUMNS,
-    Session,
-)
+from coopproc.model import Session
 from coopproc.outdir import atomic_output_dir, write_csv
 from coopproc.pipeline import PipelineOutput
 from coopproc.report.figures import write_figures
 from coopproc.report.html import write_html
-from coopproc.report.rundir import RunTables
+from coopproc.report.rundir import RUN_FILES, RunTables
 
 __all__ = ["RunFiles", "run_tables", "sha256_of", "write_run"]
-
-#: (file name, attribute of Result, contract columns) of every table, in writing order.
-TABLES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
-    ("ranges.csv", "ranges", RANGES_OUT_COLUMNS),
-    ("di.csv", "di", DI_COLUMNS),
-    ("nlos_events.csv", "nlos_events", NLOS_EVENT_COLUMNS),
-    ("nlos_estimates.csv", "nlos_estimates", NLOS_ESTIMATE_COLUMNS),
-    ("positions.csv", "positions", POSITIONS_COLUMNS),
-    ("metrics.csv", "metrics", METRICS_COLUMNS),
-    ("position_metrics.csv", "position_metrics", POSITION_METRICS_COLUMNS),
-)
 
 
 @dataclass(frozen=True)
@@ -96,7 +76,6 @@ def write_run(
     summary: Mapping[str, Any] | None = None,
 ) -> RunFiles:
     """Write every output of a run into ``out_dir`` (atomically; see coopproc.outdir)."""
-    result = output.result
     info: dict[str, Any] = {
         "coopproc_version": __version__,
         "python": platform.python_version(),
@@ -111,15 +90,15 @@ def write_run(
         "start_time": started.isoformat(timespec="seconds"),
     }
     with atomic_output_dir(out_dir, force=force, protect=[session.root, *session.inputs]) as tmp:
+        # the same list of files and columns that `coopproc report` reads back
+        run = run_tables(output, info)
         tables = [
-            write_csv(getattr(result, attr), tmp / name, columns) for name, attr, columns in TABLES
+            write_csv(getattr(run, attr), tmp / name, columns)
+            for name, attr, columns, _required in RUN_FILES
         ]
-        tables.append(write_csv(output.nlos_scores, tmp / "nlos_scores.csv"))
-        tables.append(write_csv(output.nlos_event_scores, tmp / "nlos_event_scores.csv"))
         figures: list[Path] = []
         html = None
         if config.run.figures:
-            run = run_tables(output, info)
             figures = write_figures(run, tmp / "figures", formats=figure_formats)
         finished = dt.datetime.now(dt.UTC)
         info["duration_s"] = round((finished - started).total_seconds(), 3)
