@@ -7,26 +7,19 @@ from pathlib import Path
 
 import click
 
+from coopproc.cli.options import config_option, output_option
+
 __all__ = ["batch"]
 
 
 @click.command()
 @click.argument("sessions", nargs=-1, required=True, type=click.Path(exists=True, path_type=Path))
-@click.option(
-    "-o",
-    "--output",
+@output_option(
     "out_root",
-    type=click.Path(path_type=Path),
+    "Root directory; each session's outputs go to ROOT/<session name>/.",
     required=True,
-    help="Root directory; each session's outputs go to ROOT/<session name>/.",
 )
-@click.option(
-    "-c",
-    "--config",
-    "config_path",
-    type=click.Path(exists=True, dir_okay=False, path_type=Path),
-    help="Run configuration TOML for every session (see `coopproc config`).",
-)
+@config_option("Run configuration TOML for every session (see `coopproc config`).")
 @click.option(
     "--scheduler",
     metavar="ADDRESS",

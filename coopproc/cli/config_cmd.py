@@ -8,6 +8,8 @@ from typing import Any
 
 import click
 
+from coopproc.cli.options import config_option
+
 __all__ = ["config"]
 
 
@@ -53,13 +55,7 @@ def render_config(cfg: Any) -> str:
 
 
 @click.command("config")
-@click.option(
-    "-c",
-    "--config",
-    "config_path",
-    type=click.Path(exists=True, dir_okay=False, path_type=Path),
-    help="A run configuration to merge over the defaults.",
-)
+@config_option("A run configuration to merge over the defaults.")
 def config(config_path: Path | None) -> None:
     """Print the effective run configuration as TOML, each key with its help.
 

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 
+from coopproc.cli.options import config_option, output_option, session_argument
 from coopproc.errors import ConfigError
 
 __all__ = ["locate"]
@@ -27,24 +28,11 @@ def _read_config(path: Path | None) -> dict[str, object]:
 
 
 @click.command()
-@click.argument("session", type=click.Path(exists=True, path_type=Path))
+@session_argument()
 @click.option("--target", required=True, help="Id of the platform to localize.")
 @click.option("--aux", "aux", required=True, help="Auxiliary platform id(s), comma separated.")
-@click.option(
-    "-o",
-    "--output",
-    "out_dir",
-    required=True,
-    type=click.Path(path_type=Path),
-    help="Output directory (replaced only with --force).",
-)
-@click.option(
-    "-c",
-    "--config",
-    "config_path",
-    type=click.Path(exists=True, dir_okay=False, path_type=Path),
-    help="TOML file with a [locate] table (N, M, alpha, beta, lambda, Omega1, ...).",
-)
+@output_option("out_dir", "Output directory (replaced only with --force).", required=True)
+@config_option("TOML file with a [locate] table (N, M, alpha, beta, lambda, Omega1, ...).")
 @click.option("--force", is_flag=True, help="Replace an existing output directory.")
 @click.option("--seed", type=int, default=None, help="Random seed (overrides the config).")
 @click.option("--no-figures", is_flag=True, help="Write the tables only.")

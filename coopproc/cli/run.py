@@ -8,6 +8,8 @@ from pathlib import Path
 
 import click
 
+from coopproc.cli.options import config_option, output_option, session_argument
+
 __all__ = ["run"]
 
 #: The pipeline's steps, for the progress display.
@@ -15,23 +17,14 @@ _STEPS = 6
 
 
 @click.command()
-@click.argument("session", type=click.Path(exists=True, path_type=Path))
-@click.option(
-    "-o",
-    "--output",
+@session_argument()
+@output_option(
     "out_dir",
-    type=click.Path(path_type=Path),
+    "Output directory (replaced only with --force).",
     default=Path("out"),
     show_default=True,
-    help="Output directory (replaced only with --force).",
 )
-@click.option(
-    "-c",
-    "--config",
-    "config_path",
-    type=click.Path(exists=True, dir_okay=False, path_type=Path),
-    help="Run configuration TOML (see `coopproc config`).",
-)
+@config_option("Run configuration TOML (see `coopproc config`).")
 @click.option("--force", is_flag=True, help="Replace an existing output directory.")
 @click.option("--pdf", is_flag=True, help="Also write figures as PDF.")
 @click.option("--svg", is_flag=True, help="Also write figures as SVG.")

@@ -1,0 +1,36 @@
+"""Option bundles shared by several commands (one definition, one help text style)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, TypeVar
+
+import click
+
+__all__ = ["config_option", "output_option", "session_argument"]
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def session_argument(**kwargs: Any) -> Callable[[F], F]:
+    """SESSION: a session directory or .mcap file that exists."""
+    return click.argument("session", type=click.Path(exists=True, path_type=Path), **kwargs)
+
+
+def output_option(dest: str, help: str, **kwargs: Any) -> Callable[[F], F]:
+    """``-o/--output DIR`` into parameter ``dest``."""
+    return click.option(
+        "-o", "--output", dest, type=click.Path(path_type=Path), help=help, **kwargs
+    )
+
+
+def config_option(help: str) -> Callable[[F], F]:
+    """``-c/--config FILE`` (an existing TOML file) into parameter ``config_path``."""
+    return click.option(
+        "-c",
+        "--config",
+        "config_path",
+        type=click.Path(exists=True, dir_okay=False, path_type=Path),
+        help=help,
+    )
