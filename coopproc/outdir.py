@@ -72,12 +72,22 @@ def atomic_output_dir(
 
 
 def write_csv(frame: pd.DataFrame, path: Path, columns: Sequence[str] | None = None) -> Path:
-    """Write ``frame`` as CSV with the project's fixed float format; empty cells for NaN."""
+    """Write ``frame`` as CSV with the project's fixed float format; empty cells for NaN.
+
+    A name ending in ``.gz`` is gzip-compressed (with a zero timestamp: same bytes for the
+    same table).
+    """
     if columns is not None:
         missing = [c for c in columns if c not in frame.columns]
         if missing:
             raise OutputError(f"{path.name}: missing columns {missing}")
         extra = [c for c in frame.columns if c not in columns]
         frame = frame[[*columns, *extra]]
-    frame.to_csv(path, index=False, float_format=FLOAT_FORMAT, lineterminator="\n")
+    frame.to_csv(
+        path,
+        index=False,
+        float_format=FLOAT_FORMAT,
+        lineterminator="\n",
+        compression={"method": "gzip", "mtime": 0} if path.name.endswith(".gz") else None,
+    )
     return path

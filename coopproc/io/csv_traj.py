@@ -30,7 +30,7 @@ from coopproc.io._common import (
     parser_error,
 )
 from coopproc.model import Trajectory
-from coopproc.outdir import FLOAT_FORMAT
+from coopproc.outdir import write_csv
 
 __all__ = [
     "POSITION_FORMS",
@@ -189,13 +189,4 @@ def read_traj_csv(path: str | Path, platform: str) -> RawTrajectory:
 
 def write_traj_csv(traj: Trajectory, path: str | Path) -> Path:
     """Write a trajectory as a nav/ref CSV in ENU form (gzip when the name ends in .gz)."""
-    p = Path(path)
-    frame = traj.frame()
-    frame.to_csv(
-        p,
-        index=False,
-        float_format=FLOAT_FORMAT,
-        lineterminator="\n",
-        compression={"method": "gzip", "mtime": 0} if p.name.endswith(".gz") else None,
-    )
-    return p
+    return write_csv(traj.frame(), Path(path))

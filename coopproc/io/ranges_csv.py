@@ -24,7 +24,7 @@ from coopproc.io._common import (
 )
 from coopproc.io.csv_traj import read_csv_table
 from coopproc.model import RANGE_COLUMNS, RangeTable
-from coopproc.outdir import FLOAT_FORMAT
+from coopproc.outdir import write_csv
 
 __all__ = [
     "MAX_RANGE_M",
@@ -191,13 +191,4 @@ def read_ranges_csv(path: str | Path) -> RangesRead:
 
 def write_ranges_csv(table: RangeTable, path: str | Path) -> Path:
     """Write a range table as ranges.csv (``pair`` is derived on reading, so not written)."""
-    p = Path(path)
-    frame = table.frame.drop(columns=["pair"])
-    frame.to_csv(
-        p,
-        index=False,
-        float_format=FLOAT_FORMAT,
-        lineterminator="\n",
-        compression={"method": "gzip", "mtime": 0} if p.name.endswith(".gz") else None,
-    )
-    return p
+    return write_csv(table.frame.drop(columns=["pair"]), Path(path))
