@@ -294,5 +294,3 @@ class Result:
     positions: pd.DataFrame  # POSITIONS_COLUMNS -> positions.csv
     metrics: pd.DataFrame  # METRICS_COLUMNS -> metrics.csv
     position_metrics: pd.DataFrame  # POSITION_METRICS_COLUMNS -> position_metrics.csv
-    #: Per-pair facts of the run (sigma used and where it came from, ...), for run.json.
-    facts: Mapping[str, object] = field(default_factory=dict)

@@ -227,7 +227,6 @@ def run_pipeline(
             positions=positions,
             metrics=distance_metrics(table),
             position_metrics=position_metrics(positions),
-            facts={"sigma": {p: {"sigma_m": s, "source": src} for p, (s, src) in sigma.items()}},
         )
     return PipelineOutput(
         result=result,
