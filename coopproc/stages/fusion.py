@@ -79,6 +79,13 @@ class FusionParams:
         default=1.0,
         metadata={"help": "lower bound of the MAD unit-weight sigma of eq. (20)"},
     )
+    mad_window: int = field(
+        default=50,
+        metadata={
+            "help": "eq. (20) MAD over the epoch's innovations and this many earlier ones "
+            "(0: the epoch's alone; with one range per epoch the robust factor never acts)"
+        },
+    )
     smoother: bool = field(
         default=True, metadata={"help": "RTS fixed-interval smoother (paper 003 sec. 2.8)"}
     )
@@ -129,6 +136,8 @@ class FusionParams:
         for name in ("range_sigma_m", "drift_sigma_mps", "leader_sigma_m", "initial_sigma_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} = {getattr(self, name)}, expected > 0")
+        if self.mad_window < 0:
+            raise ValueError(f"mad_window = {self.mad_window}, expected >= 0")
         if self.mad_floor < 0 or self.epoch_merge_s < 0 or self.drift_correlation_s < 0:
             raise ValueError("mad_floor, epoch_merge_s and drift_correlation_s must be >= 0")
 
@@ -213,7 +222,7 @@ def fuse(
     xs_f, var_f, covs, gamma, innov = ekf_forward(
         x0, c0, u, q, obs_ptr, obs["kind"], obs["a"], obs["b"], obs["anchor"], obs["dz2"],
         obs["z"], obs["var"], dim, params.robust, params.k0, params.k1, params.mad_floor,
-        smooth,
+        smooth, params.mad_window,
     )  # fmt: skip
     if smooth:
         xs_s, var_s = rts_backward(xs_f, covs, u, q)

@@ -100,8 +100,15 @@ def ekf_forward(
     k1: float,
     sigma_floor: float,
     keep_cov: bool,
+    mad_window: int = 0,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
     """Forward EKF over K epochs.
+
+    ``mad_window``: the MAD unit-weight sigma of eq. (20) is taken over the epoch's
+    innovations together with the last ``mad_window`` standardized innovations of earlier
+    epochs (0: the epoch's alone, as paper 002 writes it for many satellites per epoch).
+    With one range per epoch (staggered UWB polling) the epoch-only MAD is |v| / sqrt(d)
+    itself, every standardized innovation is 1 and the robust factor never acts.
 
     Returns the filtered states (K, n), their variances (K, n), the filtered covariances
     (K, n, n) when ``keep_cov`` (else (1, n, n)), the robust factor of every observation
@@ -128,6 +135,11 @@ def ekf_forward(
     d = np.zeros(max(max_m, 1))
     ph = np.zeros(n)
     x_prior = np.zeros(n)
+    ring = np.zeros(max(mad_window, 1))
+    ring_n = 0
+    ring_at = 0
+    pool = np.zeros(max(mad_window, 1) + max(max_m, 1))
+    ones = np.ones(max(mad_window, 1) + max(max_m, 1))
     for k in range(n_epochs):
         if k > 0:  # time update, paper 002 eq. (12)-(13) with F = I
             for i in range(n):
@@ -150,10 +162,24 @@ def ekf_forward(
                     hch += h_val[j, p] * c[h_idx[j, p], h_idx[j, s]] * h_val[j, s]
             d[j] = hch + r_var[o]
             innov[o] = v[j]
-        if robust and m > 0:  # eq. (20) -> (19) -> (18)
+        if robust and m > 0 and mad_window <= 0:  # eq. (20) -> (19) -> (18)
             sigma = mad_sigma_nb(v[:m], d[:m], sigma_floor)
             for j in range(m):
                 gamma[lo + j] = igg3_scalar(v[j] / (sigma * np.sqrt(d[j])), k0, k1)
+        elif robust and m > 0:  # eq. (20) over the epoch and the recent window
+            used = 0
+            for j in range(m):
+                pool[used] = abs(v[j]) / np.sqrt(d[j])
+                used += 1
+            for j in range(ring_n):
+                pool[used] = ring[j]
+                used += 1
+            sigma = mad_sigma_nb(pool[:used], ones[:used], sigma_floor)
+            for j in range(m):
+                gamma[lo + j] = igg3_scalar(v[j] / (sigma * np.sqrt(d[j])), k0, k1)
+                ring[ring_at] = abs(v[j]) / np.sqrt(d[j])
+                ring_at = (ring_at + 1) % mad_window
+                ring_n = min(ring_n + 1, mad_window)
         for i in range(n):
             x_prior[i] = x[i]
         for j in range(m):  # batch update eq. (15)-(17) as corrected scalar updates

@@ -72,6 +72,9 @@ class KernelParams:
     positive_only: bool
     max_event_s: float
     restart_gap_s: float = np.inf
+    #: 1-sigma behind gamma_max of eq. (9) when it differs from the range noise (the
+    #: innovation spread measured on the data, see calibration.py); <= 0: ``sigma_m``
+    detect_sigma_m: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,6 +114,7 @@ def _kernel(
     suspect_epochs: int,
     positive_only: bool,
     max_event_s: float,
+    detect_sigma: float,
 ) -> tuple[FloatArray, np.ndarray, FloatArray, np.ndarray, FloatArray, FloatArray, FloatArray]:
     n = t.shape[0]
     out_d = np.full(n, np.nan)
@@ -189,7 +193,7 @@ def _kernel(
                 sigma = np.sqrt(max(r_hat, min_sigma * min_sigma))
         r = rng[k] - d  # paper 000, eq. (9) residual (D' = d, eq. (10))
         resid[k] = r
-        gamma = gamma_sigma * sigma
+        gamma = gamma_sigma * (detect_sigma if detect_sigma > 0.0 else sigma)
         use = 0  # 0 no range update, 1 raw range, 2 range - eps_hat
         done = False
         if mode == 0 and adaptive:
@@ -443,6 +447,7 @@ def _filter_piece(
         int(params.suspect_epochs),
         bool(params.positive_only),
         float(params.max_event_s),
+        float(params.detect_sigma_m),
     )
     return DistanceFilterOutput(
         distance_m=d,

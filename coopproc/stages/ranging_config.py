@@ -120,6 +120,21 @@ class NLOSParams:
         },
     )
     end_min_epochs: int = field(default=2, metadata={"help": "... and this many epochs"})
+    self_calibrate: bool = field(
+        default=True,
+        metadata={
+            "help": "estimate per pair from the data the white UWB noise, the DI process "
+            "noise and the innovation spread behind gamma_max (the declared sigma is a "
+            "prior); false: the declared or adaptive sigma alone (docs/methods-ranging.md)"
+        },
+    )
+    two_way: bool = field(
+        default=True,
+        metadata={
+            "help": "run the distance filters (DI- and RN-Based) forward and backward in time "
+            "and flag NLOS where both runs do (false: forward only, as in real time)"
+        },
+    )
     adaptive: bool = field(
         default=True,
         metadata={
