@@ -7,13 +7,14 @@ is an in-memory :class:`~coopproc.model.Session` (what the readers would return)
 """
 
 from coopproc.sim.engine import scenario_params, simulate
-from coopproc.sim.params import NlosSpec, OutageSpec, SimParams
+from coopproc.sim.params import NavGapSpec, NlosSpec, OutageSpec, SimParams
 from coopproc.sim.scenarios import SCENARIOS, Scenario
 from coopproc.sim.truth import Simulation, Truth
 from coopproc.sim.writer import write_simulation, write_truth
 
 __all__ = [
     "SCENARIOS",
+    "NavGapSpec",
     "NlosSpec",
     "OutageSpec",
     "Scenario",

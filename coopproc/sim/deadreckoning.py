@@ -10,20 +10,41 @@ and integrates x_k = x_0 + e_0 + sum Delta L_i (sin(theta_i + dpsi_i), cos(theta
 (east, north; heading clockwise from north). The error therefore grows with time and
 distance as real DR does: a constant heading error rotates the travelled displacement,
 the bias term adds ~ v b t^2 / 2 of cross-track error on a straight run.
+
+Faults beyond the declared figures (:func:`draw_dr_faults`, the ``dr-faults`` scenario):
+a heading-rate error d (deg/min) added to b, an odometer scale fault added to k_s, and
+wheel-slip episodes in which Delta L_k is over-read by a factor (1 + s).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from coopproc.model import FloatArray
 from coopproc.sim.params import SimParams
 
-__all__ = ["DrErrors", "course_rad", "dead_reckon", "dr_drift_sigma_mps", "draw_dr_errors"]
+__all__ = [
+    "DrErrors",
+    "Slip",
+    "course_rad",
+    "dead_reckon",
+    "dr_drift_sigma_mps",
+    "draw_dr_errors",
+    "draw_dr_faults",
+]
 
 _DPH = np.pi / 180.0 / 3600.0  # deg/h -> rad/s
+
+
+@dataclass(frozen=True)
+class Slip:
+    """A wheel-slip episode: odometer steps in [start_s, end_s) read (1 + over_read) x."""
+
+    start_s: float  # seconds from the session start
+    end_s: float
+    over_read: float
 
 
 @dataclass(frozen=True)
@@ -31,9 +52,15 @@ class DrErrors:
     """The sensor errors one follower drew (recorded in the truth)."""
 
     gyro_bias_dph: float
+    #: Total odometer scale error k_s (the odo_scale_sigma draw plus any scale fault).
     odo_scale: float
     heading_init_deg: float
     init_error_m: tuple[float, float, float]
+    #: Heading-rate fault, deg/min, added to the gyro bias.
+    heading_drift_dpm: float = 0.0
+    #: The odometer scale fault part of ``odo_scale``.
+    odo_scale_fault: float = 0.0
+    slips: tuple[Slip, ...] = ()
 
 
 def draw_dr_errors(params: SimParams, rng: np.random.Generator) -> DrErrors:
@@ -47,6 +74,40 @@ def draw_dr_errors(params: SimParams, rng: np.random.Generator) -> DrErrors:
         odo_scale=float(rng.normal(0.0, params.odo_scale_sigma)),
         heading_init_deg=float(rng.normal(0.0, params.heading_init_sigma_deg)),
         init_error_m=(float(e0[0]), float(e0[1]), float(up0)),
+    )
+
+
+def draw_dr_faults(
+    errors: DrErrors, params: SimParams, rng: np.random.Generator, *, drifting: bool
+) -> DrErrors:
+    """``errors`` with the configured faults drawn from ``rng`` (a stream of its own).
+
+    ``drifting``: this follower gets the heading-rate fault. Slip episodes: a Poisson
+    number at ``slip_rate_per_hour``, each 2-6 s long and 20-50 % over-read, starting
+    uniformly in the session, not overlapping.
+    """
+    drift = 0.0
+    if drifting and params.heading_drift_dpm > 0:
+        drift = params.heading_drift_dpm * (1.0 if rng.uniform() < 0.5 else -1.0)
+    fault = 0.0
+    low, high = params.odo_scale_fault
+    if high > 0:
+        fault = float(rng.uniform(low, high)) * (1.0 if rng.uniform() < 0.5 else -1.0)
+    slips: list[Slip] = []
+    duration = params.duration_s
+    if params.slip_rate_per_hour > 0 and duration > 20.0:
+        for _ in range(int(rng.poisson(params.slip_rate_per_hour * duration / 3600.0))):
+            start = round(float(rng.uniform(10.0, duration - 10.0)), 1)
+            end = round(start + float(rng.uniform(2.0, 6.0)), 1)
+            over = round(float(rng.uniform(0.2, 0.5)), 3)
+            if all(end + 1.0 < s.start_s or start > s.end_s + 1.0 for s in slips):
+                slips.append(Slip(start, end, over))
+    return replace(
+        errors,
+        odo_scale=errors.odo_scale + fault,
+        heading_drift_dpm=drift,
+        odo_scale_fault=fault,
+        slips=tuple(sorted(slips, key=lambda s: s.start_s)),
     )
 
 
@@ -83,8 +144,14 @@ def dead_reckon(
     arw = params.gyro_arw_dpsh * np.pi / 180.0 / 60.0  # deg/sqrt(h) -> rad/sqrt(s)
     walk = np.concatenate(([0.0], np.cumsum(rng.normal(0.0, 1.0, size=n - 1) * arw * np.sqrt(dt))))
     dpsi = np.deg2rad(errors.heading_init_deg) + errors.gyro_bias_dph * _DPH * t_rel + walk
+    if errors.heading_drift_dpm:
+        dpsi = dpsi + np.deg2rad(errors.heading_drift_dpm / 60.0) * t_rel
     noise = rng.normal(0.0, 1.0, size=n - 1) * params.odo_noise_m * np.sqrt(step)
     measured = step * (1.0 + errors.odo_scale) + noise
+    for slip in errors.slips:
+        # steps ending inside the episode over-read
+        inside = (t_rel[1:] > slip.start_s) & (t_rel[1:] <= slip.end_s)
+        measured = np.where(inside, measured * (1.0 + slip.over_read), measured)
     heading = course + dpsi[:-1]
     out = np.empty_like(truth_enu_m)
     out[0, :2] = truth_enu_m[0, :2] + np.asarray(errors.init_error_m[:2])

@@ -16,13 +16,21 @@ import pandas as pd
 from coopproc.configtools import nearest
 from coopproc.errors import ConfigError
 from coopproc.model import Platform, RangeTable, Session, SessionConfig, Trajectory
-from coopproc.sim.deadreckoning import course_rad, dead_reckon, dr_drift_sigma_mps, draw_dr_errors
-from coopproc.sim.gnss import leader_drift_sigma_mps, leader_nav, ppk_reference
-from coopproc.sim.params import NlosSpec, SimParams, apply_overrides
+from coopproc.sim.deadreckoning import (
+    DrErrors,
+    course_rad,
+    dead_reckon,
+    dr_drift_sigma_mps,
+    draw_dr_errors,
+    draw_dr_faults,
+)
+from coopproc.sim.gnss import leader_drift_sigma_mps, leader_jitter, leader_nav, ppk_reference
+from coopproc.sim.params import NavGapSpec, NlosSpec, SimParams, apply_overrides
 from coopproc.sim.scenarios import SCENARIOS, Actor, named_rng
 from coopproc.sim.truth import (
     DR_ERROR_COLUMNS,
     DR_PARAM_COLUMNS,
+    NAV_FAULT_COLUMNS,
     NAV_FRAME_COLUMNS,
     Simulation,
     Truth,
@@ -39,10 +47,14 @@ def scenario_params(scenario: str, **overrides: Any) -> SimParams:
     spec = SCENARIOS[scenario]
     base = apply_overrides(SimParams(), spec.defaults)
     params = apply_overrides(base, overrides)
+    nominal = float(spec.defaults.get("duration_s", SimParams().duration_s))
     if "nlos_events" not in overrides or overrides["nlos_events"] is None:
-        nominal = float(spec.defaults.get("duration_s", SimParams().duration_s))
         params = dataclasses.replace(
             params, nlos_events=_scale_events(params.nlos_events, nominal, params.duration_s)
+        )
+    if "nav_gaps" not in overrides or overrides["nav_gaps"] is None:
+        params = dataclasses.replace(
+            params, nav_gaps=_scale_gaps(params.nav_gaps, nominal, params.duration_s)
         )
     return params
 
@@ -59,6 +71,23 @@ def _scale_events(
         end = min(start + (event.end_s - event.start_s), duration_s - 1.0)
         if end > start:
             out.append(dataclasses.replace(event, start_s=start, end_s=end))
+    return tuple(out)
+
+
+def _scale_gaps(
+    gaps: tuple[NavGapSpec, ...], nominal_s: float, duration_s: float
+) -> tuple[NavGapSpec, ...]:
+    """Scenario nav gaps like events: same fraction, same length; one that reached the
+    session end still does."""
+    if duration_s == nominal_s:
+        return gaps
+    out = []
+    for gap in gaps:
+        start = gap.start_s * duration_s / nominal_s
+        end = start + (gap.end_s - gap.start_s)
+        end = duration_s if gap.end_s >= nominal_s else min(end, duration_s - 1.0)
+        if end > start:
+            out.append(dataclasses.replace(gap, start_s=start, end_s=end))
     return tuple(out)
 
 
@@ -128,6 +157,10 @@ def simulate(
     t_ref = start + np.round(
         ref_dt * np.arange(int(np.floor(params.duration_s / ref_dt + 1e-9)) + 1), 9
     )
+    _check_gaps(params, world.actors, t_rel)
+    fault_rows: list[list[object]] = []
+    # the heading-rate fault goes to the first dead-reckoning platform in sorted order
+    drifting = min((a.id for a in world.actors if a.nav == "dr"), default=None)
     for actor in sorted(world.actors, key=lambda a: a.id):
         heading = _heading_deg(actor.truth_enu_m)
         truth = Trajectory(actor.id, time, actor.truth_enu_m, heading_deg=heading, source="truth")
@@ -135,12 +168,11 @@ def simulate(
         plats[actor.id] = _platform(actor, params)
         if actor.nav == "none":
             continue
-        rng = named_rng(seed, f"nav:{actor.id}")
-        if actor.nav == "gnss":
-            pos, head, sigma = leader_nav(actor.truth_enu_m, heading, time, params, rng)
-        else:
-            errors = draw_dr_errors(params, rng)
-            pos, head, sigma = dead_reckon(actor.truth_enu_m, time, params, errors, rng)
+        pos, head, sigma, vel, errors = _navigate(
+            actor, heading, time, params, seed, drifting=actor.id == drifting
+        )
+        if errors is not None:
+            fault_rows += _fault_rows(actor.id, errors, start, params.duration_s)
             dr_param_rows.append(
                 [
                     actor.id,
@@ -150,12 +182,21 @@ def simulate(
                     *errors.init_error_m,
                 ]
             )
-        # DR error at whole seconds of the nav grid (a compact truth file)
-        err = (pos - actor.truth_enu_m)[::every]
+        logged = _logged(t_rel, params.nav_gaps, actor.id)
+        for gap in (g for g in params.nav_gaps if g.platform == actor.id):
+            removed = int((~_logged(t_rel, (gap,), actor.id)).sum())
+            fault_rows.append(
+                [actor.id, "nav_gap", start + gap.start_s, start + gap.end_s, float(removed)]
+            )
+        # DR error at whole seconds of the nav grid (a compact truth file), where logged
+        whole = np.zeros(time.shape[0], dtype=bool)
+        whole[::every] = True
+        whole &= logged
+        err = (pos - actor.truth_enu_m)[whole]
         dr_err_frames.append(
             pd.DataFrame(
                 {
-                    "time": time[::every],
+                    "time": time[whole],
                     "platform": actor.id,
                     "error_east": err[:, 0],
                     "error_north": err[:, 1],
@@ -170,7 +211,13 @@ def simulate(
             pos, head = _own_frame(pos, head, shift, rotation)
             frame_rows.append([actor.id, rotation, float(shift[0]), float(shift[1])])
         nav[actor.id] = Trajectory(
-            actor.id, time, pos, sigma_enu_m=sigma, heading_deg=head, source="simulated"
+            actor.id,
+            time[logged],
+            pos[logged],
+            sigma_enu_m=sigma[logged],
+            heading_deg=head[logged],
+            vel_enu_mps=None if vel is None else vel[logged],
+            source="simulated",
         )
         ref_pos, ref_sigma, quality = ppk_reference(
             truth.interpolate(t_ref), t_ref, params, named_rng(seed, f"ref:{actor.id}")
@@ -187,7 +234,10 @@ def simulate(
             f"NLOS events on pairs without ranging: {', '.join(unknown)} "
             f"(pairs: {', '.join(pairs)})"
         )
-    out = simulate_ranges(truth_traj, world.links, params, events, world.outages, start, seed)
+    outages = world.outages
+    if params.exact_ranges:
+        events, outages = [], ()
+    out = simulate_ranges(truth_traj, world.links, params, events, outages, start, seed)
 
     config = SessionConfig(
         name=f"{scenario} seed {seed}",
@@ -218,6 +268,7 @@ def simulate(
         dr_params=pd.DataFrame(dr_param_rows, columns=list(DR_PARAM_COLUMNS)),
         nav_frames=pd.DataFrame(frame_rows, columns=list(NAV_FRAME_COLUMNS)),
         params=params,
+        nav_faults=pd.DataFrame(fault_rows, columns=list(NAV_FAULT_COLUMNS)),
     )
     return Simulation(scenario=scenario, seed=seed, session=session, truth=truth_obj)
 
@@ -228,3 +279,77 @@ def _platform(actor: Actor, params: SimParams) -> Platform:
         return Platform(actor.id, "anchor", None, (float(p[0]), float(p[1]), float(p[2])))
     drift = leader_drift_sigma_mps(params) if actor.nav == "gnss" else dr_drift_sigma_mps(params)
     return Platform(actor.id, actor.role, round(drift, 4))
+
+
+def _navigate(
+    actor: Actor,
+    heading_deg: np.ndarray,
+    time_s: np.ndarray,
+    params: SimParams,
+    seed: int,
+    *,
+    drifting: bool,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None, DrErrors | None]:
+    """An actor's own navigation on the full nav grid: positions, heading, 1-sigma,
+    velocity (or None) and, for dead reckoning, the errors drawn (leaders: None).
+
+    The draws of the fault-free models come first from the actor's ``nav:`` stream; the
+    faults and the leader's extra noise come from streams of their own, so adding them
+    leaves every earlier scenario's numbers as they were.
+    """
+    rng = named_rng(seed, f"nav:{actor.id}")
+    truth = actor.truth_enu_m
+    if actor.nav == "gnss":
+        pos, head, sigma = leader_nav(truth, heading_deg, time_s, params, rng)
+        if params.leader_white_m == 0 and not params.leader_velocity:
+            return pos, head, sigma, None, None
+        white, vel = leader_jitter(truth, time_s, params, named_rng(seed, f"nav-jitter:{actor.id}"))
+        return pos + white, head, np.hypot(sigma, params.leader_white_m), vel, None
+    errors = draw_dr_errors(params, rng)
+    if _has_dr_faults(params):
+        fault_rng = named_rng(seed, f"dr-faults:{actor.id}")
+        errors = draw_dr_faults(errors, params, fault_rng, drifting=drifting)
+    pos, head, sigma = dead_reckon(truth, time_s, params, errors, rng)
+    return pos, head, sigma, None, errors
+
+
+def _has_dr_faults(params: SimParams) -> bool:
+    return bool(
+        params.heading_drift_dpm > 0
+        or params.odo_scale_fault[1] > 0
+        or params.slip_rate_per_hour > 0
+    )
+
+
+def _fault_rows(pid: str, errors: DrErrors, start: float, duration: float) -> list[list[object]]:
+    """``truth/nav_faults.csv`` rows of one follower's drawn dead-reckoning faults."""
+    rows: list[list[object]] = []
+    if errors.heading_drift_dpm:
+        rows.append([pid, "heading_drift", start, start + duration, errors.heading_drift_dpm])
+    if errors.odo_scale_fault:
+        rows.append([pid, "odo_scale", start, start + duration, errors.odo_scale_fault])
+    for slip in errors.slips:
+        rows.append([pid, "slip", start + slip.start_s, start + slip.end_s, slip.over_read])
+    return rows
+
+
+def _logged(t_rel: np.ndarray, gaps: tuple[NavGapSpec, ...], pid: str) -> np.ndarray:
+    """Nav epochs of ``pid`` outside its gaps (both ends of a gap included in it)."""
+    keep = np.ones(t_rel.shape[0], dtype=bool)
+    for gap in gaps:
+        if gap.platform == pid:
+            keep &= ~((t_rel >= gap.start_s - 1e-9) & (t_rel <= gap.end_s + 1e-9))
+    return keep
+
+
+def _check_gaps(params: SimParams, actors: tuple[Actor, ...], t_rel: np.ndarray) -> None:
+    navigating = sorted(a.id for a in actors if a.nav != "none")
+    for gap in params.nav_gaps:
+        if gap.platform not in navigating:
+            raise ConfigError(
+                f"nav gap of '{gap.platform}': no such platform with navigation "
+                f"(platforms: {', '.join(navigating)})"
+            )
+    for pid in navigating:
+        if _logged(t_rel, params.nav_gaps, pid).sum() < 2:
+            raise ConfigError(f"nav gaps of '{pid}' leave fewer than 2 nav epochs")

@@ -1,7 +1,9 @@
 """Leader navigation (GNSS/INS, centimetre noise) and the GNSS-PPK reference trajectories.
 
 - Leader: truth + first-order Gauss-Markov noise per axis (sigma, correlation time tau),
-  x_k = a x_{k-1} + sqrt(1 - a^2) sigma w_k with a = exp(-dt / tau), via ``lfilter``.
+  x_k = a x_{k-1} + sqrt(1 - a^2) sigma w_k with a = exp(-dt / tau), via ``lfilter``;
+  optionally (:func:`leader_jitter`) white noise at the nav rate on top, as a real 10 Hz
+  GNSS/INS solution has, and a velocity (true velocity + white noise).
 - Reference: truth at the reference rate + white noise of a fixed (Q = 1) solution; a few
   segments of 10-20 s are float (Q = 2) with decimetre-level noise, as PPK has at times.
 """
@@ -15,7 +17,7 @@ from scipy.signal import lfilter
 from coopproc.model import FloatArray
 from coopproc.sim.params import SimParams
 
-__all__ = ["gauss_markov", "leader_drift_sigma_mps", "leader_nav", "ppk_reference"]
+__all__ = ["gauss_markov", "leader_drift_sigma_mps", "leader_jitter", "leader_nav", "ppk_reference"]
 
 
 def gauss_markov(
@@ -47,10 +49,28 @@ def leader_nav(
     return truth_enu_m + noise, heading, sigma
 
 
+def leader_jitter(
+    truth_enu_m: FloatArray, time_s: FloatArray, params: SimParams, rng: np.random.Generator
+) -> tuple[FloatArray, FloatArray | None]:
+    """(n, 3) white position noise (``leader_white_m`` per axis) and, with
+    ``leader_velocity``, the (n, 3) velocity: central differences of the truth plus
+    white noise ``leader_vel_sigma_mps`` per axis (else None)."""
+    n = truth_enu_m.shape[0]
+    white = rng.normal(0.0, 1.0, size=(n, 3)) * params.leader_white_m
+    if not params.leader_velocity or n < 2:
+        return white, None
+    vel = np.gradient(truth_enu_m, time_s, axis=0)
+    return white, vel + rng.normal(0.0, 1.0, size=(n, 3)) * params.leader_vel_sigma_mps
+
+
 def leader_drift_sigma_mps(params: SimParams) -> float:
-    """Declared drift_sigma of a leader: 1-sigma of the 1-s increment of its GNSS/INS noise."""
+    """Declared drift_sigma of a leader: 1-sigma of the 1-s increment of its GNSS/INS noise
+    (Gauss-Markov part, plus sqrt(2) x the white part where there is one)."""
     a = np.exp(-1.0 / params.leader_corr_s) if params.leader_corr_s > 0 else 0.0
-    return float(params.leader_sigma_m * np.sqrt(2.0 * (1.0 - a)))
+    markov = float(params.leader_sigma_m * np.sqrt(2.0 * (1.0 - a)))
+    if params.leader_white_m == 0.0:
+        return markov
+    return float(np.hypot(markov, np.sqrt(2.0) * params.leader_white_m))
 
 
 def ppk_reference(

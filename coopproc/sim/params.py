@@ -15,17 +15,32 @@ from typing import Any
 from coopproc.configtools import from_table, nearest
 from coopproc.errors import ConfigError
 
-__all__ = ["NlosSpec", "OutageSpec", "SimParams", "apply_overrides"]
+__all__ = ["NavGapSpec", "NlosSpec", "OutageSpec", "SimParams", "apply_overrides", "sparse_table"]
+
+#: Metadata of the fields added after ``sample_logs/`` was made: ``truth/params.toml``
+#: lists them only when they differ from their default, so the files of every scenario
+#: made before them stay byte for byte what they were.
+_SPARSE = {"sparse": True}
 
 
 @dataclass(frozen=True)
 class NlosSpec:
-    """One NLOS event: every range of ``pair`` in [start_s, end_s] gets N(mean_m, sigma^2)."""
+    """One NLOS event: every range of ``pair`` in [start_s, end_s] gets N(mean(t), sigma^2).
+
+    mean(t) = mean_m, or with ``wander_m`` > 0 a slowly varying mean
+    mean_m + wander_m (sin(w1 t + p1) + sin(w2 t + p2)) / 2 (periods 60-200 s, random
+    phases): a body or wall whose blocking changes as the platforms move.
+    """
 
     pair: str = field(default="", metadata={"help": "pair name, e.g. 'A-B'"})
     start_s: float = field(default=0.0, metadata={"help": "start, seconds from session start"})
     end_s: float = field(default=0.0, metadata={"help": "end, seconds from session start"})
     mean_m: float = field(default=0.5, metadata={"help": "mean of the added NLOS error, m"})
+    wander_m: float = field(
+        default=0.0,
+        metadata={"help": "amplitude of the slow variation of the mean inside the event, m"}
+        | _SPARSE,
+    )
 
 
 @dataclass(frozen=True)
@@ -36,8 +51,22 @@ class OutageSpec:
     end_s: float = field(default=0.0, metadata={"help": "end, seconds from session start"})
 
 
-def _f(default: Any, help_text: str) -> Any:
-    return field(default=default, metadata={"help": help_text})
+@dataclass(frozen=True)
+class NavGapSpec:
+    """A logging gap: ``platform``'s nav file has no row in [start_s, end_s].
+
+    The platform's navigation runs on through the gap (the dead reckoning keeps
+    integrating), only its output is missing; an ``end_s`` at or past the session end
+    makes the nav file end early while the ranges go on.
+    """
+
+    platform: str = field(default="", metadata={"help": "platform id, e.g. 'A'"})
+    start_s: float = field(default=0.0, metadata={"help": "start, seconds from session start"})
+    end_s: float = field(default=0.0, metadata={"help": "end, seconds from session start"})
+
+
+def _f(default: Any, help_text: str, *, sparse: bool = False) -> Any:
+    return field(default=default, metadata={"help": help_text} | (_SPARSE if sparse else {}))
 
 
 @dataclass(frozen=True)
@@ -71,10 +100,43 @@ class SimParams:
     odo_noise_m: float = _f(0.005, "odometer distance noise, m per sqrt(m) travelled")
     init_error_m: float = _f(0.10, "initial horizontal position error per axis, 1-sigma, m")
     height_rw_m: float = _f(0.002, "dead-reckoning height random walk, m per sqrt(s)")
+    # dead-reckoning faults (not in the declared figures: session.toml stays optimistic)
+    heading_drift_dpm: float = _f(
+        0.0,
+        "heading-rate fault of the first follower (sorted ids), deg/min, random sign, on top "
+        "of the gyro bias",
+        sparse=True,
+    )
+    odo_scale_fault: tuple[float, float] = _f(
+        (0.0, 0.0),
+        "odometer scale fault: each follower adds |k| drawn in [low, high] (random sign) to "
+        "its odo_scale_sigma draw, e.g. [0.01, 0.03] = 1-3 %",
+        sparse=True,
+    )
+    slip_rate_per_hour: float = _f(
+        0.0,
+        "wheel-slip episodes per follower and hour: 2-6 s in which the odometer over-reads "
+        "by 20-50 %",
+        sparse=True,
+    )
+    nav_gaps: tuple[NavGapSpec, ...] = _f(
+        (), "nav logging gaps (platform, start_s, end_s): no nav rows in them", sparse=True
+    )
     # leaders: GNSS/INS
     leader_sigma_m: float = _f(0.02, "GNSS/INS horizontal noise per axis, 1-sigma, m")
     leader_sigma_up_m: float = _f(0.03, "GNSS/INS vertical noise, 1-sigma, m")
     leader_corr_s: float = _f(10.0, "correlation time of the GNSS/INS noise (Gauss-Markov), s")
+    leader_white_m: float = _f(
+        0.0,
+        "GNSS/INS white noise per axis at the nav rate, 1-sigma, m, on top of the Gauss-Markov",
+        sparse=True,
+    )
+    leader_velocity: bool = _f(
+        False, "leaders' nav files carry vel_east/north/up (true velocity + noise)", sparse=True
+    )
+    leader_vel_sigma_mps: float = _f(
+        0.02, "GNSS/INS velocity white noise per axis, 1-sigma, m/s", sparse=True
+    )
     # UWB
     uwb_noise_m: float = _f(0.08, "true UWB white ranging noise, 1-sigma, m")
     uwb_declared_sigma_m: float = _f(
@@ -84,12 +146,20 @@ class SimParams:
     gross_error_rate: float = _f(0.0, "probability that one range carries a gross error")
     gross_error_m: float = _f(2.0, "gross error magnitude, m (sign random, +-25 % spread)")
     nlos_sigma_m: float = _f(0.1, "1-sigma of the NLOS error around its mean, m (paper 000 4.3)")
-    nlos_events: tuple[NlosSpec, ...] = _f((), "NLOS events (pair, start_s, end_s, mean_m)")
+    nlos_events: tuple[NlosSpec, ...] = _f(
+        (), "NLOS events (pair, start_s, end_s, mean_m[, wander_m])"
+    )
     random_nlos_per_pair_hour: float = _f(
         0.0, "extra random NLOS events per pair and hour (10-30 s, means 0.4-0.6 m)"
     )
     outages: tuple[OutageSpec, ...] = _f((), "UWB outages (start_s, end_s): no ranges at all")
     rssi: bool = _f(True, "write an 'rssi' extra column (dBm) in ranges.csv")
+    exact_ranges: bool = _f(
+        False,
+        "ranges = true distances (no noise, bias, NLOS, gross errors, dropouts, outages, "
+        "no millimetre rounding)",
+        sparse=True,
+    )
     # reference: GNSS-PPK
     ref_sigma_m: float = _f(0.01, "PPK fixed-solution horizontal noise per axis, 1-sigma, m")
     ref_sigma_up_m: float = _f(0.02, "PPK fixed-solution vertical noise, 1-sigma, m")
@@ -109,6 +179,7 @@ class SimParams:
         nonneg = (
             "speed_mps", "distance_rate_mps", "uwb_noise_m", "nlos_sigma_m", "gross_error_m",
             "odo_noise_m", "init_error_m", "leader_sigma_m", "ref_sigma_m",
+            "heading_drift_dpm", "slip_rate_per_hour", "leader_white_m", "leader_vel_sigma_mps",
         )  # fmt: skip
         for name in nonneg:
             if getattr(self, name) < 0:
@@ -126,6 +197,16 @@ class SimParams:
         for event in self.nlos_events:
             if event.end_s < event.start_s:
                 raise ValueError(f"NLOS event on {event.pair} ends before it starts")
+            if event.wander_m < 0:
+                raise ValueError(f"NLOS event on {event.pair}: wander_m must be >= 0")
+        for gap in self.nav_gaps:
+            if gap.end_s < gap.start_s:
+                raise ValueError(f"nav gap of {gap.platform} ends before it starts")
+        low, high = self.odo_scale_fault
+        if not 0.0 <= low <= high:
+            raise ValueError(
+                f"odo_scale_fault must be [low, high] with 0 <= low <= high, found {[low, high]}"
+            )
 
 
 def _convert_specs(key: str, value: Any, kind: type) -> tuple[Any, ...]:
@@ -146,6 +227,13 @@ def _convert_specs(key: str, value: Any, kind: type) -> tuple[Any, ...]:
     return tuple(out)
 
 
+_SPEC_FIELDS: dict[str, type] = {
+    "nlos_events": NlosSpec,
+    "outages": OutageSpec,
+    "nav_gaps": NavGapSpec,
+}
+
+
 def apply_overrides(base: SimParams, overrides: Mapping[str, Any]) -> SimParams:
     """``base`` with fields replaced by ``overrides`` (converted and checked like TOML)."""
     names = {f.name for f in dataclasses.fields(SimParams)}
@@ -155,10 +243,8 @@ def apply_overrides(base: SimParams, overrides: Mapping[str, Any]) -> SimParams:
             raise ConfigError(f"unknown simulation parameter '{key}'{nearest(key, names)}")
         if value is None:
             continue
-        if key == "nlos_events":
-            changes[key] = _convert_specs(key, value, NlosSpec)
-        elif key == "outages":
-            changes[key] = _convert_specs(key, value, OutageSpec)
+        if key in _SPEC_FIELDS:
+            changes[key] = _convert_specs(key, value, _SPEC_FIELDS[key])
         else:
             checked = from_table(SimParams, {key: value}, "simulation parameter")
             changes[key] = getattr(checked, key)
@@ -166,3 +252,17 @@ def apply_overrides(base: SimParams, overrides: Mapping[str, Any]) -> SimParams:
         return dataclasses.replace(base, **changes)
     except ValueError as err:
         raise ConfigError(f"simulation parameters: {err}") from err
+
+
+def sparse_table(obj: Any) -> Any:
+    """``obj`` (SimParams, a spec, a tuple of them) as plain TOML data; the fields marked
+    sparse only where they differ from their default."""
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return {
+            f.name: sparse_table(getattr(obj, f.name))
+            for f in dataclasses.fields(obj)
+            if not (f.metadata.get("sparse") and getattr(obj, f.name) == f.default)
+        }
+    if isinstance(obj, tuple | list):
+        return [sparse_table(v) for v in obj]
+    return obj

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import pandas as pd
 
@@ -15,6 +15,7 @@ __all__ = [
     "DR_ERROR_COLUMNS",
     "DR_PARAM_COLUMNS",
     "GROSS_ERROR_COLUMNS",
+    "NAV_FAULT_COLUMNS",
     "NAV_FRAME_COLUMNS",
     "NLOS_TRUTH_COLUMNS",
     "Simulation",
@@ -60,6 +61,13 @@ DR_PARAM_COLUMNS: tuple[str, ...] = (
 #: session_en = R(rotation) nav_en + shift, rotation clockwise (a heading in the nav
 #: frame plus ``rotation_deg`` is the true heading).
 NAV_FRAME_COLUMNS: tuple[str, ...] = ("platform", "rotation_deg", "shift_east", "shift_north")
+#: ``truth/nav_faults.csv`` (written only when there is a fault): one row per fault of a
+#: platform's navigation, start/end in the session time base; ``fault`` and ``value``:
+#: ``heading_drift`` (heading-rate error, deg/min, whole session), ``odo_scale`` (the
+#: odometer scale fault, a fraction, whole session; dr_params.odo_scale is the total),
+#: ``slip`` (odometer over-read fraction in [start, end]), ``nav_gap`` (no nav rows in
+#: [start, end]; value = nav epochs missing).
+NAV_FAULT_COLUMNS: tuple[str, ...] = ("platform", "fault", "start", "end", "value")
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,6 +84,10 @@ class Truth:
     nav_frames: pd.DataFrame  # NAV_FRAME_COLUMNS
     #: The effective parameters the session was made with.
     params: SimParams
+    #: Navigation faults (NAV_FAULT_COLUMNS); empty for the fault-free scenarios.
+    nav_faults: pd.DataFrame = field(
+        default_factory=lambda: pd.DataFrame(columns=list(NAV_FAULT_COLUMNS))
+    )
 
 
 @dataclass(frozen=True, eq=False)

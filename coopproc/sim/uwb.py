@@ -7,8 +7,10 @@ offset inside the ranging period (the DW1000 polls pairs one after another). A r
 
 with n ~ N(0, uwb_noise^2) (or Laplace for a pair with non-Gaussian ranging, paper 004
 section 5.2), and during an NLOS event on the pair every epoch gets nlos ~ N(mu, 0.1^2)
-(paper 000 section 4.3), clipped at 0 because a blocked path is never shorter. Epochs
+(paper 000 section 4.3), clipped at 0 because a blocked path is never shorter; an event
+with ``wander_m`` has a slowly varying mean mu(t) instead (:func:`nlos_mean_m`). Epochs
 are then dropped at random (dropouts) and during outages (paper 003 section 3.4).
+With ``exact_ranges`` a range is the true distance itself (not even rounded).
 """
 
 from __future__ import annotations
@@ -21,10 +23,10 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from coopproc.model import Trajectory, pair_name
+from coopproc.model import FloatArray, Trajectory, pair_name
 from coopproc.sim.params import NlosSpec, OutageSpec, SimParams
 
-__all__ = ["PairModel", "RangeOutput", "simulate_ranges"]
+__all__ = ["PairModel", "RangeOutput", "nlos_mean_m", "simulate_ranges"]
 
 
 @dataclass(frozen=True)
@@ -54,6 +56,24 @@ class RangeOutput:
 
 def _pair_rng(seed: int, pair: str) -> np.random.Generator:
     return np.random.default_rng([seed, zlib.crc32(f"uwb:{pair}".encode())])
+
+
+def nlos_mean_m(event: NlosSpec, t_rel_s: FloatArray, seed: int) -> FloatArray:
+    """mu(t) of an event at ``t_rel_s`` (seconds from the session start).
+
+    mean_m + wander_m (sin(w1 (t - start) + p1) + sin(w2 (t - start) + p2)) / 2, periods
+    uniform in 60-200 s and phases from a stream of the event's own, so |mu - mean_m| <=
+    wander_m; the constant mean_m without wander.
+    """
+    if event.wander_m == 0.0:
+        return np.full(t_rel_s.shape, event.mean_m)
+    key = f"nlos-wander:{event.pair}:{event.start_s:.3f}"
+    rng = np.random.default_rng([seed, zlib.crc32(key.encode())])
+    omega = 2.0 * np.pi / rng.uniform(60.0, 200.0, size=2)
+    phase = rng.uniform(0.0, 2.0 * np.pi, size=2)
+    dt = t_rel_s[:, None] - event.start_s
+    wave = np.sin(omega[None, :] * dt + phase[None, :]).sum(axis=1) / 2.0
+    return np.asarray(event.mean_m + event.wander_m * wave, dtype=np.float64)
 
 
 def simulate_ranges(
@@ -92,10 +112,15 @@ def simulate_ranges(
         nlos_added = []
         for event in pair_events:
             mask = (t_rel >= event.start_s) & (t_rel <= event.end_s)
-            added = np.maximum(rng.normal(event.mean_m, params.nlos_sigma_m, size=n), 0.0) * mask
+            draw: FloatArray
+            if event.wander_m == 0.0:
+                draw = np.asarray(rng.normal(event.mean_m, params.nlos_sigma_m, size=n))
+            else:
+                draw = nlos_mean_m(event, t_rel, seed) + rng.normal(0.0, params.nlos_sigma_m, n)
+            added = np.maximum(draw, 0.0) * mask
             nlos_total += added
             nlos_added.append((event, mask, added))
-        gross_mask = rng.uniform(size=n) < params.gross_error_rate
+        gross_mask: NDArray[np.bool_] = np.asarray(rng.uniform(size=n) < params.gross_error_rate)
         gross = np.where(
             gross_mask,
             params.gross_error_m
@@ -106,7 +131,12 @@ def simulate_ranges(
         keep: NDArray[np.bool_] = np.asarray(rng.uniform(size=n) >= params.dropout_rate)
         for outage in outages:
             keep &= ~((t_rel >= outage.start_s) & (t_rel <= outage.end_s))
-        measured = np.round(distance + error + nlos_total + gross, 3)
+        if params.exact_ranges:  # the engine passes no events and no outages then
+            measured = distance.copy()
+            keep[:] = True
+            gross_mask[:] = False
+        else:
+            measured = np.round(distance + error + nlos_total + gross, 3)
         forward = np.arange(n) % 2 == 0
         frame = pd.DataFrame(
             {

@@ -11,6 +11,7 @@ Layout of ``OUT``::
     truth/dr_error.csv         time, platform, error_east, error_north, error_up, error_h
     truth/dr_params.csv        the dead-reckoning sensor errors each platform drew
     truth/nav_frames.csv       own-frame navigation: rotation and shift (single-auxiliary)
+    truth/nav_faults.csv       dead-reckoning faults and nav gaps (only when there are any)
     truth/params.toml          the effective simulation parameters, scenario and seed
     README.md                  what this is and the command that makes it again
 
@@ -27,13 +28,14 @@ from typing import Any, Literal
 import pandas as pd
 import tomli_w
 
-from coopproc.configtools import to_table
 from coopproc.outdir import atomic_output_dir, write_csv
+from coopproc.sim.params import SimParams, sparse_table
 from coopproc.sim.truth import (
     DISTANCE_COLUMNS,
     DR_ERROR_COLUMNS,
     DR_PARAM_COLUMNS,
     GROSS_ERROR_COLUMNS,
+    NAV_FAULT_COLUMNS,
     NAV_FRAME_COLUMNS,
     NLOS_TRUTH_COLUMNS,
     Simulation,
@@ -71,7 +73,10 @@ def write_truth(
     )
     for name, frame, columns in tables:
         written.append(write_csv(frame, directory / name, columns))
-    params = {**(header or {}), "params": to_table(truth.params)}
+    if len(truth.nav_faults):
+        faults = directory / "nav_faults.csv"
+        written.append(write_csv(truth.nav_faults, faults, NAV_FAULT_COLUMNS))
+    params = {**(header or {}), "params": sparse_table(truth.params)}
     path = directory / "params.toml"
     path.write_text(tomli_w.dumps(params), encoding="utf-8")
     written.append(path)
@@ -182,12 +187,10 @@ def describe_simulation(
         f"- {p.duration_s:g} s from GPS week {p.gps_week}, TOW {p.start_tow_s:g} s "
         f"(session time base `gps_tow`); ENU origin {list(p.origin_llh)}",
         f"- `nav_<ID>.csv`: each platform's own navigation at {p.nav_rate_hz:g} Hz (leaders: "
-        f"GNSS/INS, {100 * p.leader_sigma_m:g} cm noise; followers: INS/odometer dead "
-        f"reckoning, gyro bias up to {p.gyro_bias_dph:g} deg/h, odometer scale error "
-        f"{100 * p.odo_scale_sigma:g} % 1-sigma)",
-        f"- `ranges.csv`: UWB ranges at {p.range_rate_hz:g} Hz per pair, white noise "
-        f"{p.uwb_noise_m:g} m (declared sigma {p.uwb_declared_sigma_m:g} m), "
-        f"{100 * p.dropout_rate:g} % dropouts" + (", `rssi` column (dBm)" if p.rssi else ""),
+        f"GNSS/INS, {100 * p.leader_sigma_m:g} cm noise{_leader_extras(p)}; followers: "
+        f"INS/odometer dead reckoning, gyro bias up to {p.gyro_bias_dph:g} deg/h, odometer "
+        f"scale error {100 * p.odo_scale_sigma:g} % 1-sigma{_dr_extras(p)})",
+        _ranges_line(p),
         f"- `ref_<ID>.pos`: GNSS-PPK reference (RTKLIB .pos, GPST) at {p.ref_rate_hz:g} Hz, "
         f"{100 * p.ref_sigma_m:g} cm noise, a few float (Q = 2) segments",
         "- `session.toml`: roles, drift sigmas, origin, time base, UWB sigma",
@@ -202,7 +205,7 @@ def describe_simulation(
         "`distances.csv` true distance and total range error at every range, "
         "`nlos_events.csv`, `gross_errors.csv`, `dr_error.csv` (navigation error over time), "
         "`dr_params.csv` (the sensor errors drawn), `nav_frames.csv`, `params.toml` (every "
-        "simulation parameter)",
+        "simulation parameter)" + (", `nav_faults.csv`" if len(sim.truth.nav_faults) else ""),
         "",
         "## NLOS events",
         "",
@@ -217,6 +220,18 @@ def describe_simulation(
             )
     else:
         lines.append("None.")
+    faults = sim.truth.nav_faults
+    if len(faults):
+        lines += ["", "## Navigation faults (truth/nav_faults.csv)", ""]
+        lines += [
+            "| platform | fault | start (TOW s) | end (TOW s) | value |",
+            "|---|---|---|---|---|",
+        ]
+        for row in faults.itertuples():
+            lines.append(
+                f"| {row.platform} | {row.fault} | {row.start:.1f} | {row.end:.1f} "
+                f"| {row.value:g} |"
+            )
     use = f"coopproc run {out_name} -o out/{out_name}"
     if sim.scenario == "single-auxiliary":
         aux = ",".join(pid for pid in session.platform_ids if pid != "T")
@@ -232,3 +247,38 @@ def describe_simulation(
         "",
     ]
     return "\n".join(lines)
+
+
+def _leader_extras(p: SimParams) -> str:
+    text = f" + {100 * p.leader_white_m:g} cm white noise" if p.leader_white_m > 0 else ""
+    if p.leader_velocity:
+        text += f", velocities with {100 * p.leader_vel_sigma_mps:g} cm/s noise"
+    return text
+
+
+def _dr_extras(p: SimParams) -> str:
+    parts = []
+    if p.heading_drift_dpm > 0:
+        parts.append(f"{p.heading_drift_dpm:g} deg/min heading-rate fault on one follower")
+    if p.odo_scale_fault[1] > 0:
+        low, high = (100 * v for v in p.odo_scale_fault)
+        parts.append(f"odometer scale faults of {low:g}-{high:g} %")
+    if p.slip_rate_per_hour > 0:
+        parts.append(f"{p.slip_rate_per_hour:g} wheel slips per hour")
+    if p.nav_gaps:
+        parts.append(f"{len(p.nav_gaps)} nav gap(s)")
+    return "".join(f"; {part}" for part in parts)
+
+
+def _ranges_line(p: SimParams) -> str:
+    if p.exact_ranges:
+        return (
+            f"- `ranges.csv`: UWB ranges at {p.range_rate_hz:g} Hz per pair, EXACT: the true "
+            "distances (no noise, NLOS, gross errors, dropouts or outages; declared sigma "
+            f"{p.uwb_declared_sigma_m:g} m)" + (", `rssi` column (dBm)" if p.rssi else "")
+        )
+    return (
+        f"- `ranges.csv`: UWB ranges at {p.range_rate_hz:g} Hz per pair, white noise "
+        f"{p.uwb_noise_m:g} m (declared sigma {p.uwb_declared_sigma_m:g} m), "
+        f"{100 * p.dropout_rate:g} % dropouts" + (", `rssi` column (dBm)" if p.rssi else "")
+    )
