@@ -24,7 +24,7 @@ from coopproc.sim.formation import (
     speed_profile_s,
     wedge_layout,
 )
-from coopproc.sim.params import NlosSpec, OutageSpec, SimParams
+from coopproc.sim.params import NavGapSpec, NlosSpec, OutageSpec, SimParams
 from coopproc.sim.paths import rounded_polygon, rounded_rectangle
 from coopproc.sim.uwb import PairModel
 
@@ -106,6 +106,13 @@ def _paper_experiment(params: SimParams, seed: int, t: FloatArray) -> World:
     letters = list(_LETTERS[: params.platforms])
     ids = ["B", *[x for x in letters if x != "B"]]
     return _formation_world(ids, (160.0, 70.0, 18.0), params, seed, t)
+
+
+def _body_blocked(params: SimParams, seed: int, t: FloatArray) -> World:
+    # the paper-experiment formation with D, whose body blocks its own antenna
+    if not 4 <= params.platforms <= len(_LETTERS):
+        raise ConfigError(f"body-blocked: platforms must be 4..26, found {params.platforms}")
+    return _paper_experiment(params, seed, t)
 
 
 def _paper_table1(params: SimParams, seed: int, t: FloatArray) -> World:
@@ -209,22 +216,30 @@ def _anchors(params: SimParams, seed: int, t: FloatArray) -> World:
     return World(time_rel_s=t, actors=tuple(actors), links=links, outages=params.outages)
 
 
+#: paper 000 section 4.4: two NLOS events on each leader pair (the estimated means, rounded)
+_PAPER_EVENTS = (
+    NlosSpec("A-B", 120.0, 145.0, 0.58),
+    NlosSpec("B-C", 230.0, 250.0, 0.50),
+    NlosSpec("A-B", 380.0, 400.0, 0.47),
+    NlosSpec("B-C", 470.0, 495.0, 0.55),
+)
+
+#: body-blocked: every pair of D in long NLOS whose mean wanders slowly (means 0.3-1.0 m)
+_BODY_EVENTS = (
+    NlosSpec("B-D", 30.0, 570.0, 0.6, 0.25),
+    NlosSpec("A-D", 60.0, 200.0, 0.5, 0.2),
+    NlosSpec("C-D", 100.0, 160.0, 0.4, 0.1),
+    NlosSpec("C-D", 300.0, 500.0, 0.7, 0.25),
+    NlosSpec("A-D", 350.0, 450.0, 0.8, 0.15),
+)
+
 SCENARIOS: dict[str, Scenario] = {
     "paper-experiment": Scenario(
         "paper-experiment",
         "paper 000 section 4.4: A, B (leader, GNSS/INS), C (INS/OD) in a triangle at 0.5 m/s, "
         "10 min, UWB 1 Hz, two NLOS events on A-B and two on B-C, A-C line of sight",
         _paper_experiment,
-        {
-            "duration_s": 600.0,
-            "platforms": 3,
-            "nlos_events": (
-                NlosSpec("A-B", 120.0, 145.0, 0.58),
-                NlosSpec("B-C", 230.0, 250.0, 0.50),
-                NlosSpec("A-B", 380.0, 400.0, 0.47),
-                NlosSpec("B-C", 470.0, 495.0, 0.55),
-            ),
-        },
+        {"duration_s": 600.0, "platforms": 3, "nlos_events": _PAPER_EVENTS},
     ),
     "paper-table1": Scenario(
         "paper-table1",
@@ -273,5 +288,57 @@ SCENARIOS: dict[str, Scenario] = {
         "for benchmarks",
         _large,
         {"duration_s": 3600.0, "platforms": 10, "random_nlos_per_pair_hour": 0.5},
+    ),
+    # how processing fails on real data (issue 10, item 8)
+    "dr-faults": Scenario(
+        "dr-faults",
+        "paper-experiment formation with A, B (leader), C, D whose dead reckoning has faults "
+        "the declared drift_sigma does not cover: a 3 deg/min heading-rate error on A, "
+        "odometer scale errors of 1-3 % and wheel slips (2-6 s, 20-50 % over-read) on every "
+        "follower; the paper's NLOS events",
+        _paper_experiment,
+        {
+            "duration_s": 600.0,
+            "platforms": 4,
+            "nlos_events": _PAPER_EVENTS,
+            "heading_drift_dpm": 3.0,
+            "odo_scale_fault": (0.01, 0.03),
+            "slip_rate_per_hour": 30.0,
+        },
+    ),
+    "noisy-leader": Scenario(
+        "noisy-leader",
+        "paper-experiment whose leader B's 10 Hz GNSS/INS has 2.5 cm white noise per axis on "
+        "top of the correlated part, and velocities (vel_east/north/up, 2 cm/s noise) in "
+        "its nav file; the paper's NLOS events",
+        _paper_experiment,
+        {
+            "duration_s": 600.0,
+            "platforms": 3,
+            "nlos_events": _PAPER_EVENTS,
+            "leader_white_m": 0.025,
+            "leader_velocity": True,
+            "leader_vel_sigma_mps": 0.02,
+        },
+    ),
+    "body-blocked": Scenario(
+        "body-blocked",
+        "paper-experiment formation with A, B (leader), C, D in which D's own body blocks "
+        "every pair of D, as on the real TIERS tb4 pairs: long NLOS (60-200 s, and B-D for "
+        "540 s), means 0.4-0.8 m wandering slowly by up to 0.25 m",
+        _body_blocked,
+        {"duration_s": 600.0, "platforms": 4, "nlos_events": _BODY_EVENTS},
+    ),
+    "nav-gaps": Scenario(
+        "nav-gaps",
+        "paper-experiment in which A's nav file has no rows for 60 s in the middle "
+        "(270-330 s) and C's ends 60 s before the ranges do; the paper's NLOS events",
+        _paper_experiment,
+        {
+            "duration_s": 600.0,
+            "platforms": 3,
+            "nlos_events": _PAPER_EVENTS,
+            "nav_gaps": (NavGapSpec("A", 270.0, 330.0), NavGapSpec("C", 540.0, 600.0)),
+        },
     ),
 }

@@ -91,6 +91,10 @@ _SHORT = {
     "anchors": ["--duration", "120"],
     "single-auxiliary": ["--duration", "120", "--set", "second_aux=true"],
     "large": ["--duration", "300", "--platforms", "4"],
+    "dr-faults": ["--duration", "120"],
+    "noisy-leader": ["--duration", "120"],
+    "body-blocked": ["--duration", "120"],
+    "nav-gaps": ["--duration", "180"],
 }
 
 
@@ -108,6 +112,39 @@ def test_every_scenario_validates_clean(tmp_path: Path, scenario: str) -> None:
         assert (truth / f"traj_{pid}.csv").exists()
     header = (truth / "dr_error.csv").read_text().splitlines()[0]
     assert header == "time,platform,error_east,error_north,error_up,error_h"
+
+
+def test_new_scenarios_write_their_truth_and_remake_from_the_readme(tmp_path: Path) -> None:
+    runner = CliRunner()
+    args = ["--scenario", "nav-gaps", "--duration", "180", "--seed", "3", "--set"]
+    made = runner.invoke(main, ["simulate", str(tmp_path / "g"), *args, "exact_ranges=true"])
+    assert made.exit_code == 0, made.output
+    readme = (tmp_path / "g" / "README.md").read_text()
+    command = (
+        "coopproc simulate g --scenario nav-gaps --seed 3 --duration 180 --set exact_ranges=true"
+    )
+    assert command in readme and "EXACT" in readme and "| A | nav_gap |" in readme
+    again = runner.invoke(
+        main, ["simulate", str(tmp_path / "again" / "g"), *args, "exact_ranges=true"]
+    )
+    assert again.exit_code == 0, again.output
+    assert _files(tmp_path / "g") == _files(tmp_path / "again" / "g")
+    faults = pd.read_csv(tmp_path / "g" / "truth" / "nav_faults.csv")
+    assert list(faults.columns) == ["platform", "fault", "start", "end", "value"]
+    params = (tmp_path / "g" / "truth" / "params.toml").read_text()
+    assert "exact_ranges = true" in params and "nav_gaps = [" in params
+    assert "heading_drift_dpm" not in params  # parameters added later: only when set
+    ranges = read_session(tmp_path / "g").ranges.frame
+    truth = pd.read_csv(tmp_path / "g" / "truth" / "distances.csv")
+    assert np.abs(ranges["range"].to_numpy() - truth["distance"].to_numpy()).max() < 1e-6
+    # velocities of the noisy leader go through the nav CSV and come back
+    write_simulation(simulate("noisy-leader", seed=1, duration_s=30.0), tmp_path / "n", mcap=True)
+    header = (tmp_path / "n" / "nav_B.csv").read_text().splitlines()[0]
+    assert "vel_east,vel_north,vel_up" in header
+    for source in (tmp_path / "n", tmp_path / "n" / "mcap" / "noisy-leader.mcap"):
+        back = read_session(source).nav["B"]
+        assert back.vel_enu_mps is not None and np.isfinite(back.vel_enu_mps).all()
+    assert not (tmp_path / "n" / "truth" / "nav_faults.csv").exists()
 
 
 def _mcap_content(data: bytes) -> tuple[tuple[Any, ...], list[tuple[Any, ...]]]:

@@ -218,4 +218,8 @@ def test_bad_parameters_are_one_line_config_errors() -> None:
         "anchors",
         "single-auxiliary",
         "large",
+        "dr-faults",
+        "noisy-leader",
+        "body-blocked",
+        "nav-gaps",
     }
