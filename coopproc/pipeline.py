@@ -34,8 +34,9 @@ from coopproc.model import (
 )
 from coopproc.report.metrics import distance_metrics, nlos_scores, position_metrics
 from coopproc.report.scores import nlos_event_scores
-from coopproc.stages.fusion import FusionOutput, fuse
-from coopproc.stages.ranging import run_ranging
+from coopproc.stages.fusion import FusionOutput
+from coopproc.stages.fusion_calibration import FusionCalibration, calibrated_fuse
+from coopproc.stages.ranging import PairCalibration, run_ranging
 
 __all__ = ["PipelineOutput", "run_pipeline"]
 
@@ -52,6 +53,11 @@ class PipelineOutput:
     nlos_event_scores: pd.DataFrame
     timings_s: Mapping[str, float]
     sigma: Mapping[str, tuple[float, str]]
+    #: the ranging stage's self-calibration, (pair, method) -> figures
+    ranging_calibration: Mapping[tuple[str, str], PairCalibration]
+    #: each fusion's self-calibration, by range method
+    fusion_calibration: Mapping[str, FusionCalibration]
+    notes: tuple[str, ...]
 
 
 def _ranges_for(method_table: pd.DataFrame, method: str, sigma: pd.Series) -> pd.DataFrame:
@@ -188,11 +194,14 @@ def run_pipeline(
     observed = session.ranges.frame[["time", "from", "to", "range", "sigma"]]
     output: Literal["ranges", "nav"] = config.run.positions_at
     fused: dict[str, FusionOutput] = {}
+    fusion_cal: dict[str, FusionCalibration] = {}
     with timed("fusion (observed)"):
-        fused["observed"] = fuse(session, observed, config.fusion, output=output)
+        fused["observed"], fusion_cal["observed"] = calibrated_fuse(
+            session, observed, config.fusion, output=output
+        )
         cp_fusion = fused["observed"]
         if output != "ranges":
-            cp_fusion = fuse(session, observed, config.fusion, output="ranges")
+            cp_fusion, _ = calibrated_fuse(session, observed, config.fusion, output="ranges")
     cp = cp_fusion.forward if config.run.cp_solution == "forward" else cp_fusion.smoothed
 
     with timed("ranging (DI, RN, NLOS)"):
@@ -202,7 +211,9 @@ def run_pipeline(
     for method in PROCESSED_METHODS:
         with timed(f"fusion ({method})"):
             ranges = _ranges_for(table, method, sigma_by_row)
-            fused[method] = fuse(session, ranges, config.fusion, output=output)
+            fused[method], fusion_cal[method] = calibrated_fuse(
+                session, ranges, config.fusion, output=output, label=method
+            )
 
     with timed("metrics"):
         own = _own_epochs(session) if output == "ranges" else None
@@ -218,7 +229,11 @@ def run_pipeline(
         positions = positions.sort_values(["platform", "method", "time"], kind="stable")
         positions = positions.reset_index(drop=True)[list(POSITIONS_COLUMNS)]
         sigma = dict(ranging.sigma)
-        scores = nlos_scores(table, ranging.nlos_events, {p: s for p, (s, _) in sigma.items()})
+        # true NLOS is labelled against the declared sigma (or, without one, the robust
+        # spread of observed - reference), never against what the detector estimated
+        declared = session.config.uwb_sigma_m
+        label_sigma = {} if declared is None else {p: float(declared) for p in sigma}
+        scores = nlos_scores(table, ranging.nlos_events, label_sigma)
         result = Result(
             ranges=table,
             di=ranging.di,
@@ -234,6 +249,9 @@ def run_pipeline(
         nlos_event_scores=nlos_event_scores(table, ranging.nlos_events),
         timings_s=timings,
         sigma=sigma,
+        ranging_calibration=ranging.calibration,
+        fusion_calibration=fusion_cal,
+        notes=tuple(n for cal in fusion_cal.values() for n in cal.notes),
     )
 
 

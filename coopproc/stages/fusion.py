@@ -89,6 +89,13 @@ class FusionParams:
     smoother: bool = field(
         default=True, metadata={"help": "RTS fixed-interval smoother (paper 003 sec. 2.8)"}
     )
+    self_calibrate: bool = field(
+        default=True,
+        metadata={
+            "help": "per-pair ranging sigma from the post-fit residuals and drift inflation "
+            "of platforms whose range innovations are inconsistent (fusion_calibration.py)"
+        },
+    )
     dims: int = field(
         default=2,
         metadata={"help": "2: estimate east/north (height from nav); 3: east/north/up"},
@@ -156,7 +163,8 @@ class FusionOutput:
 
     ``smoothed`` is the RTS solution when the smoother is on, else the forward one;
     ``forward`` the causal filter. ``observations`` has one row per range used: time
-    (epoch), from, to, range, innovation (at the prior, m) and gamma (robust factor).
+    (epoch), from, to, range, innovation (at the prior, m), innovation_var (its predicted
+    variance H C H^T + R, m^2) and gamma (robust factor).
     """
 
     smoothed: Mapping[str, Trajectory]
@@ -171,6 +179,7 @@ def fuse(
     params: FusionParams,
     *,
     output: Literal["ranges", "nav"] = "ranges",
+    drift_scale: Mapping[str, float] | None = None,
 ) -> FusionOutput:
     """Fuse every moving platform's navigation with the ranges.
 
@@ -209,7 +218,8 @@ def fuse(
     u = np.zeros((n_ep, n))
     u[1:] = np.diff(nav[:, :, :dim], axis=1).transpose(1, 0, 2).reshape(n_ep - 1, n)
     dt = np.diff(epochs, prepend=epochs[0])
-    drift = np.array([_drift(session, p, params) for p in moving])
+    scale = drift_scale or {}
+    drift = np.array([_drift(session, p, params) * scale.get(p, 1.0) for p in moving])
     if params.drift_correlation_s > 0:  # 2 sigma^2 tau dt, see the module docstring
         q_plat = 2.0 * drift[:, None] ** 2 * params.drift_correlation_s * dt[None, :]
     else:
@@ -219,7 +229,7 @@ def fuse(
     obs = _observations(session, rows, ep_idx, epochs, nav, moving, anchors, params)
     obs_ptr = obs["ptr"]
     smooth = params.smoother and n_ep > 1
-    xs_f, var_f, covs, gamma, innov = ekf_forward(
+    xs_f, var_f, covs, gamma, innov, innov_var = ekf_forward(
         x0, c0, u, q, obs_ptr, obs["kind"], obs["a"], obs["b"], obs["anchor"], obs["dz2"],
         obs["z"], obs["var"], dim, params.robust, params.k0, params.k1, params.mad_floor,
         smooth, params.mad_window,
@@ -241,6 +251,7 @@ def fuse(
             "to": rows["to"].to_numpy()[row_of],
             "range": obs["z"][is_range],
             "innovation": innov[is_range],
+            "innovation_var": innov_var[is_range],
             "gamma": gamma[is_range],
         }
     )

@@ -101,7 +101,7 @@ def ekf_forward(
     sigma_floor: float,
     keep_cov: bool,
     mad_window: int = 0,
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
     """Forward EKF over K epochs.
 
     ``mad_window``: the MAD unit-weight sigma of eq. (20) is taken over the epoch's
@@ -112,7 +112,7 @@ def ekf_forward(
 
     Returns the filtered states (K, n), their variances (K, n), the filtered covariances
     (K, n, n) when ``keep_cov`` (else (1, n, n)), the robust factor of every observation
-    (M,) and its innovation at the prior (M,).
+    (M,), its innovation at the prior (M,) and that innovation's variance H C H^T + R (M,).
     """
     n_epochs = u.shape[0]
     n = x0.shape[0]
@@ -122,6 +122,7 @@ def ekf_forward(
     covs = np.empty((n_epochs if keep_cov else 1, n, n))
     gamma = np.ones(n_obs)
     innov = np.zeros(n_obs)
+    innov_var = np.zeros(n_obs)
     x = x0.copy()
     c = c0.copy()
     width = 2 * dim
@@ -162,6 +163,7 @@ def ekf_forward(
                     hch += h_val[j, p] * c[h_idx[j, p], h_idx[j, s]] * h_val[j, s]
             d[j] = hch + r_var[o]
             innov[o] = v[j]
+            innov_var[o] = d[j]
         if robust and m > 0 and mad_window <= 0:  # eq. (20) -> (19) -> (18)
             sigma = mad_sigma_nb(v[:m], d[:m], sigma_floor)
             for j in range(m):
@@ -211,7 +213,7 @@ def ekf_forward(
             var[k, i] = c[i, i]
         if keep_cov:
             covs[k] = c
-    return xs, var, covs, gamma, innov
+    return xs, var, covs, gamma, innov, innov_var
 
 
 @numba.njit(cache=True)

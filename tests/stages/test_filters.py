@@ -143,7 +143,7 @@ def test_compiled_epoch_update_equals_batch_ekf_update() -> None:
     b = np.array([1, -1, 1], dtype=np.int64)
     z = np.array([10.6, 9.5, 0.3])
     r = np.array([0.02, 0.05, 0.01])
-    xs, var, covs, gamma, innov = ekf_forward(
+    xs, var, covs, gamma, innov, _ = ekf_forward(
         x0, c0, np.zeros((1, 4)), np.zeros((1, 4)), np.array([0, 3], dtype=np.int64), kind, a, b,
         anchor, np.zeros(3), z, r, 2, False, 3.0, 4.0, 1.0, True,
     )  # fmt: skip
