@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 
 __all__ = [
     "DI_COLUMNS",
+    "GAP_FACTOR",
     "METHODS",
     "METRICS_COLUMNS",
     "NLOS_ESTIMATE_COLUMNS",
@@ -32,20 +33,24 @@ __all__ = [
     "RANGE_COLUMNS",
     "ROLES",
     "FloatArray",
+    "ImuNoise",
     "Platform",
     "RangeTable",
     "Result",
+    "SensorFile",
     "Session",
     "SessionConfig",
     "Trajectory",
+    "gap_limit_s",
     "pair_members",
     "pair_name",
 ]
 
 FloatArray = NDArray[np.float64]
 
-Role = Literal["follower", "leader", "anchor"]
-ROLES: tuple[str, ...] = ("follower", "leader", "anchor")
+Role = Literal["follower", "leader", "anchor", "tag"]
+#: ``tag``: moves, has no navigation solution of its own (DATA.md "Raw sensors").
+ROLES: tuple[str, ...] = ("follower", "leader", "anchor", "tag")
 TimeBase = Literal["gps_tow", "unix", "relative"]
 
 #: Range-processing methods, in the order tables list them.
@@ -91,6 +96,23 @@ METRICS_COLUMNS: tuple[str, ...] = (
 POSITION_METRICS_COLUMNS: tuple[str, ...] = ("platform", "method", "max", "mean", "rmse", "n")
 
 
+#: A gap in a time series: an interval between consecutive epochs longer than this many
+#: times the median interval (the one rule of :meth:`Trajectory.interpolate_within`, the
+#: coverage checks and the figures).
+GAP_FACTOR = 2.5
+
+
+def gap_limit_s(time_s: FloatArray) -> float:
+    """The longest interval between consecutive epochs of ``time_s`` that is not a gap, s.
+
+    :data:`GAP_FACTOR` times the median interval; infinite with fewer than two epochs.
+    """
+    t = np.asarray(time_s, dtype=np.float64)
+    if t.shape[0] < 2:
+        return float("inf")
+    return GAP_FACTOR * float(np.median(np.diff(t)))
+
+
 def pair_name(a: str, b: str) -> str:
     """The unordered pair of two platform ids, ``A-B`` with the ids in sorted order."""
     first, second = sorted((a, b))
@@ -113,6 +135,24 @@ def pair_members(pair: str) -> tuple[str, str]:
 
 
 @dataclass(frozen=True)
+class ImuNoise:
+    """IMU noise figures of a platform (``[platforms.ID.imu]``); None: not given."""
+
+    #: Named grade standing for the figures (``consumer``, ``industrial``, ...).
+    grade: str | None = None
+    #: Angle random walk, deg/sqrt(s).
+    gyro_noise_deg_rts: float | None = None
+    #: Velocity random walk, (m/s)/sqrt(s).
+    accel_noise_mps_rts: float | None = None
+    #: Gyro bias instability, deg/h.
+    gyro_bias_deg_h: float | None = None
+    #: Accelerometer bias instability, mg.
+    accel_bias_mg: float | None = None
+    #: First-order Gauss-Markov correlation time of the biases, s.
+    correlation_time_s: float | None = None
+
+
+@dataclass(frozen=True)
 class Platform:
     """One moving body (or a fixed anchor) with its own navigation and a UWB unit."""
 
@@ -122,6 +162,33 @@ class Platform:
     drift_sigma_mps: float | None = None
     #: Anchors only: known ENU position, metres.
     position_enu_m: tuple[float, float, float] | None = None
+    # Raw-sensor figures (DATA.md "Raw sensors"); read and checked, not used by the stages yet.
+    #: Wheelbase of v_left/v_right odometry, metres.
+    wheelbase_m: float | None = None
+    #: UWB antenna in the body frame (x forward, y left, z up), metres.
+    uwb_lever_arm_m: tuple[float, float, float] | None = None
+    #: GNSS antenna in the body frame, metres.
+    gnss_lever_arm_m: tuple[float, float, float] | None = None
+    #: IMU-to-body roll, pitch, yaw, degrees.
+    imu_mounting_deg: tuple[float, float, float] | None = None
+    #: Land vehicle: non-holonomic constraints apply; None: not given.
+    nhc: bool | None = None
+    #: IMU noise figures; None: not given.
+    imu: ImuNoise | None = None
+
+
+@dataclass(frozen=True)
+class SensorFile:
+    """A raw-sensor file of a session directory (DATA.md "Raw sensors").
+
+    ``kind``: ``imu`` (imu_<ID>.csv), ``odo`` (odo_<ID>.csv), ``gnss_obs`` (RINEX
+    observations obs_<ID>.<yy>o / .rnx) or ``gnss_nav`` (broadcast ephemerides, no
+    platform).
+    """
+
+    kind: Literal["imu", "odo", "gnss_obs", "gnss_nav"]
+    path: Path
+    platform: str | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -165,21 +232,31 @@ class Trajectory:
         """Like :meth:`interpolate`, but NaN inside gaps too: nothing is invented across them.
 
         A gap is an interval between two consecutive epochs longer than ``max_gap_s``
-        (default: 2.5 times the median interval), e.g. reference epochs dropped by the
-        RTKLIB Q filter or an outage; a platform turning inside it would make a
-        straight line a wrong position. Times that fall exactly on an epoch are kept.
+        (default: :meth:`gap_limit_s`, 2.5 times the median interval), e.g. reference
+        epochs dropped by the RTKLIB Q filter or an outage; a platform turning inside it
+        would make a straight line a wrong position. Times that fall exactly on an epoch are kept.
         """
         t = np.asarray(time_s, dtype=np.float64)
         out = self.interpolate(t)
         if len(self) < 2:
             return out
         steps = np.diff(self.time_s)
-        limit = 2.5 * float(np.median(steps)) if max_gap_s is None else max_gap_s
+        limit = self.gap_limit_s() if max_gap_s is None else max_gap_s
         right = np.searchsorted(self.time_s, t)
         idx = np.clip(right, 1, len(self) - 1)
         exact = self.time_s[np.minimum(right, len(self) - 1)] == t
         out[(steps[idx - 1] > limit) & ~exact] = np.nan
         return out
+
+    def gap_limit_s(self) -> float:
+        """The longest interval between epochs that is not a gap (:func:`gap_limit_s`), s."""
+        return gap_limit_s(self.time_s)
+
+    def gaps_s(self) -> FloatArray:
+        """(k, 2) start and end times of every gap (intervals longer than the limit)."""
+        steps = np.diff(self.time_s)
+        at = np.flatnonzero(steps > self.gap_limit_s())
+        return np.column_stack([self.time_s[at], self.time_s[at + 1]]).astype(np.float64)
 
     def frame(self) -> pd.DataFrame:
         """The trajectory as a DataFrame with the nav CSV column names."""
@@ -269,6 +346,8 @@ class Session:
     inputs: tuple[Path, ...] = ()
     #: What the readers decided that a user should know (defaults used, rows sorted, ...).
     notes: tuple[str, ...] = ()
+    #: Raw-sensor files found beside the navigation (listed, not read by this version).
+    sensor_files: tuple[SensorFile, ...] = ()
 
     @property
     def name(self) -> str:

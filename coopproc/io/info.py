@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from coopproc.model import Session
+from coopproc.model import GAP_FACTOR, Session
 
 __all__ = [
     "GAP_FACTOR",
@@ -23,8 +23,8 @@ __all__ = [
     "session_info",
 ]
 
-#: An interval longer than this many times the median interval is a gap.
-GAP_FACTOR = 3.0
+# GAP_FACTOR: an interval longer than this many times the median interval is a gap, the
+# one rule of Trajectory.interpolate_within, the coverage checks and the figures.
 
 PLATFORM_INFO_COLUMNS = (
     "platform",
