@@ -167,12 +167,20 @@ def to_trajectory(raw: RawTrajectory, origin: tuple[float, float, float]) -> Tra
 def platforms_of(
     config: SessionConfig, nav_ids: set[str], notes: list[str], problems: list[CoopprocError]
 ) -> dict[str, Platform]:
-    """Platforms with navigation or anchors with a position; defaults noted."""
+    """Platforms with navigation, anchors with a position and tags; defaults noted."""
     out: dict[str, Platform] = {}
     defaulted = []
     for pid in sorted(nav_ids):
         if pid in config.platforms:
             out[pid] = config.platforms[pid]
+            if out[pid].role == "tag":
+                problems.append(
+                    InputError(
+                        "session.toml",
+                        f'[platforms.{pid}] role = "tag": {pid} has a navigation file, but a '
+                        "tag has no navigation of its own; expected role follower or leader",
+                    )
+                )
         else:
             out[pid] = Platform(pid)
             defaulted.append(pid)
@@ -181,8 +189,8 @@ def platforms_of(
     for pid, p in sorted(config.platforms.items()):
         if pid in out:
             continue
-        if p.role == "anchor" and p.position_enu_m is not None:
-            out[pid] = p
+        if (p.role == "anchor" and p.position_enu_m is not None) or p.role == "tag":
+            out[pid] = p  # a tag is positioned from its ranges: no navigation file
         elif p.role == "anchor":
             problems.append(
                 InputError(

@@ -2,7 +2,9 @@
 
 A new trajectory format is one module plus one line in :data:`TRAJECTORY_READERS`.
 Default names (DATA.md): ``nav_<ID>.<ext>``, ``ref_<ID>.<ext>``, ``ranges.csv[.gz]``,
-``session.toml``, one ``*.mcap``; ``session.toml [files]`` maps other names.
+``session.toml``, one ``*.mcap``; ``session.toml [files]`` maps other names. The
+raw-sensor files of DATA.md "Raw sensors" (``imu_<ID>.csv``, ``odo_<ID>.csv``, RINEX
+observations and broadcast navigation) are recognised and listed, not read.
 """
 
 from __future__ import annotations
@@ -17,9 +19,17 @@ from coopproc.io._common import RawTrajectory
 from coopproc.io.csv_traj import read_traj_csv
 from coopproc.io.rtklib_pos import read_pos
 from coopproc.io.tum import read_tum
-from coopproc.model import SessionConfig
+from coopproc.model import SensorFile, SessionConfig
 
-__all__ = ["TRAJECTORY_READERS", "SessionFiles", "find_files", "read_trajectory", "suffix_of"]
+__all__ = [
+    "SENSOR_KINDS",
+    "TRAJECTORY_READERS",
+    "SessionFiles",
+    "find_files",
+    "read_trajectory",
+    "sensor_note",
+    "suffix_of",
+]
 
 TrajectoryReader = Callable[[Path, str], RawTrajectory]
 
@@ -34,6 +44,41 @@ TRAJECTORY_READERS: dict[str, TrajectoryReader] = {
 _NAME = re.compile(
     r"^(?P<kind>nav|ref)_(?P<id>[A-Za-z0-9_-]+?)(?P<ext>\.csv\.gz|\.csv|\.tum|\.pos)$"
 )
+
+
+_ID = r"(?P<id>[A-Za-z0-9_-]+?)"
+#: Raw-sensor file names (DATA.md "Raw sensors") -> kind; ``.gz`` compressed too.
+_SENSOR_NAMES: tuple[tuple[re.Pattern[str], str], ...] = (
+    (re.compile(rf"^imu_{_ID}\.csv(\.gz)?$"), "imu"),
+    (re.compile(rf"^odo_{_ID}\.csv(\.gz)?$"), "odo"),
+    (re.compile(rf"^obs_{_ID}\.(\d\d[oO]|rnx)(\.gz)?$"), "gnss_obs"),
+    (re.compile(r"^(nav\.rnx|.+_MN\.rnx|.+\.\d\d[nN])(\.gz)?$"), "gnss_nav"),
+)
+#: What each kind of raw-sensor file holds, for the notes.
+SENSOR_KINDS: dict[str, str] = {
+    "imu": "IMU samples",
+    "odo": "odometer speeds",
+    "gnss_obs": "GNSS observations (RINEX)",
+    "gnss_nav": "GNSS broadcast ephemerides (RINEX navigation)",
+}
+
+
+def _sensor_file(path: Path) -> SensorFile | None:
+    for pattern, kind in _SENSOR_NAMES:
+        m = pattern.match(path.name)
+        if m:
+            pid = m.groupdict().get("id")
+            return SensorFile(kind, path, pid)  # type: ignore[arg-type]
+    return None
+
+
+def sensor_note(sensor: SensorFile) -> str:
+    """The one note a raw-sensor file gets: recognised, not used by this version."""
+    whose = f" of {sensor.platform}" if sensor.platform is not None else ""
+    return (
+        f"{sensor.path}: {SENSOR_KINDS[sensor.kind]}{whose} recognised but not used by "
+        "this version of coopproc"
+    )
 
 
 def suffix_of(path: Path) -> str:
@@ -65,6 +110,8 @@ class SessionFiles:
     ref: dict[str, Path] = field(default_factory=dict)
     ranges: Path | None = None
     mcap: Path | None = None
+    #: Raw-sensor files (listed, not read).
+    sensors: list[SensorFile] = field(default_factory=list)
     problems: list[CoopprocError] = field(default_factory=list)
 
 
@@ -74,6 +121,10 @@ def find_files(root: Path, config: SessionConfig) -> SessionFiles:
     mapped = {root / name for name in config.files.values()}
     for path in sorted(root.iterdir()):
         m = _NAME.match(path.name)
+        if not m and path not in mapped and path.is_file():
+            sensor = _sensor_file(path)
+            if sensor is not None:
+                out.sensors.append(sensor)
         if not m or path in mapped or not path.is_file():
             continue
         target = out.nav if m["kind"] == "nav" else out.ref

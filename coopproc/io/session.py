@@ -17,11 +17,11 @@ from coopproc.io import assemble
 from coopproc.io._common import InputProblems, RawTrajectory, expand, flat
 from coopproc.io.mcap_read import McapContent, decode_mcap, read_mcap_raw
 from coopproc.io.ranges_csv import RangesRead, read_ranges_csv
-from coopproc.io.registry import find_files, read_trajectory
+from coopproc.io.registry import find_files, read_trajectory, sensor_note
 from coopproc.io.session_toml import TomlRead, mcap_mapping, parse_session_toml, read_session_toml
-from coopproc.model import Session, SessionConfig, Trajectory
+from coopproc.model import SensorFile, Session, SessionConfig, Trajectory
 
-__all__ = ["read_session", "validate_session"]
+__all__ = ["inspect_session", "read_session", "validate_session"]
 
 
 class _Loader:
@@ -30,6 +30,7 @@ class _Loader:
         self.notes: list[str] = []
         self.inputs: list[Path] = []
         self.failed: set[str] = set()  # platforms whose nav could not be read
+        self.sensors: list[SensorFile] = []  # raw-sensor files: listed, not read
 
     def add(self, err: CoopprocError) -> None:
         if isinstance(err, InputProblems):
@@ -58,6 +59,8 @@ class _Loader:
             config = toml.config if toml else SessionConfig()
             files = find_files(root, config)
             self.problems.extend(files.problems)
+            self.sensors = files.sensors
+            self.notes.extend(sensor_note(f) for f in files.sensors)
             for kind, group, target in (("nav", files.nav, nav_raw), ("ref", files.ref, ref_raw)):
                 for pid, fpath in sorted(group.items()):
                     self.inputs.append(fpath)
@@ -237,6 +240,7 @@ class _Loader:
             root=root,
             inputs=tuple(dict.fromkeys(self.inputs)),
             notes=tuple(self.notes),
+            sensor_files=tuple(self.sensors),
         )
 
     def _check_overlap(self, nav: Trajectory, ref: Trajectory) -> None:
@@ -269,9 +273,19 @@ def read_session(path: str | Path) -> Session:
 
 def validate_session(path: str | Path) -> list[str]:
     """Every problem of a session, one line each; empty when it reads cleanly."""
+    return inspect_session(path)[1]
+
+
+def inspect_session(path: str | Path) -> tuple[Session | None, list[str]]:
+    """The session (None when it has problems) and every problem, one line each.
+
+    What ``coopproc validate`` needs from one read: the problems, and the session for
+    the checks that only warn (coverage, frames).
+    """
     loader = _Loader()
+    session = None
     try:
-        loader.load(path)
+        session = loader.load(path)
     except CoopprocError as fatal:
         loader.add(fatal)
     out: list[str] = []
@@ -279,4 +293,4 @@ def validate_session(path: str | Path) -> list[str]:
         for line in expand(err):
             if line not in out:
                 out.append(line)
-    return out
+    return (None if out else session), out

@@ -210,7 +210,8 @@ def test_unknown_session_toml_table_and_bad_value(sample_dir: Path) -> None:
     _edit(sample_dir / "session.toml", "[uwbb]", "[uwb]")
     _edit(sample_dir / "session.toml", 'role = "leader"', 'role = "leeder"')
     assert validate_session(sample_dir)[0].endswith(
-        "session.toml [platforms.B] role: 'leeder' is not one of 'follower' | 'leader' | 'anchor'"
+        "session.toml [platforms.B] role: 'leeder' is not one of "
+        "'follower' | 'leader' | 'anchor' | 'tag'"
     )
 
 
