@@ -4,6 +4,10 @@ Every function takes the rows of ONE pair / platform / event, draws on ``ax`` wi
 styles of :mod:`coopproc.report.style` and returns ``ax``. Each line's ``gid`` is its
 series key (``observed``, ``rn``, ``di``, ``di_dr``, ``reference``...), so tests and users
 can read the plotted data back. Times are shown relative to ``time_origin_s``.
+
+Nothing is drawn across a gap: a time-series line breaks (a NaN is inserted) where
+consecutive samples are further apart than the gap rule of
+:meth:`~coopproc.model.Trajectory.interpolate_within` (:func:`~coopproc.model.gap_limit_s`).
 """
 
 from __future__ import annotations
@@ -15,7 +19,7 @@ import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.ticker import MaxNLocator
 
-from coopproc.model import METHODS
+from coopproc.model import METHODS, gap_limit_s
 from coopproc.report.style import DI_STYLES, METHOD_STYLES, NLOS_SPAN, method_style
 
 __all__ = [
@@ -29,6 +33,16 @@ __all__ = [
 
 def _values(frame: pd.DataFrame, column: str) -> np.ndarray:
     return frame[column].to_numpy(dtype=np.float64, na_value=np.nan)
+
+
+def _break_gaps(time_s: np.ndarray, *series: np.ndarray) -> tuple[np.ndarray, ...]:
+    """``time_s`` and ``series`` with a NaN inserted in every gap of ``time_s`` (sorted),
+    so that a line plot draws nothing across it."""
+    limit = gap_limit_s(np.unique(time_s))
+    at = np.flatnonzero(np.diff(time_s) > limit) + 1
+    if not at.size:
+        return (time_s, *series)
+    return tuple(np.insert(v, at, np.nan) for v in (time_s, *series))
 
 
 def plot_distance_errors(
@@ -52,7 +66,8 @@ def plot_distance_errors(
             continue
         err = _values(rows, method) - ref
         keep = np.isfinite(err)
-        ax.plot(t[keep], err[keep], gid=method, **method_style(method).kwargs(t[keep].size))
+        x, y = _break_gaps(t[keep], err[keep])
+        ax.plot(x, y, gid=method, **method_style(method).kwargs(t[keep].size))
     if pair_events is not None:
         for i, (start, end) in enumerate(
             zip(_values(pair_events, "start"), _values(pair_events, "end"), strict=True)
@@ -80,7 +95,8 @@ def plot_di_errors(ax: Axes, pair_di: pd.DataFrame, *, time_origin_s: float = 0.
     for column, style in DI_STYLES.items():
         err = _values(rows, column) - ref
         keep = np.isfinite(err)
-        ax.plot(t[keep], err[keep], gid=column, **style.kwargs(t[keep].size))
+        x, y = _break_gaps(t[keep], err[keep])
+        ax.plot(x, y, gid=column, **style.kwargs(t[keep].size))
     ax.axhline(0.0, color="0.3", linewidth=0.5, zorder=0)
     ax.set_ylabel("DI error (m)")
     return ax
@@ -102,7 +118,8 @@ def plot_position_errors(
         if not keep.any():
             continue
         t = _values(rows, "time") - time_origin_s
-        ax.plot(t[keep], err[keep], gid=method, **method_style(method).kwargs(t[keep].size))
+        x, y = _break_gaps(t[keep], err[keep])
+        ax.plot(x, y, gid=method, **method_style(method).kwargs(t[keep].size))
     ax.set_ylabel("Horizontal error (m)")
     ax.set_ylim(bottom=0.0)
     return ax
@@ -162,7 +179,8 @@ def plot_trajectory(
         if not keep.any():
             continue
         style = METHOD_STYLES.get(method, method_style(method))
-        ax.plot(east[keep], north[keep], gid=method, **style.kwargs(east[keep].size))
+        _, x, y = _break_gaps(_values(rows, "time")[keep], east[keep], north[keep])
+        ax.plot(x, y, gid=method, **style.kwargs(east[keep].size))
         ax.plot(
             east[keep][:1],
             north[keep][:1],
