@@ -6,8 +6,8 @@ error minus the accumulated DI error. Its structure function
 
     V(tau) = E[(z(t + tau) - z(t))^2] = 2 sigma_w^2 + q tau  (+ higher order)
 
-separates the white range noise sigma_w (the intercept) from everything that grows with the
-lag: the random walk of the accumulated DI error and the slowly varying (coloured) part of
+separates the white range noise sigma_w (measured on its own by :func:`white_sigma`) from
+everything that grows with the lag: the random walk of the accumulated DI error and the slowly varying (coloured) part of
 real UWB errors (multipath, antenna orientation). Both belong in the distance filter's
 process noise: a DI that disagrees with the ranges beyond what the white noise explains is
 leaned on less. V is estimated robustly ((1.4826 MAD)^2 of the lagged differences), so the
@@ -27,7 +27,14 @@ import numpy as np
 
 from coopproc.model import FloatArray
 
-__all__ = ["MAD_SCALE", "PairNoise", "pair_noise", "posterior_sigma", "robust_sigma"]
+__all__ = [
+    "MAD_SCALE",
+    "PairNoise",
+    "pair_noise",
+    "posterior_sigma",
+    "robust_sigma",
+    "white_sigma",
+]
 
 MAD_SCALE = 1.4826
 #: Fewer usable differences than this: no estimate (the caller keeps its prior).
@@ -68,35 +75,51 @@ def _lagged_variance(time_s: FloatArray, z: FloatArray, lag_s: float) -> tuple[f
     return s * s, float(np.mean(lag[keep])), int(np.count_nonzero(keep))
 
 
-def pair_noise(time_s: FloatArray, range_m: FloatArray, di_m: FloatArray) -> PairNoise:
-    """Structure-function fit of ``z = L - cumsum(I)`` (see the module docstring).
+def white_sigma(time_s: FloatArray, series: FloatArray) -> float:
+    """White noise 1-sigma of a series from its departures from the line through each
+    epoch's two neighbours: e_k = y_k - (a y_{k-1} + b y_{k+1}) with the interpolation
+    weights a, b, var(e_k) = sigma^2 (1 + a^2 + b^2) for white noise; robust (MAD).
+    Slow errors and smooth motion cancel to second order. NaN when too short."""
+    t = np.asarray(time_s, dtype=np.float64)
+    y = np.asarray(series, dtype=np.float64)
+    if t.shape[0] < MIN_SAMPLES + 2:
+        return float("nan")
+    h1 = t[1:-1] - t[:-2]
+    h2 = t[2:] - t[1:-1]
+    ok = (h1 > 1e-9) & (h2 > 1e-9)
+    span = np.where(ok, h1 + h2, 1.0)
+    a = h2 / span  # weight of y_{k-1}
+    b = h1 / span  # weight of y_{k+1}
+    e = (y[1:-1] - a * y[:-2] - b * y[2:]) / np.sqrt(1.0 + a * a + b * b)
+    return robust_sigma(np.where(ok, e, np.nan))
 
-    Two lags: the pair's median range interval tau_1 and tau_2 = max(4 tau_1, 2 s).
-    q = (V(tau_2) - V(tau_1)) / (tau_2 - tau_1) (>= 0), sigma_w^2 = (V(tau_1) - q tau_1) / 2.
-    Epochs at one time (dt = 0) and restarts across outages are handled by the lag search:
-    only differences whose actual lag is within a factor of two of the nominal one count.
+
+def pair_noise(time_s: FloatArray, range_m: FloatArray, di_m: FloatArray) -> PairNoise:
+    """White noise and growth of ``z = L - cumsum(I)`` (see the module docstring).
+
+    sigma_w: the smaller of :func:`white_sigma` of the ranges alone and of z (the ranges
+    alone are immune to DI faults, z to the pair's relative acceleration at low rates).
+    q: the growth of the structure function to tau_2 = max(4 tau_1, 2 s) (tau_1 the median
+    range interval) beyond the white part, (V(tau_2) - 2 sigma_w^2) / tau_2 >= 0: all of
+    it is taken as DI random walk, which leans the filter on the ranges when the DI error
+    grows faster than a random walk. Only differences whose actual lag is within a factor
+    of two of tau_2 count (outages, two ranges at one time).
     """
     t = np.asarray(time_s, dtype=np.float64)
-    if t.shape[0] < MIN_SAMPLES + 1:
+    if t.shape[0] < MIN_SAMPLES + 2:
         return PairNoise(float("nan"), float("nan"), 0)
     inc = np.where(np.isfinite(di_m), di_m, 0.0)
     inc[0] = 0.0
     z = np.asarray(range_m, dtype=np.float64) - np.cumsum(inc)
+    white = np.fmin(white_sigma(t, range_m), white_sigma(t, z))
     dt = np.diff(t)
     dt = dt[dt > 1e-9]
-    if dt.shape[0] == 0:
+    if not np.isfinite(white) or dt.shape[0] == 0:
         return PairNoise(float("nan"), float("nan"), 0)
-    tau1 = float(np.median(dt))
-    tau2 = max(4.0 * tau1, 2.0)
-    v1, lag1, n1 = _lagged_variance(t, z, tau1)
-    v2, lag2, _ = _lagged_variance(t, z, tau2)
-    if not np.isfinite(v1):
-        return PairNoise(float("nan"), float("nan"), 0)
-    q = 0.0
-    if np.isfinite(v2) and lag2 > lag1:
-        q = max((v2 - v1) / (lag2 - lag1), 0.0)
-    white = np.sqrt(max(v1 - q * lag1, 0.0) / 2.0)
-    return PairNoise(float(white), float(q), n1)
+    tau2 = max(4.0 * float(np.median(dt)), 2.0)
+    v2, lag2, n2 = _lagged_variance(t, z, tau2)
+    q = max((v2 - 2.0 * white * white) / lag2, 0.0) if np.isfinite(v2) else 0.0
+    return PairNoise(float(white), float(q), n2)
 
 
 def posterior_sigma(prior_m: float | None, estimate_m: float, samples: int) -> float:

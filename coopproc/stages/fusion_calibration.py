@@ -40,6 +40,10 @@ __all__ = ["FusionCalibration", "calibrated_fuse", "postfit_residuals"]
 
 #: Median NIS / median chi^2(1) above which a platform's dead reckoning is inflated.
 NIS_LIMIT = 2.0
+#: A platform bias is kept only if it cuts the RMS of that platform's residuals to this.
+BIAS_GAIN = 0.9
+#: Rounds of drift inflation at most.
+NIS_ROUNDS = 5
 #: Median of the chi-square distribution with one degree of freedom.
 CHI2_1_MEDIAN = 0.4549
 #: Gross errors dropped from the per-pair RMS: beyond this many MADs from the median.
@@ -130,22 +134,24 @@ def _platform_nis(observations: pd.DataFrame) -> dict[str, float]:
 
 
 def _platform_range_factor(pair_sigma: Mapping[str, float]) -> dict[str, float]:
-    """Platforms whose pairs are all worse than the rest (a body-blocked antenna): the
-    median sigma of its pairs over the median of the other pairs, where above
-    :data:`PLATFORM_RANGE_LIMIT` and the platform has 3+ pairs and the others 3+ too."""
+    """The platform whose pairs are all worse than the rest (a body-blocked antenna), if
+    any: the median sigma of its pairs over the median of the other pairs, where above
+    :data:`PLATFORM_RANGE_LIMIT` and the platform has 3+ pairs and the others 3+ too. Only
+    the worst one: biases of several platforms at once trade off against each other."""
     members: dict[str, list[float]] = {}
     for pair, sigma in pair_sigma.items():
         for platform in pair_members(pair):
             members.setdefault(platform, []).append(sigma)
-    out: dict[str, float] = {}
+    factors: dict[str, float] = {}
     for platform, own in members.items():
         others = [s for pair, s in pair_sigma.items() if platform not in pair_members(pair)]
         if len(own) < 3 or len(others) < 3:
             continue
-        factor = float(np.median(own)) / float(np.median(others))
-        if factor > PLATFORM_RANGE_LIMIT:
-            out[platform] = factor
-    return out
+        factors[platform] = float(np.median(own)) / float(np.median(others))
+    if not factors:
+        return {}
+    worst = max(sorted(factors), key=lambda p: factors[p])
+    return {worst: factors[worst]} if factors[worst] > PLATFORM_RANGE_LIMIT else {}
 
 
 def _platform_bias(
@@ -165,9 +171,12 @@ def _platform_bias(
     involved = {p: (ends[0] == p) | (ends[1] == p) for p in platforms}
     bias = dict.fromkeys(platforms, 0.0)
     current = ranges
+    rms_first = float("nan")
     for _ in range(BIAS_ITERATIONS):
         fused = fuse(session, current, params, output="ranges")
         resid = postfit_residuals(session, fused, current)["residual"].to_numpy()
+        if np.isnan(rms_first):
+            rms_first = _rms(resid, involved)
         step = {}
         for platform, sel in involved.items():
             r = resid[sel]
@@ -180,7 +189,47 @@ def _platform_bias(
         current = ranges.assign(range=corrected)
         if max(abs(v) for v in step.values()) < BIAS_TOL_M:
             break
+    fused = fuse(session, current, params, output="ranges")
+    rms_last = _rms(postfit_residuals(session, fused, current)["residual"].to_numpy(), involved)
+    if not rms_last < BIAS_GAIN * rms_first:
+        return ranges, {}  # the bias does not explain the disagreement: leave the ranges
     return current, bias
+
+
+def _rms(resid: FloatArray, involved: Mapping[str, np.ndarray]) -> float:
+    """RMS of the finite residuals of the ranges of the listed platforms."""
+    sel = np.zeros(resid.shape[0], dtype=bool)
+    for mask in involved.values():
+        sel |= mask
+    r = resid[sel]
+    r = r[np.isfinite(r)]
+    return float(np.sqrt(np.mean(r * r))) if r.shape[0] else float("nan")
+
+
+def _drift_scales(
+    session: Session,
+    ranges: pd.DataFrame,
+    params: FusionParams,
+    scale: dict[str, float],
+    only: set[str] | None = None,
+) -> tuple[FusionOutput, dict[str, float], dict[str, float]]:
+    """Inflate the drift of platforms whose range innovations are inconsistent (NIS above
+    :data:`NIS_LIMIT`) by sqrt(NIS), refusing until none is (at most
+    :data:`NIS_ROUNDS` rounds). ``only``: the platforms that may be inflated.
+    Returns the last fusion (at the range epochs), the scales and the last NIS."""
+    moving = set(session.moving_platforms()) if only is None else only
+    scale = dict(scale)
+    fused = fuse(session, ranges, params, output="ranges", drift_scale=scale)
+    nis = _platform_nis(fused.observations)
+    for _ in range(NIS_ROUNDS):
+        high = {p: v for p, v in nis.items() if p in moving and v > NIS_LIMIT}
+        if not high:
+            break
+        for platform, value in high.items():
+            scale[platform] = scale.get(platform, 1.0) * float(np.sqrt(value))
+        fused = fuse(session, ranges, params, output="ranges", drift_scale=scale)
+        nis = _platform_nis(fused.observations)
+    return fused, scale, nis
 
 
 def calibrated_fuse(
@@ -199,7 +248,9 @@ def calibrated_fuse(
     if not params.self_calibrate:
         plain = fuse(session, ranges, params, output=output)
         return plain, FusionCalibration({}, {}, {}, {}, {})
-    first = fuse(session, ranges, params, output="ranges")
+    # 1. dead reckoning that the ranges contradict, with the given range sigmas
+    first, scale, _ = _drift_scales(session, ranges, params, {})
+    # 2. per-pair ranging sigma from the post-fit residuals
     rms, bias, count = _pair_figures(postfit_residuals(session, first, ranges))
     pairs = np.array(
         [pair_name(a, b) for a, b in zip(ranges["from"], ranges["to"], strict=True)]
@@ -218,11 +269,13 @@ def calibrated_fuse(
             new_sigma[sel] = sigma_used[str(pair)]
         else:
             sigma_used[str(pair)] = prior
-    platform_factor = _platform_range_factor(sigma_used)
     calibrated = ranges.assign(sigma=new_sigma)
-    platform_bias: dict[str, float] = {}
+    # 3. a platform whose ranges all disagree: its range bias, then its drift afresh
+    platform_factor = _platform_range_factor(sigma_used)
     if platform_factor:
+        unscaled = {p: v for p, v in scale.items() if p not in platform_factor}
         calibrated, platform_bias = _platform_bias(session, calibrated, params, platform_factor)
+        platform_factor = {p: f for p, f in platform_factor.items() if p in platform_bias}
         for platform, factor in sorted(platform_factor.items()):
             notes.append(
                 f"fusion ({label}): the ranges of {platform} disagree with the rest of the "
@@ -230,19 +283,17 @@ def calibrated_fuse(
                 f"{platform_bias[platform]:+.3f} m long on average (body shadowing or an "
                 "antenna delay): corrected by that in the fusion"
             )
-    second = fuse(session, calibrated, params, output=output)
-    nis = _platform_nis(second.observations)
-    moving = set(session.moving_platforms())
-    scale = {p: float(np.sqrt(v)) for p, v in nis.items() if p in moving and v > NIS_LIMIT}
-    result = second
-    if scale:
-        result = fuse(session, calibrated, params, output=output, drift_scale=scale)
-        for platform, factor in sorted(scale.items()):
-            notes.append(
-                f"fusion ({label}): {platform}'s dead reckoning drifts more than declared "
-                f"(range innovations {nis[platform]:.1f} x their predicted variance); its "
-                f"drift sigma is scaled by {factor:.2f}"
+        if platform_factor:
+            _, scale, _ = _drift_scales(
+                session, calibrated, params, unscaled, only=set(platform_factor)
             )
+    _, _, nis = _drift_scales(session, calibrated, params, scale, only=set())
+    result = fuse(session, calibrated, params, output=output, drift_scale=scale)
+    for platform, factor in sorted(scale.items()):
+        notes.append(
+            f"fusion ({label}): {platform}'s dead reckoning drifts more than declared (its "
+            f"range innovations were inconsistent); its drift sigma is scaled by {factor:.1f}"
+        )
     return result, FusionCalibration(
         pair_sigma_m=sigma_used,
         pair_rms_m=rms,

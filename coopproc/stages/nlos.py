@@ -75,6 +75,10 @@ class KernelParams:
     #: 1-sigma behind gamma_max of eq. (9) when it differs from the range noise (the
     #: innovation spread measured on the data, see calibration.py); <= 0: ``sigma_m``
     detect_sigma_m: float = 0.0
+    #: an event whose ranges do not step up by this fraction of its estimate at its onset
+    #: (:func:`range_jump`) is a dead-reckoning fault, not NLOS (0: no check)
+    jump_fraction: float = 0.0
+    jump_window_s: float = 5.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,6 +92,52 @@ class DistanceFilterOutput:
     step_estimate_m: FloatArray  # running estimate at estimation-window epochs, NaN else
     sigma_m: FloatArray  # UWB sigma used at each epoch
     residual_m: FloatArray  # r = L_D - D after the DI update
+
+
+@njit(cache=True)
+def _line_at(t: FloatArray, y: FloatArray, lo: int, hi: int, at: float) -> tuple[float, float, int]:
+    """Least-squares line through (t, y)[lo:hi] evaluated at ``at``: value, its variance
+    factor (var / sigma^2 of the fitted value) and the number of points."""
+    n = hi - lo
+    if n < 2:
+        return np.nan, np.inf, n
+    tm = 0.0
+    ym = 0.0
+    for j in range(lo, hi):
+        tm += t[j]
+        ym += y[j]
+    tm /= n
+    ym /= n
+    sxx = 0.0
+    sxy = 0.0
+    for j in range(lo, hi):
+        sxx += (t[j] - tm) ** 2
+        sxy += (t[j] - tm) * (y[j] - ym)
+    slope = sxy / sxx if sxx > 1e-12 else 0.0
+    factor = 1.0 / n + ((at - tm) ** 2 / sxx if sxx > 1e-12 else 0.0)
+    return ym + slope * (at - tm), factor, n
+
+
+@njit(cache=True)
+def range_jump(t: FloatArray, rng: FloatArray, k: int, window_s: float) -> tuple[float, float]:
+    """The step of the ranges alone at epoch ``k``: a line fitted to the ranges of the
+    ``window_s`` seconds after t_k (from k) minus one fitted to those before it, both
+    evaluated at t_k, and the step's variance factor (var / sigma^2). NaN without 2+ points
+    on each side. NLOS lengthens the ranges themselves at its onset; a dead-reckoning
+    fault (wheel slip, heading jump) moves the DI-propagated distance and leaves the ranges
+    smooth, so the same residual of eq. (9) shows no step here."""
+    n = t.shape[0]
+    lo = k
+    while lo - 1 >= 0 and t[k] - t[lo - 1] <= window_s:
+        lo -= 1
+    hi = k
+    while hi < n and t[hi] - t[k] < window_s:
+        hi += 1
+    before, f_b, n_b = _line_at(t, rng, lo, k, t[k])
+    after, f_a, n_a = _line_at(t, rng, k, hi, t[k])
+    if n_b < 2 or n_a < 2:
+        return np.nan, np.inf
+    return after - before, f_a + f_b
 
 
 @njit(cache=True)
@@ -115,6 +165,8 @@ def _kernel(
     positive_only: bool,
     max_event_s: float,
     detect_sigma: float,
+    jump_fraction: float,
+    jump_window_s: float,
 ) -> tuple[FloatArray, np.ndarray, FloatArray, np.ndarray, FloatArray, FloatArray, FloatArray]:
     n = t.shape[0]
     out_d = np.full(n, np.nan)
@@ -158,6 +210,7 @@ def _kernel(
     pend_t0 = 0.0
     n_suspect = 0
     suspect_sign = 0.0
+    quiet_until = -1
     k = 1
     while k < n:
         dt = t[k] - t[k - 1]
@@ -207,7 +260,11 @@ def _kernel(
             ring_v2[ring_pos] = v2
             sum_v2 += v2
             ring_pos = (ring_pos + 1) % adaptive_n
-        if mode == 0:
+        if mode == 0 and k <= quiet_until:
+            n_suspect = 0
+            use = 1
+            done = True
+        elif mode == 0:
             if abs(r) > gamma:
                 start = k
                 if backdate_s > 0.0:
@@ -257,8 +314,13 @@ def _kernel(
                 done = True
         if mode == 1 and not done:
             if t[k] - ev_t0 >= window_s - 1e-9 and eps_n > 0:
-                if not one_shot and abs(est) < confirm_fraction * gamma:
-                    # false alarm: clear the event and redo this epoch as line of sight
+                stepless = False
+                if not one_shot and jump_fraction > 0.0:
+                    jump, _ = range_jump(t, rng, ev_start, jump_window_s)
+                    stepless = np.isfinite(jump) and jump < jump_fraction * est
+                if not one_shot and (abs(est) < confirm_fraction * gamma or stepless):
+                    # false alarm: clear the event and redo its epochs as line of sight
+                    # (their ranges are used after all; no new detection before this one)
                     for j in range(ev_start, k):
                         flag[j] = 0
                         event[j] = -1
@@ -266,9 +328,11 @@ def _kernel(
                         step_est[j] = np.nan
                     mode = 0
                     est = 0.0
-                    j = k - 1
+                    quiet_until = k
+                    j = ev_start - 1
                     d, i, p_dd, p_di, p_ii = s_d[j], s_i[j], s_pdd[j], s_pdi[j], s_pii[j]
                     in_event[k] = 1
+                    k = ev_start
                     continue
                 if positive_only and est < 0.0:
                     # NLOS only lengthens ranges: a negative "event" means the filtered
@@ -448,6 +512,8 @@ def _filter_piece(
         bool(params.positive_only),
         float(params.max_event_s),
         float(params.detect_sigma_m),
+        float(params.jump_fraction),
+        float(params.jump_window_s),
     )
     return DistanceFilterOutput(
         distance_m=d,

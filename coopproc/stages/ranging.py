@@ -167,6 +167,8 @@ def kernel_params(
         positive_only=nlos.positive_only,
         max_event_s=nlos.max_event_s,
         restart_gap_s=nlos.restart_gap_s,
+        jump_fraction=nlos.jump_fraction,
+        jump_window_s=nlos.jump_window_s,
     )
 
 

@@ -86,6 +86,17 @@ class NLOSParams:
             "a false alarm and is unflagged"
         },
     )
+    jump_fraction: float = field(
+        default=0.5,
+        metadata={
+            "help": "DI-Based: an event is confirmed only if the ranges alone step up at its "
+            "onset by this fraction of its estimate (lines fitted jump_window_s either "
+            "side); else it is a dead-reckoning fault (slip, heading jump), not NLOS. 0: off"
+        },
+    )
+    jump_window_s: float = field(
+        default=5.0, metadata={"help": "seconds of ranges fitted each side of the onset"}
+    )
     suspect_epochs: int = field(
         default=3,
         metadata={
@@ -159,7 +170,11 @@ class NLOSParams:
         for name in ("gamma_sigma", "window_s", "default_sigma_m", "min_sigma_m"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be > 0, found {getattr(self, name)}")
-        for name in ("backdate_s", "onset_fraction", "confirm_fraction", "end_confirm_s"):
+        if self.jump_window_s <= 0:
+            raise ValueError(f"jump_window_s must be > 0, found {self.jump_window_s}")
+        for name in (
+            "backdate_s", "onset_fraction", "confirm_fraction", "end_confirm_s", "jump_fraction"
+        ):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, found {getattr(self, name)}")
         if self.suspect_epochs < 0:
