@@ -54,6 +54,7 @@ def run(
     from tqdm import tqdm
 
     from coopproc.config import load_run_config
+    from coopproc.coverage import prepare_run
     from coopproc.io import read_session
     from coopproc.outdir import check_output_dir
     from coopproc.output import write_run
@@ -72,6 +73,8 @@ def run(
         f"session {data.name}: {len(data.platforms)} platforms, "
         f"{len(data.ranges.pairs)} pairs, {len(data.ranges)} ranges"
     )
+    # ranges the navigation does not cover left out, frames checked; notes appended
+    data, _ = prepare_run(data)
     for note in data.notes:
         say(f"note: {note}")
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from coopproc.io import validate_session
+from coopproc.io.session import inspect_session
 
 __all__ = ["validate"]
 
@@ -19,14 +19,33 @@ def validate(session: Path, quiet: bool) -> None:
     """Check SESSION (a session directory or an .mcap file) against the data contract.
 
     Prints every problem found, one line each (file:line: what was found; what was
-    expected), and exits 1 when there is any, 0 when the session is clean.
+    expected), and exits 1 when there is any, 0 when the session is clean. A session
+    that reads cleanly is also checked for what would spoil a run without being an
+    error, printed as warnings (exit status 0): gaps in a platform's navigation, and
+    navigation that starts after or ends before the ranges, with the count of ranges it
+    does not cover; and notes: raw-sensor files this version does not use, and a
+    platform whose navigation seems to be in a frame of its own.
     """
-    problems = validate_session(session)
+    from coopproc.coverage import coverage_warnings, session_start_s
+    from coopproc.framecheck import frame_notes
+    from coopproc.io.registry import sensor_note
+
+    data, problems = inspect_session(session)
     for line in problems:
         click.echo(line)
-    if problems:
+    if problems or data is None:
         if not quiet:
             click.echo(f"{len(problems)} problem(s) in {session}", err=True)
         sys.exit(1)
-    if not quiet:
-        click.echo(f"{session}: ok")
+    if quiet:
+        return
+    warnings = coverage_warnings(data)
+    if warnings:
+        start = session_start_s(data)
+        click.echo(f"note: times below are seconds from the session start, {start:.3f}")
+    for line in warnings:
+        click.echo(f"warning: {line}")
+    for note in [*map(sensor_note, data.sensor_files), *frame_notes(data)]:
+        click.echo(f"note: {note}")
+    counted = f" ({len(warnings)} warning{'s' * (len(warnings) != 1)})" if warnings else ""
+    click.echo(f"{session}: ok{counted}")
