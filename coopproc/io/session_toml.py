@@ -231,6 +231,9 @@ def _platforms(table: Any, where: str) -> dict[str, Platform]:
                 f"{where} [platforms.{pid}]: not a platform id; expected letters, digits, _ and -"
             )
         at = f"{where} [platforms.{pid}]"
+        if isinstance(sub, Mapping) and isinstance(sub.get("imu"), Mapping):
+            names = [f.name for f in dataclasses.fields(_ImuTable)]
+            check_keys(sub["imu"], names, f"{where} [platforms.{pid}.imu]")
         p: _PlatformTable = from_table(_PlatformTable, sub, at)
         if p.drift_sigma is not None and not p.drift_sigma > 0:
             raise ConfigError(f"{at} drift_sigma: {p.drift_sigma}; expected > 0 m/s")
@@ -263,7 +266,7 @@ def _platforms(table: Any, where: str) -> dict[str, Platform]:
             gnss_lever_arm_m=p.gnss_lever_arm,
             imu_mounting_deg=p.imu_mounting,
             nhc=p.nhc,
-            imu=None if p.imu is None else _imu(p.imu, f"{at[:-1]}.imu]"),
+            imu=None if p.imu is None else _imu(p.imu, f"{where} [platforms.{pid}.imu]"),
         )
     return out
 

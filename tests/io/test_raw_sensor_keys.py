@@ -89,7 +89,7 @@ def test_sensor_keys_are_read_checked_and_written_back(sample_dir: Path, tmp_pat
         ),
         (
             "[platforms.A.imu]\ngyro_nose = 0.1",
-            "[platforms.A] imu: unknown key 'gyro_nose' (did you mean 'gyro_noise'?)",
+            "[platforms.A.imu]: unknown key 'gyro_nose' (did you mean 'gyro_noise'?)",
         ),
         (
             "[platforms.A.imu]\ngyro_bias = -1.0",
