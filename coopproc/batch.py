@@ -56,6 +56,7 @@ def run_one(
     import matplotlib
 
     matplotlib.use("Agg")
+    from coopproc.coverage import prepare_run
     from coopproc.io import read_session
     from coopproc.output import write_run
     from coopproc.pipeline import run_pipeline
@@ -63,7 +64,7 @@ def run_one(
 
     started = dt.datetime.now(dt.UTC)
     try:
-        session = read_session(session_path)
+        session, _ = prepare_run(read_session(session_path))
         output = run_pipeline(session, config)
         write_run(
             output,

@@ -18,6 +18,7 @@ from typing import Any
 from coopproc import __version__
 from coopproc.config import RunConfig
 from coopproc.model import Session
+from coopproc.calibration_summary import calibration_facts
 from coopproc.outdir import atomic_output_dir, write_csv
 from coopproc.pipeline import PipelineOutput
 from coopproc.report.figures import write_figures
@@ -86,6 +87,7 @@ def write_run(
         ],
         "notes": list(session.notes),
         "sigma": {p: {"sigma_m": s, "source": src} for p, (s, src) in output.sigma.items()},
+        "calibration": calibration_facts(output),
         "timings_s": dict(output.timings_s),
         "start_time": started.isoformat(timespec="seconds"),
     }

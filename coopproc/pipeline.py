@@ -34,6 +34,7 @@ from coopproc.model import (
 )
 from coopproc.report.metrics import distance_metrics, nlos_scores, position_metrics
 from coopproc.report.scores import nlos_event_scores
+from coopproc.stages.dr_quality import DeadReckoningQuality, dead_reckoning_quality
 from coopproc.stages.fusion import FusionOutput
 from coopproc.stages.fusion_calibration import FusionCalibration, calibrated_fuse
 from coopproc.stages.ranging import PairCalibration, run_ranging
@@ -57,6 +58,8 @@ class PipelineOutput:
     ranging_calibration: Mapping[tuple[str, str], PairCalibration]
     #: each fusion's self-calibration, by range method
     fusion_calibration: Mapping[str, FusionCalibration]
+    #: each moving platform's dead reckoning against the observed cooperative solution
+    dr_quality: Mapping[str, DeadReckoningQuality]
     notes: tuple[str, ...]
 
 
@@ -212,7 +215,12 @@ def run_pipeline(
         with timed(f"fusion ({method})"):
             ranges = _ranges_for(table, method, sigma_by_row)
             fused[method], fusion_cal[method] = calibrated_fuse(
-                session, ranges, config.fusion, output=output, label=method
+                session,
+                ranges,
+                config.fusion,
+                output=output,
+                label=method,
+                sigma_floor=fusion_cal["observed"].pair_sigma_m,
             )
 
     with timed("metrics"):
@@ -251,6 +259,7 @@ def run_pipeline(
         sigma=sigma,
         ranging_calibration=ranging.calibration,
         fusion_calibration=fusion_cal,
+        dr_quality=dead_reckoning_quality(session, fused["observed"].smoothed),
         notes=tuple(n for cal in fusion_cal.values() for n in cal.notes),
     )
 

@@ -58,6 +58,7 @@ def run(
     from coopproc.io import read_session
     from coopproc.outdir import check_output_dir
     from coopproc.output import write_run
+    from coopproc.calibration_summary import calibration_lines
     from coopproc.pipeline import run_pipeline
     from coopproc.summary import summarize
 
@@ -99,8 +100,8 @@ def run(
             started=started,
             summary=summary.facts,
         )
-    for pair, (sigma, source) in sorted(output.sigma.items()):
-        say(f"UWB sigma {pair}: {sigma:.3f} m ({source})")
+    for line in calibration_lines(output):
+        say(line)
     for line in summary.lines:
         say(line)
     say(f"tables: {files.out_dir}/ ({len(files.tables)} CSV), figures: {len(files.figures)}")

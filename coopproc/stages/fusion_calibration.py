@@ -239,11 +239,16 @@ def calibrated_fuse(
     *,
     output: Literal["ranges", "nav"] = "ranges",
     label: str = "observed",
+    sigma_floor: Mapping[str, float] | None = None,
 ) -> tuple[FusionOutput, FusionCalibration]:
     """Fuse with per-pair sigmas and drift scales estimated from the data (module docstring).
 
     ``ranges``: columns time, from, to, range, sigma (the given sigma per row, the prior).
-    ``label`` names the range set in notes.
+    ``label`` names the range set in notes. ``sigma_floor``: per pair, the smallest sigma
+    to use. Processed (smoothed) ranges get the observed ranges' calibrated sigmas as
+    floor: their post-fit residuals are small, but their errors are correlated over many
+    epochs, so weighting them by that RMS as if white makes the fusion overconfident
+    (measured on paper-experiment seed 1: fused DI mean error 0.080 m against 0.074 m).
     """
     if not params.self_calibrate:
         plain = fuse(session, ranges, params, output=output)
@@ -266,9 +271,11 @@ def calibrated_fuse(
         prior = float(np.median(given[sel]))
         if pair in rms:
             sigma_used[str(pair)] = posterior_sigma(prior, rms[str(pair)], count[str(pair)])
-            new_sigma[sel] = sigma_used[str(pair)]
         else:
             sigma_used[str(pair)] = prior
+        if sigma_floor is not None and str(pair) in sigma_floor:
+            sigma_used[str(pair)] = max(sigma_used[str(pair)], sigma_floor[str(pair)])
+        new_sigma[sel] = sigma_used[str(pair)]
     calibrated = ranges.assign(sigma=new_sigma)
     # 3. a platform whose ranges all disagree: its range bias, then its drift afresh
     platform_factor = _platform_range_factor(sigma_used)

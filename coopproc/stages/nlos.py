@@ -20,7 +20,11 @@ Onset back-dating: when an event is detected at k, preceding epochs (within ``ba
 whose residual had the same sign and exceeded ``onset_fraction * gamma_max`` are taken as
 the event's first epochs and the filter is rerun from before them (post-processing; their
 ranges had pulled D towards the NLOS level). A false alarm is an event whose estimate at
-the end of the window is below ``confirm_fraction * gamma_max``: its flags are cleared.
+the end of the window is below ``confirm_fraction * gamma_max`` (an outlier at the onset:
+its flags are cleared, the window epochs stay predicted only), or whose ranges alone show
+no step up of ``jump_fraction`` times the estimate at the onset (:func:`range_jump`: a
+dead-reckoning fault moved the DI-propagated distance, not NLOS the ranges; its epochs are
+redone as line of sight, without a new detection until the window's end).
 End of an event: the raw residual is nearer 0 than eps_hat for ``end_confirm_s`` seconds
 and at least ``end_min_epochs`` epochs; those epochs are not used (predict only) while
 pending and are unflagged when the end is confirmed.
@@ -318,9 +322,10 @@ def _kernel(
                 if not one_shot and jump_fraction > 0.0:
                     jump, _ = range_jump(t, rng, ev_start, jump_window_s)
                     stepless = np.isfinite(jump) and jump < jump_fraction * est
-                if not one_shot and (abs(est) < confirm_fraction * gamma or stepless):
-                    # false alarm: clear the event and redo its epochs as line of sight
-                    # (their ranges are used after all; no new detection before this one)
+                small = abs(est) < confirm_fraction * gamma
+                stepless = stepless and not small
+                if not one_shot and (small or stepless):
+                    # false alarm: clear the event
                     for j in range(ev_start, k):
                         flag[j] = 0
                         event[j] = -1
@@ -328,10 +333,18 @@ def _kernel(
                         step_est[j] = np.nan
                     mode = 0
                     est = 0.0
+                    in_event[k] = 1
+                    if not stepless:
+                        # a small estimate: the onset was an outlier; the window epochs
+                        # stay predicted only, this one is redone as line of sight
+                        j = k - 1
+                        d, i, p_dd, p_di, p_ii = s_d[j], s_i[j], s_pdd[j], s_pdi[j], s_pii[j]
+                        continue
+                    # no step in the ranges: a DI fault; the ranges of the window are good,
+                    # redo its epochs as line of sight without a new detection
                     quiet_until = k
                     j = ev_start - 1
                     d, i, p_dd, p_di, p_ii = s_d[j], s_i[j], s_pdd[j], s_pdi[j], s_pii[j]
-                    in_event[k] = 1
                     k = ev_start
                     continue
                 if positive_only and est < 0.0:

@@ -1,0 +1,102 @@
+"""What the self-calibration estimated, against what the session declared.
+
+Printed by ``coopproc run`` after the progress bar and written to run.json
+(``calibration``): per pair the UWB noise the ranging filters used (white noise, innovation
+spread behind gamma_max, DI growth) and the fusion's ranging sigma and post-fit bias; per
+platform its dead reckoning against the cooperative solution and any drift inflation; the
+fusion's notes.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from coopproc.pipeline import PipelineOutput
+
+__all__ = ["calibration_facts", "calibration_lines"]
+
+#: A pair's post-fit bias is printed when it is at least this fraction of its sigma ...
+BIAS_FRACTION = 0.5
+#: ... and at least this large (m).
+BIAS_MIN_M = 0.05
+
+
+def _num(value: float, digits: int = 4) -> float | None:
+    return round(float(value), digits) if math.isfinite(value) else None
+
+
+def calibration_facts(output: PipelineOutput) -> dict[str, Any]:
+    """The run.json ``calibration`` block."""
+    pairs: dict[str, Any] = {}
+    for (pair, method), cal in sorted(output.ranging_calibration.items()):
+        pairs.setdefault(pair, {})[method] = {
+            "declared_sigma_m": _num(cal.declared_sigma_m),
+            "white_sigma_m": _num(cal.white_sigma_m),
+            "detect_sigma_m": _num(cal.detect_sigma_m),
+            "di_growth_m2ps": _num(cal.growth_m2ps, 6),
+            "source": cal.source,
+        }
+    fusion: dict[str, Any] = {}
+    for method, cal in sorted(output.fusion_calibration.items()):
+        fusion[method] = {
+            "pair_sigma_m": {p: _num(v) for p, v in sorted(cal.pair_sigma_m.items())},
+            "pair_bias_m": {p: _num(v) for p, v in sorted(cal.pair_bias_m.items())},
+            "platform_nis": {p: _num(v, 3) for p, v in sorted(cal.platform_nis.items())},
+            "drift_scale": {p: _num(v, 3) for p, v in sorted(cal.drift_scale.items())},
+        }
+    platforms = {
+        p: {
+            "declared_drift_mps": _num(q.declared_drift_mps),
+            "drift_mps": _num(q.drift_mps),
+            "heading_drift_deg_per_min": _num(q.heading_drift_dpm, 3),
+            "scale": _num(q.scale),
+        }
+        for p, q in sorted(output.dr_quality.items())
+    }
+    return {
+        "ranging": pairs,
+        "fusion": fusion,
+        "dead_reckoning": platforms,
+        "notes": list(output.notes),
+    }
+
+
+def _fmt(value: float, spec: str, unit: str = "") -> str:
+    return f"{value:{spec}}{unit}" if math.isfinite(value) else "n/a"
+
+
+def calibration_lines(output: PipelineOutput) -> list[str]:
+    """A few lines per pair and platform for the terminal."""
+    lines = ["self-calibration (declared values in brackets):"]
+    observed = output.fusion_calibration.get("observed")
+    for (pair, method), cal in sorted(output.ranging_calibration.items()):
+        if method != "di":
+            continue
+        declared = (
+            f" [{cal.declared_sigma_m:.3f} m]" if math.isfinite(cal.declared_sigma_m) else ""
+        )
+        text = (
+            f"  {pair}: UWB white noise {cal.white_sigma_m:.3f} m{declared}, innovation "
+            f"{cal.detect_sigma_m:.3f} m, DI growth {cal.growth_m2ps:.4f} m^2/s ({cal.source})"
+        )
+        if observed is not None and pair in observed.pair_sigma_m:
+            sigma = observed.pair_sigma_m[pair]
+            text += f"; fusion sigma {sigma:.3f} m"
+            bias = observed.pair_bias_m.get(pair, math.nan)
+            if math.isfinite(bias) and abs(bias) >= max(BIAS_FRACTION * sigma, BIAS_MIN_M):
+                text += f", ranges read {bias:+.3f} m long"
+        lines.append(text)
+    for platform, q in sorted(output.dr_quality.items()):
+        declared = (
+            f" [{q.declared_drift_mps:.4f}]" if math.isfinite(q.declared_drift_mps) else ""
+        )
+        scale = observed.drift_scale.get(platform) if observed is not None else None
+        inflated = f", fusion drift x{scale:.1f}" if scale else ""
+        lines.append(
+            f"  {platform}: dead reckoning drift {_fmt(q.drift_mps, '.4f')} m/s{declared}, "
+            f"heading drift {_fmt(q.heading_drift_dpm, '+.2f')} deg/min, scale "
+            f"{_fmt(100.0 * q.scale, '+.2f', ' %')}{inflated}"
+        )
+    lines.extend(f"note: {note}" for note in output.notes)
+    return lines
