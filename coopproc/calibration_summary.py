@@ -35,6 +35,8 @@ def calibration_facts(output: PipelineOutput) -> dict[str, Any]:
             "white_sigma_m": _num(cal.white_sigma_m),
             "detect_sigma_m": _num(cal.detect_sigma_m),
             "di_growth_m2ps": _num(cal.growth_m2ps, 6),
+            "gain": _num(cal.gain, 3),
+            "passthrough": cal.passthrough,
             "source": cal.source,
         }
     fusion: dict[str, Any] = {}
@@ -73,13 +75,14 @@ def calibration_lines(output: PipelineOutput) -> list[str]:
     for (pair, method), cal in sorted(output.ranging_calibration.items()):
         if method != "di":
             continue
-        declared = (
-            f" [{cal.declared_sigma_m:.3f} m]" if math.isfinite(cal.declared_sigma_m) else ""
-        )
+        declared = f" [{cal.declared_sigma_m:.3f} m]" if math.isfinite(cal.declared_sigma_m) else ""
         text = (
             f"  {pair}: UWB white noise {cal.white_sigma_m:.3f} m{declared}, innovation "
             f"{cal.detect_sigma_m:.3f} m, DI growth {cal.growth_m2ps:.4f} m^2/s ({cal.source})"
         )
+        if cal.passthrough:
+            text += f"; DI too poor to smooth (gain {cal.gain:.2f}): ranges passed through"
+
         if observed is not None and pair in observed.pair_sigma_m:
             sigma = observed.pair_sigma_m[pair]
             text += f"; fusion sigma {sigma:.3f} m"
@@ -88,9 +91,7 @@ def calibration_lines(output: PipelineOutput) -> list[str]:
                 text += f", ranges read {bias:+.3f} m long"
         lines.append(text)
     for platform, q in sorted(output.dr_quality.items()):
-        declared = (
-            f" [{q.declared_drift_mps:.4f}]" if math.isfinite(q.declared_drift_mps) else ""
-        )
+        declared = f" [{q.declared_drift_mps:.4f}]" if math.isfinite(q.declared_drift_mps) else ""
         scale = observed.drift_scale.get(platform) if observed is not None else None
         inflated = f", fusion drift x{scale:.1f}" if scale else ""
         lines.append(

@@ -33,6 +33,7 @@ __all__ = [
     "pair_noise",
     "posterior_sigma",
     "robust_sigma",
+    "steady_gain",
     "white_sigma",
 ]
 
@@ -120,6 +121,17 @@ def pair_noise(time_s: FloatArray, range_m: FloatArray, di_m: FloatArray) -> Pai
     v2, lag2, n2 = _lagged_variance(t, z, tau2)
     q = max((v2 - 2.0 * white * white) / lag2, 0.0) if np.isfinite(v2) else 0.0
     return PairNoise(float(white), float(q), n2)
+
+
+def steady_gain(process_var: float, range_var: float) -> float:
+    """Steady-state Kalman gain of a random walk with per-epoch process variance Q observed
+    with noise variance R: P- = (Q + sqrt(Q^2 + 4 Q R)) / 2, K = P- / (P- + R). The filtered
+    white noise keeps K of its variance: near 1, the DI adds nothing to the ranges."""
+    if not (np.isfinite(process_var) and np.isfinite(range_var)) or range_var <= 0:
+        return float("nan")
+    q = max(process_var, 0.0)
+    prior = 0.5 * (q + np.sqrt(q * q + 4.0 * q * range_var))
+    return float(prior / (prior + range_var))
 
 
 def posterior_sigma(prior_m: float | None, estimate_m: float, samples: int) -> float:

@@ -41,7 +41,12 @@ from coopproc.model import (
     Trajectory,
     pair_members,
 )
-from coopproc.stages.calibration import pair_noise, posterior_sigma, robust_sigma
+from coopproc.stages.calibration import (
+    pair_noise,
+    posterior_sigma,
+    robust_sigma,
+    steady_gain,
+)
 from coopproc.stages.di import (
     SmoothedDI,
     anchored_increments,
@@ -73,6 +78,10 @@ class PairCalibration:
     detect_sigma_m: float  # 1-sigma behind gamma_max, eq. (9)
     growth_m2ps: float  # DI process noise from the data, m^2/s (0: none)
     source: str  # "data", "session.toml", "adaptive" or "default"
+    #: steady-state gain of the distance filter's range update (NaN: not computed)
+    gain: float = float("nan")
+    #: True: the DI adds too little (gain above passthrough_gain); ranges passed through
+    passthrough: bool = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -305,7 +314,10 @@ def _calibrated(
     # estimate uses no window.
     if not params.one_shot:
         detect = float(np.sqrt(detect**2 + noise.growth_m2ps * config.nlos.window_s / 3.0))
-    cal = PairCalibration(declared, white, max(detect, white), noise.growth_m2ps, "data")
+    gain = steady_gain(float(np.nanmedian(var[1:])) if var.shape[0] > 1 else np.nan, white**2)
+    cal = PairCalibration(
+        declared, white, max(detect, white), noise.growth_m2ps, "data", gain=gain
+    )
     return replace(params, sigma_m=white, detect_sigma_m=cal.detect_sigma_m), var, cal
 
 
@@ -333,6 +345,11 @@ def _di_method(
         out, _ = filter_distance_two_way(p.time_s, p.observed_m, smoothed.di_m, r_i, params)
     else:
         out = filter_distance(p.time_s, p.observed_m, smoothed.di_m, r_i, params)
+    if cal.gain > config.nlos.passthrough_gain:
+        # the DI would smooth the white noise by less than 1 - gain of its variance, and
+        # any error of its model would cost more: line-of-sight ranges pass through
+        out = replace(out, distance_m=_compensated(p.observed_m, out))
+        cal = replace(cal, passthrough=True)
     return smoothed, di_dr, out, cal
 
 

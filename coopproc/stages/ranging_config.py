@@ -146,6 +146,14 @@ class NLOSParams:
             "and flag NLOS where both runs do (false: forward only, as in real time)"
         },
     )
+    passthrough_gain: float = field(
+        default=0.75,
+        metadata={
+            "help": "DI-Based: when the distance filter's steady-state gain on the ranges "
+            "exceeds this (the dead reckoning is too poor to smooth them), line-of-sight "
+            "ranges pass through unchanged; NLOS is still detected and compensated. 1: never"
+        },
+    )
     adaptive: bool = field(
         default=True,
         metadata={
