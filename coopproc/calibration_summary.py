@@ -40,12 +40,12 @@ def calibration_facts(output: PipelineOutput) -> dict[str, Any]:
             "source": cal.source,
         }
     fusion: dict[str, Any] = {}
-    for method, cal in sorted(output.fusion_calibration.items()):
+    for method, fcal in sorted(output.fusion_calibration.items()):
         fusion[method] = {
-            "pair_sigma_m": {p: _num(v) for p, v in sorted(cal.pair_sigma_m.items())},
-            "pair_bias_m": {p: _num(v) for p, v in sorted(cal.pair_bias_m.items())},
-            "platform_nis": {p: _num(v, 3) for p, v in sorted(cal.platform_nis.items())},
-            "drift_scale": {p: _num(v, 3) for p, v in sorted(cal.drift_scale.items())},
+            "pair_sigma_m": {p: _num(v) for p, v in sorted(fcal.pair_sigma_m.items())},
+            "pair_bias_m": {p: _num(v) for p, v in sorted(fcal.pair_bias_m.items())},
+            "platform_nis": {p: _num(v, 3) for p, v in sorted(fcal.platform_nis.items())},
+            "drift_scale": {p: _num(v, 3) for p, v in sorted(fcal.drift_scale.items())},
         }
     platforms = {
         p: {

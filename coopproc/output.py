@@ -16,9 +16,9 @@ from pathlib import Path
 from typing import Any
 
 from coopproc import __version__
+from coopproc.calibration_summary import calibration_facts
 from coopproc.config import RunConfig
 from coopproc.model import Session
-from coopproc.calibration_summary import calibration_facts
 from coopproc.outdir import atomic_output_dir, write_csv
 from coopproc.pipeline import PipelineOutput
 from coopproc.report.figures import write_figures

@@ -53,12 +53,12 @@ def run(
     matplotlib.use("Agg")
     from tqdm import tqdm
 
+    from coopproc.calibration_summary import calibration_lines
     from coopproc.config import load_run_config
     from coopproc.coverage import prepare_run
     from coopproc.io import read_session
     from coopproc.outdir import check_output_dir
     from coopproc.output import write_run
-    from coopproc.calibration_summary import calibration_lines
     from coopproc.pipeline import run_pipeline
     from coopproc.summary import summarize
 

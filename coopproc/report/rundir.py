@@ -92,6 +92,9 @@ def _read_table(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
             continue
         if not pd.api.types.is_numeric_dtype(frame[col]):
             bad = pd.to_numeric(frame[col], errors="coerce").isna() & frame[col].notna()
+            if not bad.any():  # e.g. an empty table: nothing to read as text
+                frame[col] = pd.to_numeric(frame[col])
+                continue
             row = int(np.flatnonzero(bad.to_numpy())[0])
             raise InputError(
                 path,

@@ -7,11 +7,12 @@ error minus the accumulated DI error. Its structure function
     V(tau) = E[(z(t + tau) - z(t))^2] = 2 sigma_w^2 + q tau  (+ higher order)
 
 separates the white range noise sigma_w (measured on its own by :func:`white_sigma`) from
-everything that grows with the lag: the random walk of the accumulated DI error and the slowly varying (coloured) part of
-real UWB errors (multipath, antenna orientation). Both belong in the distance filter's
-process noise: a DI that disagrees with the ranges beyond what the white noise explains is
-leaned on less. V is estimated robustly ((1.4826 MAD)^2 of the lagged differences), so the
-jumps at the edges of NLOS events (a minority of the differences) do not inflate it.
+everything that grows with the lag: the random walk of the accumulated DI error and the
+slowly varying (coloured) part of real UWB errors (multipath, antenna orientation). Both
+belong in the distance filter's process noise: a DI that disagrees with the ranges beyond
+what the white noise explains is leaned on less. V is estimated robustly ((1.4826 MAD)^2
+of the lagged differences), so the jumps at the edges of NLOS events (a minority of the
+differences) do not inflate it.
 
 The innovation spread of the filter itself (residuals r = L - D' of eq. (9)) is the other
 figure taken from the data: the detection threshold gamma_max of eq. (9) is gamma_sigma

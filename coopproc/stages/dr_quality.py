@@ -16,7 +16,8 @@ navigation's error as far as the ranges can tell. Three figures summarize it:
 NaN where the platform did not travel enough (fewer than :data:`MIN_WINDOWS` windows of
 :data:`MIN_TRAVEL_M` or more) or the session is too short. Measured on the dr-faults
 scenario (seed 0): heading drift +2.89 deg/min against a true 3.0 (the simulator counts
-clockwise), scale -2.83 / -1.78 / +2.27 % against -2.77 / -2.27 / +2.00 %. The figures are reported, next to the declared ``drift_sigma``.
+clockwise), scale -2.83 / -1.78 / +2.27 % against -2.77 / -2.27 / +2.00 %. The figures
+are reported next to the declared ``drift_sigma``.
 """
 
 from __future__ import annotations

@@ -105,12 +105,16 @@ JUMP_MIN_POINTS = 10
 
 @njit(cache=True)
 def range_jump(t: FloatArray, rng: FloatArray, k: int, window_s: float) -> tuple[float, float]:
-    """The step of the ranges alone at epoch ``k``: least squares of the ranges within
-    ``window_s`` seconds (and at least :data:`JUMP_MIN_POINTS` ranges) either side of t_k on a line with one slope and a step J at t_k
-    (y = a + b (t - t_k) + J [t >= t_k]); returns J and its variance factor (var / sigma^2).
-    NaN without 2+ points on each side. NLOS lengthens the ranges themselves at its onset;
-    a dead-reckoning fault (wheel slip, heading jump) moves the DI-propagated distance and
-    leaves the ranges smooth, so the same residual of eq. (9) shows no step here."""
+    """The step of the ranges alone at epoch ``k``.
+
+    Least squares of the ranges within ``window_s`` seconds (and at least
+    :data:`JUMP_MIN_POINTS` ranges) either side of t_k on a line with one slope and a step
+    J at t_k, y = a + b (t - t_k) + J [t >= t_k]; returns J and its variance factor
+    (var / sigma^2). NaN without 2+ points on each side. NLOS lengthens the ranges
+    themselves at its onset; a dead-reckoning fault (wheel slip, heading jump) moves the
+    DI-propagated distance and leaves the ranges smooth, so the same residual of eq. (9)
+    shows no step here.
+    """
     n = t.shape[0]
     lo = k
     while lo - 1 >= 0 and (t[k] - t[lo - 1] <= window_s or k - lo < JUMP_MIN_POINTS):

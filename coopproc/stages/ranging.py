@@ -92,7 +92,7 @@ class RangingOutput:
     di: pd.DataFrame  # DI_COLUMNS
     nlos_events: pd.DataFrame  # NLOS_EVENT_COLUMNS, method in {"di", "rn"}
     nlos_estimates: pd.DataFrame  # NLOS_ESTIMATE_COLUMNS (event numbers from 1 per pair)
-    #: pair -> (UWB sigma used, "data" | "session.toml" | "adaptive" | "default")
+    #: pair -> (UWB white-noise sigma used, "data" | "session.toml" | "adaptive" | "default")
     sigma: Mapping[str, tuple[float, str]]
     #: (pair, method) -> the self-calibration of that method's filter, method "di" or "rn"
     calibration: Mapping[tuple[str, str], PairCalibration]
@@ -279,7 +279,11 @@ def _prepare(
 
 
 def _calibrated(
-    p: _Pair, increments: FloatArray, var_m2: FloatArray, params: KernelParams, config: RangingConfig
+    p: _Pair,
+    increments: FloatArray,
+    var_m2: FloatArray,
+    params: KernelParams,
+    config: RangingConfig,
 ) -> tuple[KernelParams, FloatArray, PairCalibration]:
     """The filter numbers of one pair and method from its own data (calibration.py).
 
@@ -315,9 +319,7 @@ def _calibrated(
     if not params.one_shot:
         detect = float(np.sqrt(detect**2 + noise.growth_m2ps * config.nlos.window_s / 3.0))
     gain = steady_gain(float(np.nanmedian(var[1:])) if var.shape[0] > 1 else np.nan, white**2)
-    cal = PairCalibration(
-        declared, white, max(detect, white), noise.growth_m2ps, "data", gain=gain
-    )
+    cal = PairCalibration(declared, white, max(detect, white), noise.growth_m2ps, "data", gain=gain)
     return replace(params, sigma_m=white, detect_sigma_m=cal.detect_sigma_m), var, cal
 
 
@@ -407,14 +409,12 @@ def run_ranging(
         )
         rn_params, rn_var, rn_cal = _calibrated(p, p.rn_m, p.var_m2, rn_params, config)
         if config.nlos.two_way:
-            rn_out, _ = filter_distance_two_way(
-                p.time_s, p.observed_m, p.rn_m, rn_var, rn_params
-            )
+            rn_out, _ = filter_distance_two_way(p.time_s, p.observed_m, p.rn_m, rn_var, rn_params)
         else:
             rn_out = filter_distance(p.time_s, p.observed_m, p.rn_m, rn_var, rn_params)
         calibration[(p.name, "di")] = di_cal
         calibration[(p.name, "rn")] = rn_cal
-        sigma = di_cal.detect_sigma_m
+        sigma = di_cal.white_sigma_m
         if di_cal.source == "adaptive":
             sigma = float(np.nanmedian(di_out.sigma_m))
         sigma_used[p.name] = (sigma, di_cal.source)

@@ -181,7 +181,11 @@ class NLOSParams:
         if self.jump_window_s <= 0:
             raise ValueError(f"jump_window_s must be > 0, found {self.jump_window_s}")
         for name in (
-            "backdate_s", "onset_fraction", "confirm_fraction", "end_confirm_s", "jump_fraction"
+            "backdate_s",
+            "onset_fraction",
+            "confirm_fraction",
+            "end_confirm_s",
+            "jump_fraction",
         ):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, found {getattr(self, name)}")

@@ -69,7 +69,9 @@ def filter_distance_two_way(
     fwd_flag = fwd.nlos_flag.astype(bool)
     both = fwd_flag & bwd_flag
     distance = np.where(
-        fwd_flag == bwd_flag, 0.5 * (fwd.distance_m + bwd_d), np.where(fwd_flag, bwd_d, fwd.distance_m)
+        fwd_flag == bwd_flag,
+        0.5 * (fwd.distance_m + bwd_d),
+        np.where(fwd_flag, bwd_d, fwd.distance_m),
     )
     estimate = np.where(both, fwd.nlos_estimate_m, 0.0)
     event = np.full(time_s.shape[0], -1, dtype=np.int64)

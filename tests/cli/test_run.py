@@ -58,7 +58,12 @@ def test_run_json_records_inputs_config_and_summary(session: Path, tmp_path: Pat
     assert "ref_A.pos" in files and "session.toml" in files
     assert info["config"]["ranging"]["nlos"]["gamma_sigma"] == 3.0
     assert info["config"]["ranging"]["nlos"]["window_s"] == 3.0
-    assert info["sigma"]["A-B"] == {"sigma_m": 0.15, "source": "session.toml"}
+    assert info["sigma"]["A-B"]["source"] == "data"
+    assert info["sigma"]["A-B"]["sigma_m"] == pytest.approx(0.08, rel=0.3)  # simulated noise
+    cal = info["calibration"]
+    assert cal["ranging"]["A-B"]["di"]["declared_sigma_m"] == 0.15
+    assert cal["dead_reckoning"]["A"]["drift_mps"] > 0
+    assert "self-calibration (declared values in brackets):" in output
     assert info["summary"]["pairs"]["A-B"]["nlos_events"] >= 1
     assert info["duration_s"] > 0
     # the printed summary names what run.json records

@@ -27,15 +27,16 @@ def test_paper_experiment_table3(e2e_runs: Callable[[str, int], E2ERun], seed: i
 
 
 def _fused_mean_errors(run: E2ERun, column: str) -> dict[str, float]:
-    """Mean horizontal error of each follower when the session is fused with the distances
-    of one column of the run's ranges.csv (``reference``: perfect ranges)."""
+    """Mean horizontal error of each follower when the session is fused (self-calibrated,
+    as coopproc run fuses) with the distances of one column of the run's ranges.csv
+    (``reference``: perfect ranges)."""
     import numpy as np
     import pandas as pd
 
     from coopproc.config import RunConfig
     from coopproc.io import read_session
     from coopproc.model import pair_members
-    from coopproc.stages.fusion import fuse
+    from coopproc.stages.fusion_calibration import calibrated_fuse
 
     session = read_session(run.session)
     rows = run.ranges[np.isfinite(run.ranges[column])]
@@ -49,7 +50,7 @@ def _fused_mean_errors(run: E2ERun, column: str) -> dict[str, float]:
             "sigma": session.config.uwb_sigma_m,
         }
     )
-    fused = fuse(session, ranges, RunConfig().fusion)
+    fused, _ = calibrated_fuse(session, ranges, RunConfig().fusion)
     out = {}
     for platform in ("A", "C"):
         traj = fused.smoothed[platform]

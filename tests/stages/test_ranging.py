@@ -94,7 +94,15 @@ def test_tables_follow_the_data_contract(result) -> None:
     keys = list(zip(out.ranges["pair"], out.ranges["time"], strict=True))
     assert keys == sorted(keys)
     assert set(out.nlos_events["method"]) <= {"di", "rn"}
-    assert out.sigma == {p: (0.15, "session.toml") for p in ("A-B", "A-C", "B-C")}
+    # the white UWB noise from the data (simulated 0.08 m), the declared 0.15 m a prior
+    for pair in ("A-B", "A-C", "B-C"):
+        sigma, source = out.sigma[pair]
+        assert source == "data"
+        assert sigma == pytest.approx(0.08, rel=0.25)
+        cal = out.calibration[(pair, "di")]
+        assert cal.declared_sigma_m == 0.15
+        assert cal.white_sigma_m == sigma
+        assert cal.white_sigma_m <= cal.detect_sigma_m <= 0.15
 
 
 def test_nlos_event_detected_and_estimated(result) -> None:
@@ -155,9 +163,14 @@ def test_sigma_sources() -> None:
     session, cp = _session(uwb_sigma=None, anchor=False)
     out = run_ranging(session, cp, RangingConfig())
     sigma, source = out.sigma["A-B"]
+    assert source == "data"
+    assert sigma == pytest.approx(0.08, rel=0.3)
+    off = {"self_calibrate": False}
+    cfg = ranging_config_from_toml({"ranging": {"nlos": off}, "fusion": {}})
+    sigma, source = run_ranging(session, cp, cfg).sigma["A-B"]
     assert source == "adaptive"
     assert sigma == pytest.approx(0.08, rel=0.3)
-    cfg = ranging_config_from_toml({"ranging": {"nlos": {"adaptive": False}}, "fusion": {}})
+    cfg = ranging_config_from_toml({"ranging": {"nlos": {**off, "adaptive": False}}})
     out = run_ranging(session, cp, cfg)
     assert out.sigma["A-B"] == (0.15, "default")
 

@@ -89,6 +89,6 @@ def test_paper_experiment_unknown_sigma() -> None:
     out = run_ranging(session, cp, RangingConfig())
     true_noise = sim.truth.params.uwb_noise_m
     for sigma, source in out.sigma.values():
-        assert source == "adaptive"
+        assert source == "data"
         assert sigma == pytest.approx(true_noise, rel=0.3)
     _estimate_errors(out.nlos_events, sim.truth.nlos_events, "di")  # all detected
