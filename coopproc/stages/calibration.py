@@ -41,6 +41,8 @@ __all__ = [
 MAD_SCALE = 1.4826
 #: Fewer usable differences than this: no estimate (the caller keeps its prior).
 MIN_SAMPLES = 20
+#: More values than this: the MAD is taken of an evenly thinned subset.
+MAX_SAMPLES = 20_000
 #: Weight of a declared sigma, in epochs, when it is combined with a data estimate.
 PRIOR_EPOCHS = 20.0
 
@@ -55,18 +57,31 @@ class PairNoise:
 
 
 def robust_sigma(values: FloatArray) -> float:
-    """1.4826 MAD of the finite values (NaN when fewer than :data:`MIN_SAMPLES`)."""
+    """1.4826 MAD of the finite values (NaN when fewer than :data:`MIN_SAMPLES`); of every
+    k-th value when there are more than :data:`MAX_SAMPLES` (a deterministic thinning:
+    the MAD of 20,000 values is within 1 % of that of all)."""
     v = values[np.isfinite(values)]
+    if v.shape[0] > MAX_SAMPLES:
+        v = v[:: -(-v.shape[0] // MAX_SAMPLES)]
     if v.shape[0] < MIN_SAMPLES:
         return float("nan")
     return MAD_SCALE * float(np.median(np.abs(v - np.median(v))))
 
 
+def _thinned(count: int, first: int) -> np.ndarray:
+    """``count`` consecutive indices from ``first``, every k-th when more than
+    :data:`MAX_SAMPLES` (deterministic: the statistics need no more)."""
+    step = max(-(-count // MAX_SAMPLES), 1)
+    return np.arange(first, first + count, step)
+
+
 def _lagged_variance(time_s: FloatArray, z: FloatArray, lag_s: float) -> tuple[float, float, int]:
-    """Robust variance of z(t + lag) - z(t) over the epochs, and the mean actual lag."""
-    j = np.searchsorted(time_s, time_s + lag_s - 1e-9)
+    """Robust variance of z(t + lag) - z(t) over the epochs (every k-th past
+    :data:`MAX_SAMPLES`), and the mean actual lag."""
+    start = _thinned(time_s.shape[0], 0)
+    j = np.searchsorted(time_s, time_s[start] + lag_s - 1e-9)
     ok = j < time_s.shape[0]
-    i = np.flatnonzero(ok)
+    i = start[ok]
     j = j[ok]
     d = z[j] - z[i]
     lag = time_s[j] - time_s[i]
@@ -86,13 +101,14 @@ def white_sigma(time_s: FloatArray, series: FloatArray) -> float:
     y = np.asarray(series, dtype=np.float64)
     if t.shape[0] < MIN_SAMPLES + 2:
         return float("nan")
-    h1 = t[1:-1] - t[:-2]
-    h2 = t[2:] - t[1:-1]
+    k = _thinned(t.shape[0] - 2, 1)  # the middle epochs (every k-th past MAX_SAMPLES)
+    h1 = t[k] - t[k - 1]
+    h2 = t[k + 1] - t[k]
     ok = (h1 > 1e-9) & (h2 > 1e-9)
     span = np.where(ok, h1 + h2, 1.0)
     a = h2 / span  # weight of y_{k-1}
     b = h1 / span  # weight of y_{k+1}
-    e = (y[1:-1] - a * y[:-2] - b * y[2:]) / np.sqrt(1.0 + a * a + b * b)
+    e = (y[k] - a * y[k - 1] - b * y[k + 1]) / np.sqrt(1.0 + a * a + b * b)
     return robust_sigma(np.where(ok, e, np.nan))
 
 

@@ -124,23 +124,27 @@ def range_jump(t: FloatArray, rng: FloatArray, k: int, window_s: float) -> tuple
         hi += 1
     if k - lo < 2 or hi - k < 2:
         return np.nan, np.inf
-    # normal equations of [1, t - t_k, step] (3 x 3)
-    a = np.zeros((3, 3))
-    rhs = np.zeros(3)
+    # normal equations of [1, x = t - t_k, step] (3 x 3), solved for the step by Cramer's
+    # rule (no LAPACK call: this runs at every suspect epoch)
+    s0 = s1 = s2 = s11 = s12 = s22 = y0 = y1 = y2 = 0.0
     for j in range(lo, hi):
-        x1 = t[j] - t[k]
-        x2 = 1.0 if j >= k else 0.0
-        row = (1.0, x1, x2)
-        for p in range(3):
-            rhs[p] += row[p] * rng[j]
-            for q in range(3):
-                a[p, q] += row[p] * row[q]
-    det = np.linalg.det(a)
+        x = t[j] - t[k]
+        z = 1.0 if j >= k else 0.0
+        y = rng[j]
+        s0 += 1.0
+        s1 += x
+        s2 += z
+        s11 += x * x
+        s12 += x * z
+        s22 += z * z
+        y0 += y
+        y1 += x * y
+        y2 += z * y
+    det = s0 * (s11 * s22 - s12 * s12) - s1 * (s1 * s22 - s12 * s2) + s2 * (s1 * s12 - s11 * s2)
     if abs(det) < 1e-12:
         return np.nan, np.inf
-    inv = np.linalg.inv(a)
-    coef = inv @ rhs
-    return coef[2], inv[2, 2]
+    num = s0 * (s11 * y2 - y1 * s12) - s1 * (s1 * y2 - y1 * s2) + y0 * (s1 * s12 - s11 * s2)
+    return num / det, (s0 * s11 - s1 * s1) / det
 
 
 @njit(cache=True)
