@@ -305,8 +305,12 @@ def calibrated_fuse(
             _, scale, _ = _drift_scales(
                 session, calibrated, params, unscaled, only=set(platform_factor)
             )
-    _, _, nis = _drift_scales(session, calibrated, params, scale, only=set())
-    result = fuse(session, calibrated, params, output=output, drift_scale=scale)
+    unchanged = np.array_equal(new_sigma, given) and not platform_factor
+    if unchanged and output == "ranges":
+        result = first  # the sigmas, biases and drifts of the first fusion stand
+    else:
+        result = fuse(session, calibrated, params, output=output, drift_scale=scale)
+    nis = _platform_nis(result.observations)
     for platform, factor in sorted(scale.items()):
         notes.append(
             f"fusion ({label}): {platform}'s dead reckoning drifts more than declared (its "
