@@ -2,24 +2,31 @@
 
 :func:`fuse` weighs each range with one declared sigma and each platform's dead reckoning
 with one declared drift. Real sessions break both: some pairs are body-blocked for minutes
-(TIERS: every pair with tb4 is 0.1-0.7 m long for most of the run), and declared drifts are
-often optimistic. :func:`calibrated_fuse` therefore fuses three times:
+(TIERS: every pair with tb4 reads 0.1-0.7 m long for most of the run), and declared drifts
+are often optimistic (the dr-faults scenario: a 3 deg/min heading drift). So
+:func:`calibrated_fuse`:
 
-1. with the given sigmas; the post-fit residuals ``L - ||X_a - X_b||`` of the smoothed
-   solution give each pair's ranging error as the data show it: the RMS (bias included: a
-   pair whose ranges are persistently long cannot be explained by any position, and must
-   pull less) after dropping gross errors beyond 5 MAD; combined with the declared sigma as
-   a prior (:func:`~coopproc.stages.calibration.posterior_sigma`);
-2. with those per-pair sigmas; the normalized innovation squared (NIS, v^2 / (H C H^T + R)
-   at the prior) of every range tells, per platform, whether its dead reckoning drifts more
-   than declared: the median NIS over the ranges it takes part in, divided by the median
-   of chi^2(1) (0.455), is ~1 when consistent. A platform above :data:`NIS_LIMIT` has its
-   drift sigma scaled by sqrt(NIS) (a note names it);
-3. with the per-pair sigmas and the scaled drifts, the solution returned.
+1. fuses with the given sigmas and drifts; the normalized innovation squared (NIS,
+   v^2 / (H C H^T + R) at the prior) of every range tells, per platform, whether its dead
+   reckoning drifts more than declared: the median NIS over the ranges it takes part in,
+   divided by the median of chi^2(1) (0.455), is ~1 when consistent. A platform above
+   :data:`NIS_LIMIT` has its drift sigma scaled by sqrt(NIS), and the fusion is repeated
+   until none is (at most :data:`NIS_ROUNDS` rounds; a note names the platform);
+2. takes each pair's ranging error from the post-fit residuals ``L - ||X_a - X_b||`` of
+   that solution: the RMS (bias included: a pair whose ranges are persistently long cannot
+   be explained by any position, and must pull less) after dropping gross errors beyond 5
+   MAD, combined with the declared sigma as a prior
+   (:func:`~coopproc.stages.calibration.posterior_sigma`), and never below the declared
+   sigma (inflate only) nor below ``sigma_floor``;
+3. when one platform's pairs are all worse than the others' (:func:`_platform_range_factor`)
+   estimates a constant range bias of that platform by iteration and corrects its ranges,
+   if that cuts the platform's residual RMS by 10 % (:func:`_platform_bias`; a note says
+   so), then re-checks that platform's drift;
+4. fuses with those sigmas, corrections and drifts (or keeps the first fusion when nothing
+   changed).
 
-The pair's constant bias (the median post-fit residual) is reported, not removed: a fit
-absorbs part of it, so the median underestimates it, and a platform-wide bias (body
-shadowing) is not identifiable from the ranges alone.
+Each pair's median post-fit residual is reported as its bias, not removed: a fit absorbs
+part of it, and biases of several pairs trade off against the positions.
 """
 
 from __future__ import annotations

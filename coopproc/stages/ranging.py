@@ -16,9 +16,15 @@
    filter driven by the relative-velocity range rate (:mod:`coopproc.stages.rn`) with a
    one-shot NLOS estimate for the RN method.
 
-The UWB sigma of a pair: ``session.toml [uwb] sigma`` if given ("session.toml"); else the
-adaptive estimate ("adaptive", reported as the median over the pair's epochs of the
-sigma used); else ``[ranging.nlos] default_sigma_m`` ("default").
+The UWB sigma of a pair ("data"): with ``[ranging.nlos] self_calibrate`` (default) the
+white noise, the DI growth and the innovation spread behind gamma_max are estimated from the
+pair's own data, the declared ``session.toml [uwb] sigma`` entering as a prior
+(:mod:`coopproc.stages.calibration`, :func:`_calibrated`); the DI-Based series passes the
+line-of-sight ranges through when the DI is too poor to smooth them (``passthrough_gain``);
+both filters run forward and backward (:mod:`coopproc.stages.twoway`). Without
+self-calibration or enough epochs: the declared sigma ("session.toml"), else the adaptive
+estimate ("adaptive", the median over the pair's epochs of the sigma used), else
+``[ranging.nlos] default_sigma_m`` ("default").
 """
 
 from __future__ import annotations
