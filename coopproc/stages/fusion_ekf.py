@@ -33,6 +33,10 @@ from coopproc.stages.filters import cholesky_solve_nb, igg3_scalar, mad_sigma_nb
 
 __all__ = ["OBS_ANCHOR", "OBS_POSITION", "OBS_RANGE", "ekf_forward", "rts_backward"]
 
+#: Epochs with this many observations or more take eq. (20)'s MAD over their own
+#: innovations; fewer are pooled with the last ``mad_window`` ones.
+MAD_EPOCH_MIN = 8
+
 OBS_RANGE = 0
 OBS_ANCHOR = 1
 OBS_POSITION = 2
@@ -104,9 +108,10 @@ def ekf_forward(
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
     """Forward EKF over K epochs.
 
-    ``mad_window``: the MAD unit-weight sigma of eq. (20) is taken over the epoch's
-    innovations together with the last ``mad_window`` standardized innovations of earlier
-    epochs (0: the epoch's alone, as paper 002 writes it for many satellites per epoch).
+    ``mad_window``: the MAD unit-weight sigma of eq. (20) of an epoch with fewer than
+    :data:`MAD_EPOCH_MIN` observations is taken over its innovations together with the last
+    ``mad_window`` standardized innovations of earlier epochs (0: the epoch's alone, as
+    paper 002 writes it for many satellites per epoch, which larger epochs keep).
     With one range per epoch (staggered UWB polling) the epoch-only MAD is |v| / sqrt(d)
     itself, every standardized innovation is 1 and the robust factor never acts.
 
@@ -164,11 +169,10 @@ def ekf_forward(
             d[j] = hch + r_var[o]
             innov[o] = v[j]
             innov_var[o] = d[j]
-        if robust and m > 0 and mad_window <= 0:  # eq. (20) -> (19) -> (18)
+        if robust and m > 0 and (mad_window <= 0 or m >= MAD_EPOCH_MIN):
+            # eq. (20) -> (19) -> (18) over the epoch's own innovations
             sigma = mad_sigma_nb(v[:m], d[:m], sigma_floor)
-            for j in range(m):
-                gamma[lo + j] = igg3_scalar(v[j] / (sigma * np.sqrt(d[j])), k0, k1)
-        elif robust and m > 0:  # eq. (20) over the epoch and the recent window
+        elif robust and m > 0:  # too few for a median: the epoch and the recent window
             used = 0
             for j in range(m):
                 pool[used] = abs(v[j]) / np.sqrt(d[j])
@@ -177,11 +181,13 @@ def ekf_forward(
                 pool[used] = ring[j]
                 used += 1
             sigma = mad_sigma_nb(pool[:used], ones[:used], sigma_floor)
+        if robust and m > 0:
             for j in range(m):
                 gamma[lo + j] = igg3_scalar(v[j] / (sigma * np.sqrt(d[j])), k0, k1)
-                ring[ring_at] = abs(v[j]) / np.sqrt(d[j])
-                ring_at = (ring_at + 1) % mad_window
-                ring_n = min(ring_n + 1, mad_window)
+                if mad_window > 0:
+                    ring[ring_at] = abs(v[j]) / np.sqrt(d[j])
+                    ring_at = (ring_at + 1) % mad_window
+                    ring_n = min(ring_n + 1, mad_window)
         for i in range(n):
             x_prior[i] = x[i]
         for j in range(m):  # batch update eq. (15)-(17) as corrected scalar updates
