@@ -81,7 +81,10 @@ def calibration_lines(output: PipelineOutput) -> list[str]:
             f"{cal.detect_sigma_m:.3f} m, DI growth {cal.growth_m2ps:.4f} m^2/s ({cal.source})"
         )
         if cal.passthrough:
-            text += f"; DI too poor to smooth (gain {cal.gain:.2f}): ranges passed through"
+            text += (
+                f"; DI too poor to smooth (gain {cal.gain:.2f}): ranges passed through, "
+                "no NLOS detection"
+            )
 
         if observed is not None and pair in observed.pair_sigma_m:
             sigma = observed.pair_sigma_m[pair]

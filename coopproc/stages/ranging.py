@@ -325,8 +325,23 @@ def _calibrated(
     if not params.one_shot:
         detect = float(np.sqrt(detect**2 + noise.growth_m2ps * config.nlos.window_s / 3.0))
     gain = steady_gain(float(np.nanmedian(var[1:])) if var.shape[0] > 1 else np.nan, white**2)
-    cal = PairCalibration(declared, white, max(detect, white), noise.growth_m2ps, "data", gain=gain)
-    return replace(params, sigma_m=white, detect_sigma_m=cal.detect_sigma_m), var, cal
+    passthrough = bool(gain > config.nlos.passthrough_gain)
+    cal = PairCalibration(
+        declared,
+        white,
+        max(detect, white),
+        noise.growth_m2ps,
+        "data",
+        gain=gain,
+        passthrough=passthrough,
+    )
+    tuned = replace(params, sigma_m=white, detect_sigma_m=cal.detect_sigma_m)
+    if passthrough:
+        # the prediction is too poor to tell NLOS from its own error either (real tuc:
+        # RN held a 0.55 m "event" for 13 s of line of sight on robot-u109 where the
+        # relative velocity of a turning robot's poor odometry missed a 0.5 m range change)
+        tuned = replace(tuned, gamma_sigma=1e9, suspect_epochs=0)
+    return tuned, var, cal
 
 
 def _di_method(
@@ -353,11 +368,10 @@ def _di_method(
         out, _ = filter_distance_two_way(p.time_s, p.observed_m, smoothed.di_m, r_i, params)
     else:
         out = filter_distance(p.time_s, p.observed_m, smoothed.di_m, r_i, params)
-    if cal.gain > config.nlos.passthrough_gain:
+    if cal.passthrough:
         # the DI would smooth the white noise by less than 1 - gain of its variance, and
-        # any error of its model would cost more: line-of-sight ranges pass through
+        # any error of its model would cost more: the ranges pass through
         out = replace(out, distance_m=_compensated(p.observed_m, out))
-        cal = replace(cal, passthrough=True)
     return smoothed, di_dr, out, cal
 
 

@@ -149,9 +149,10 @@ class NLOSParams:
     passthrough_gain: float = field(
         default=0.75,
         metadata={
-            "help": "DI-Based: when the distance filter's steady-state gain on the ranges "
-            "exceeds this (the dead reckoning is too poor to smooth them), line-of-sight "
-            "ranges pass through unchanged; NLOS is still detected and compensated. 1: never"
+            "help": "when a distance filter's steady-state gain on the ranges exceeds this "
+            "(the dead reckoning is too poor to smooth them, or to tell NLOS from its own "
+            "error), the ranges pass through unchanged and that method detects no NLOS on "
+            "the pair. 1: never"
         },
     )
     adaptive: bool = field(
