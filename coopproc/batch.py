@@ -1,52 +1,77 @@
 """Many sessions at once on Dask: ``coopproc batch SESSION... -o ROOT``.
 
-Each session is one task (read -> pipeline -> write ``ROOT/<session>/``, exactly what
+Each session is one task (read -> pipeline -> write ``ROOT/<name>/``, exactly what
 ``coopproc run`` writes), run on a Dask cluster: a local one by default, or the scheduler
-at ``scheduler`` for a real cluster. A session that fails is reported with its one-line
-error and does not stop the others. The per-session tables are collected into
-``ROOT/batch_metrics.csv`` and ``ROOT/batch_position_metrics.csv`` (a ``session`` column
-first), and ``ROOT/batch.json`` lists every session with its status.
+at ``scheduler`` for a real cluster. ``<name>`` is the session directory's name (an
+``.mcap`` file's name without the suffix); two sessions of one name are refused.
+
+Checked before any work: the names, the scheduler (something answers at its address
+within a few seconds), ROOT (a directory that can be written), and each ``ROOT/<name>/``:
+an existing one is replaced only with ``force``; with ``resume`` a complete and current
+run there is kept and its session skipped, a stale one redone (coopproc.batch_root). A
+session that fails, a missing path included, is reported with its one-line error and does
+not stop the others.
+
+``ROOT/batch.json`` and the stacked tables always describe every session under ROOT, not
+just this call's (coopproc.batch_root.merge_listing).
 """
 
 from __future__ import annotations
 
 import datetime as dt
-import json
+import os
+import socket
+import tempfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
-import pandas as pd
-
+from coopproc.batch_root import (
+    BatchEntry,
+    merge_listing,
+    read_listing,
+    run_json,
+    stale_reason,
+    write_listing,
+)
 from coopproc.config import RunConfig
 from coopproc.errors import CoopprocError, OutputError
-from coopproc.outdir import write_csv
+from coopproc.outdir import check_output_dir
 
-__all__ = ["BatchResult", "SessionOutcome", "run_batch", "run_one"]
+__all__ = ["BatchEntry", "BatchResult", "SessionOutcome", "check_scheduler", "run_batch", "run_one"]
+
+#: Seconds to wait for the scheduler's port (connect), then for its handshake.
+CONNECT_TIMEOUT_S = 5.0
+HANDSHAKE_TIMEOUT_S = 10.0
 
 
 @dataclass(frozen=True)
 class SessionOutcome:
-    """What became of one session of a batch."""
+    """What became of one session of this call (``skipped``: kept by ``resume``)."""
 
     session: str
     out_dir: str
     ok: bool
     error: str = ""
-    metrics: pd.DataFrame | None = None
-    position_metrics: pd.DataFrame | None = None
+    skipped: bool = False
 
 
 @dataclass(frozen=True)
 class BatchResult:
+    """This call's outcomes (input order), batch.json's entries and the stacked tables."""
+
     outcomes: tuple[SessionOutcome, ...]
+    entries: tuple[BatchEntry, ...]
     metrics_csv: Path | None
     position_metrics_csv: Path | None
 
     @property
     def failed(self) -> tuple[SessionOutcome, ...]:
         return tuple(o for o in self.outcomes if not o.ok)
+
+    @property
+    def skipped(self) -> tuple[SessionOutcome, ...]:
+        return tuple(o for o in self.outcomes if o.skipped)
 
 
 def run_one(
@@ -77,26 +102,18 @@ def run_one(
             summary=summarize(output).facts,
         )
     except CoopprocError as err:
-        return SessionOutcome(session_path, out_dir, ok=False, error=str(err))
-    return SessionOutcome(
-        session_path,
-        out_dir,
-        ok=True,
-        metrics=output.result.metrics,
-        position_metrics=output.result.position_metrics,
-    )
+        return _failed(session_path, out_dir, str(err))
+    except OSError as err:  # a disk that fills, a file that vanishes under the run
+        return _failed(session_path, out_dir, f"{err.filename or out_dir}: {_cause(err)}")
+    return SessionOutcome(session_path, out_dir, ok=True)
 
 
-def _out_names(sessions: Sequence[Path]) -> list[str]:
-    """One output directory name per session: its name, made unique with -2, -3, ..."""
-    names: list[str] = []
-    for s in sessions:
-        base = s.stem if s.is_file() else s.resolve().name
-        name, i = base, 2
-        while name in names:
-            name, i = f"{base}-{i}", i + 1
-        names.append(name)
-    return names
+def _failed(session: str, out_dir: str, error: str) -> SessionOutcome:
+    """A failure whose one-line error names the session."""
+    error = " ".join(error.splitlines())
+    if session not in error:
+        error = f"{session}: {error}"
+    return SessionOutcome(session, out_dir, ok=False, error=error)
 
 
 def run_batch(
@@ -108,75 +125,250 @@ def run_batch(
     workers: int = 2,
     processes: bool = True,
     force: bool = False,
+    resume: bool = False,
     formats: tuple[str, ...] = ("png",),
     on_done: Callable[[SessionOutcome], None] | None = None,
 ) -> BatchResult:
-    """Run every session on Dask; see the module docstring."""
-    from dask.distributed import Client, LocalCluster, as_completed
+    """Run every session on Dask; see the module docstring.
 
+    ``on_done`` is called once per session of this call, as soon as its outcome is known
+    (a missing path or a skipped one first). A path given twice is processed once.
+    """
+    started = _now()
     if not sessions:
         raise CoopprocError("batch: no sessions given")
     out_root = Path(out_root)
-    if out_root.exists() and not out_root.is_dir():
-        raise OutputError(f"{out_root}: exists and is not a directory")
-    out_root.mkdir(parents=True, exist_ok=True)
-    names = _out_names(sessions)
-    jobs = [(str(s), str(out_root / n)) for s, n in zip(sessions, names, strict=True)]
+    unique: dict[Path, Path] = {}
+    for s in sessions:
+        unique.setdefault(Path(s).resolve(), Path(s))
+    paths = list(unique.values())
+    names = _out_names(paths, out_root)
+    if scheduler is not None:
+        check_scheduler(scheduler)
+    _make_root(out_root)
+    earlier = read_listing(out_root / "batch.json")
+    plans = _plan(paths, names, out_root, config, earlier, force=force, resume=resume)
+    outcomes = {n: o for n, (o, _) in plans.items() if o is not None}
+    for outcome in outcomes.values():
+        if on_done is not None:
+            on_done(outcome)
+    todo = [
+        (str(s), str(out_root / n), plans[n][1])
+        for s, n in zip(paths, names, strict=True)
+        if n not in outcomes
+    ]
+    for outcome in _compute(todo, config, formats, scheduler, workers, processes, on_done):
+        outcomes[Path(outcome.out_dir).name] = outcome
+    this_call = {
+        n: _entry(s, n, outcomes[n], out_root, started) for s, n in zip(paths, names, strict=True)
+    }
+    entries = merge_listing(out_root, this_call, earlier)
+    metrics_csv, positions_csv = write_listing(out_root, entries)
+    return BatchResult(
+        tuple(outcomes[n] for n in names), tuple(entries), metrics_csv, positions_csv
+    )
+
+
+def _compute(
+    todo: Sequence[tuple[str, str, bool]],
+    config: RunConfig,
+    formats: tuple[str, ...],
+    scheduler: str | None,
+    workers: int,
+    processes: bool,
+    on_done: Callable[[SessionOutcome], None] | None,
+) -> list[SessionOutcome]:
+    """Run ``(session, out_dir, force)`` tasks on Dask; their outcomes as they complete."""
+    if not todo:
+        return []
+    from dask.distributed import Client, LocalCluster, as_completed
 
     cluster = None
     if scheduler is None:
         cluster = LocalCluster(
-            n_workers=workers,
+            n_workers=min(workers, len(todo)),
             threads_per_worker=1,
             processes=processes,
             dashboard_address=None,
         )
     try:
-        with Client(scheduler if scheduler is not None else cluster) as client:
+        try:
+            client = Client(
+                cluster if cluster is not None else scheduler, timeout=HANDSHAKE_TIMEOUT_S
+            )
+        except (OSError, TimeoutError) as err:
+            raise CoopprocError(
+                f"scheduler {scheduler}: no Dask scheduler answered within "
+                f"{HANDSHAKE_TIMEOUT_S:g} s ({err})"
+            ) from err
+        outcomes = []
+        with client:
             futures = {
-                client.submit(run_one, s, o, config, force, formats, pure=False): s for s, o in jobs
+                client.submit(run_one, s, o, config, f, formats, pure=False): (s, o)
+                for s, o, f in todo
             }
-            by_session: dict[str, SessionOutcome] = {}
             for future in as_completed(futures):
                 try:
                     outcome = future.result()
                 except Exception as err:  # a worker died or the task raised
-                    session = futures[future]
-                    outcome = SessionOutcome(
-                        session, "", ok=False, error=f"{type(err).__name__}: {err}"
-                    )
-                by_session[outcome.session] = outcome
+                    s, o = futures[future]
+                    outcome = _failed(s, o, f"{type(err).__name__}: {err}")
+                outcomes.append(outcome)
                 if on_done is not None:
                     on_done(outcome)
     finally:
         if cluster is not None:
             cluster.close()
-    outcomes = tuple(by_session[s] for s, _ in jobs)  # input order: deterministic files
-    return _write_summary(out_root, outcomes, names)
+    return outcomes
 
 
-def _stack(outcomes: Sequence[SessionOutcome], names: Sequence[str], attr: str) -> pd.DataFrame:
-    frames = []
-    for outcome, name in zip(outcomes, names, strict=True):
-        table = getattr(outcome, attr)
-        if outcome.ok and table is not None:
-            frames.append(table.assign(session=name)[["session", *table.columns]])
-    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+def _entry(
+    session: Path, name: str, outcome: SessionOutcome, out_root: Path, started: str
+) -> BatchEntry:
+    """This call's batch.json entry of one session."""
+    status = "skipped" if outcome.skipped else "processed" if outcome.ok else "failed"
+    info = run_json(out_root / name) if outcome.ok else None
+    when = str(info.get("start_time", started)) if info is not None else started
+    return BatchEntry(str(session.resolve()), name, outcome.ok, outcome.error, status, when)
 
 
-def _write_summary(
-    out_root: Path, outcomes: tuple[SessionOutcome, ...], names: Sequence[str]
-) -> BatchResult:
-    metrics = _stack(outcomes, names, "metrics")
-    positions = _stack(outcomes, names, "position_metrics")
-    metrics_csv = positions_csv = None
-    if len(metrics):
-        metrics_csv = write_csv(metrics, out_root / "batch_metrics.csv")
-    if len(positions):
-        positions_csv = write_csv(positions, out_root / "batch_position_metrics.csv")
-    listing: list[dict[str, Any]] = [
-        {"session": o.session, "output": n, "ok": o.ok, "error": o.error}
-        for o, n in zip(outcomes, names, strict=True)
-    ]
-    (out_root / "batch.json").write_text(json.dumps({"sessions": listing}, indent=2) + "\n")
-    return BatchResult(outcomes, metrics_csv, positions_csv)
+def check_scheduler(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
+    """Raise CoopprocError unless something accepts connections at a tcp/tls ``address``.
+
+    A plain socket connect, so an address with nothing behind it fails at once (refused)
+    or within ``timeout_s`` (no answer), naming the address and the cause.
+    """
+    from distributed.comm import parse_address, parse_host_port
+
+    try:
+        scheme, location = parse_address(address)
+        if scheme not in ("tcp", "tls"):
+            return  # other transports: the client's own timeout decides
+        host, port = parse_host_port(location, 8786)
+    except ValueError as err:
+        raise CoopprocError(
+            f"scheduler {address}: not an address ({err}); expected tcp://host:port"
+        ) from err
+    try:
+        with socket.create_connection((host, port), timeout=timeout_s):
+            pass
+    except TimeoutError as err:
+        raise CoopprocError(
+            f"scheduler {address}: cannot connect (no answer within {timeout_s:g} s); "
+            "is a Dask scheduler running there?"
+        ) from err
+    except OSError as err:
+        raise CoopprocError(
+            f"scheduler {address}: cannot connect ({_cause(err)}); "
+            "is a Dask scheduler running there?"
+        ) from err
+
+
+def _cause(err: OSError) -> str:
+    return err.strerror or (os.strerror(err.errno) if err.errno else str(err)) or type(err).__name__
+
+
+def _now() -> str:
+    return dt.datetime.now(dt.UTC).isoformat(timespec="seconds")
+
+
+def _out_names(sessions: Sequence[Path], out_root: Path) -> list[str]:
+    """One output directory name per session; two sessions of one name are an error."""
+    names: dict[str, Path] = {}
+    for s in sessions:
+        name = s.stem if s.is_file() else s.resolve().name
+        if name in names:
+            raise OutputError(
+                f"sessions {names[name]} and {s} would both write {out_root / name}/ "
+                "(outputs are named after the session directory or .mcap file); "
+                "rename one, or batch them into different ROOTs"
+            )
+        names[name] = s
+    return list(names)
+
+
+def _make_root(out_root: Path) -> None:
+    """Create ROOT and check that it can be written, before any work."""
+    if out_root.exists() and not out_root.is_dir():
+        raise OutputError(f"{out_root}: exists and is not a directory")
+    try:
+        out_root.mkdir(parents=True, exist_ok=True)
+        os.rmdir(tempfile.mkdtemp(prefix=".coopproc-probe.", dir=out_root))
+    except OSError as err:
+        base = next((p for p in out_root.absolute().parents if p.exists()), None)
+        if base is not None and not base.is_dir():
+            raise OutputError(f"{out_root}: cannot create the directory: {base} is a file") from err
+        raise OutputError(f"{out_root}: cannot write the outputs there ({_cause(err)})") from err
+
+
+def _plan(
+    sessions: Sequence[Path],
+    names: Sequence[str],
+    out_root: Path,
+    config: RunConfig,
+    earlier: dict[str, BatchEntry],
+    *,
+    force: bool,
+    resume: bool,
+) -> dict[str, tuple[SessionOutcome | None, bool]]:
+    """Per output name: the outcome known without running (missing path, skipped by
+    ``resume``) or None, and whether the run replaces ``ROOT/<name>/``.
+
+    Raises before any work for outputs that exist without ``force`` or ``resume`` (one
+    line for them all) and, with ``resume``, for a directory that is not a coopproc run
+    or holds the run of another session that still exists.
+    """
+    plans: dict[str, tuple[SessionOutcome | None, bool]] = {}
+    exist: list[str] = []
+    for session, name in zip(sessions, names, strict=True):
+        out_dir = out_root / name
+        if not session.exists():
+            error = f"{session}: no such file or directory; expected a session directory or .mcap"
+            plans[name] = (_failed(str(session), str(out_dir), error), False)
+            continue
+        check_output_dir(out_dir, force=True, protect=[session])
+        if not out_dir.is_dir() or not any(out_dir.iterdir()):
+            plans[name] = (None, False)
+        elif resume and run_json(out_dir) is not None:
+            if not force:
+                _check_same_session(session, out_dir, earlier.get(name))
+            if stale_reason(out_dir, session, config) is None:
+                plans[name] = (
+                    SessionOutcome(str(session), str(out_dir), ok=True, skipped=True),
+                    False,
+                )
+            else:
+                plans[name] = (None, True)
+        elif force:
+            plans[name] = (None, True)
+        elif resume:
+            raise OutputError(
+                f"{out_dir}: exists and holds no coopproc run (no run.json); "
+                "use --force to replace it"
+            )
+        else:
+            exist.append(name)
+    if exist:
+        shown = ", ".join(exist[:5]) + (", ..." if len(exist) > 5 else "")
+        raise OutputError(
+            f"{out_root}: {len(exist)} of these sessions have outputs there already ({shown}); "
+            "use --resume to skip the complete ones and redo the rest, or --force to replace them"
+        )
+    return plans
+
+
+def _check_same_session(session: Path, out_dir: Path, earlier: BatchEntry | None) -> None:
+    """Refuse to redo into ``out_dir`` the run of another session of the same name."""
+    recorded = Path(earlier.session) if earlier is not None and earlier.session else None
+    if recorded is None:
+        info = run_json(out_dir) or {}
+        path = (info.get("session") or {}).get("path")
+        recorded = Path(path) if isinstance(path, str) else None
+    if recorded is None or not recorded.is_absolute():
+        return  # unknown: the inputs' check decides
+    if recorded.resolve() != session.resolve() and recorded.exists():
+        raise OutputError(
+            f"{out_dir}: holds the run of {recorded}, not of {session} (outputs are named "
+            "after the session directory); batch it into another ROOT, or use --force to "
+            "replace it"
+        )

@@ -4,16 +4,21 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from coopproc.cli.options import config_option, output_option
 
+if TYPE_CHECKING:
+    from coopproc.batch import BatchResult
+
 __all__ = ["batch"]
 
 
 @click.command()
-@click.argument("sessions", nargs=-1, required=True, type=click.Path(exists=True, path_type=Path))
+# not exists=True: a missing session is one failed session, the others run
+@click.argument("sessions", nargs=-1, required=True, type=click.Path(path_type=Path))
 @output_option(
     "out_root",
     "Root directory; each session's outputs go to ROOT/<session name>/.",
@@ -36,6 +41,12 @@ __all__ = ["batch"]
 )
 @click.option("--threads", is_flag=True, help="Local cluster with threads instead of processes.")
 @click.option("--force", is_flag=True, help="Replace existing per-session output directories.")
+@click.option(
+    "--resume",
+    is_flag=True,
+    help="Skip sessions whose ROOT/<name>/ holds a complete run of their current inputs "
+    "with this configuration; redo the others.",
+)
 @click.option("--no-figures", is_flag=True, help="Tables only.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def batch(
@@ -46,14 +57,18 @@ def batch(
     workers: int,
     threads: bool,
     force: bool,
+    resume: bool,
     no_figures: bool,
     quiet: bool,
 ) -> None:
     """Process many sessions, in parallel on Dask, each exactly as `coopproc run` would.
 
-    A failing session is reported and the others go on; the exit status is 1 if any
-    failed. ROOT/batch_metrics.csv and ROOT/batch_position_metrics.csv stack every
-    session's Table 2 and Table 3 with a `session` column.
+    Each session's outputs go to ROOT/<name>/ (<name>: the session directory's name; two
+    sessions of one name are refused). A failing session, a missing path included, is
+    reported and the others go on; the exit status is 1 if any failed. ROOT/batch.json
+    lists every session under ROOT with its status, earlier calls' included;
+    ROOT/batch_metrics.csv and ROOT/batch_position_metrics.csv stack the Table 2 and
+    Table 3 of every ok session with a `session` column.
     """
     import dataclasses
 
@@ -70,7 +85,7 @@ def batch(
 
         def done(outcome: SessionOutcome) -> None:
             bar.update(1)
-            if not outcome.ok:
+            if not outcome.ok:  # printed here only: once per failed session
                 tqdm.write(f"error: {outcome.error}", file=sys.stderr)
 
         result = run_batch(
@@ -81,15 +96,32 @@ def batch(
             workers=workers,
             processes=not threads,
             force=force,
+            resume=resume,
             on_done=done,
         )
-    if not show_bar:
-        for outcome in result.failed:
-            click.echo(f"error: {outcome.error}", err=True)
     if not quiet:
-        ok = len(result.outcomes) - len(result.failed)
-        click.echo(f"{ok} of {len(result.outcomes)} sessions processed into {out_root}/", err=True)
-        if result.metrics_csv is not None:
-            click.echo(f"tables: {result.metrics_csv}, {result.position_metrics_csv}", err=True)
+        _summary(result, out_root)
     if result.failed:
         sys.exit(1)
+
+
+def _summary(result: BatchResult, out_root: Path) -> None:
+    """The closing lines: this call, then ROOT as a whole when it holds more."""
+    ran = len(result.outcomes) - len(result.skipped)
+    ok = ran - len(result.failed)
+    skipped = f"{len(result.skipped)} skipped (complete and current)"
+    line = f"{ok} of {ran} sessions processed into {out_root}/"
+    if not ran:
+        line = f"nothing to process in {out_root}/: {skipped}"
+    elif result.skipped:
+        line += f"; {skipped}"
+    click.echo(line, err=True)
+    if len(result.entries) > len(result.outcomes):
+        n_ok = sum(e.ok for e in result.entries)
+        click.echo(
+            f"{out_root}/batch.json: {len(result.entries)} sessions, {n_ok} ok, "
+            f"{len(result.entries) - n_ok} failed",
+            err=True,
+        )
+    if result.metrics_csv is not None:
+        click.echo(f"tables: {result.metrics_csv}, {result.position_metrics_csv}", err=True)

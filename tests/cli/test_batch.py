@@ -51,9 +51,18 @@ def test_batch_runs_each_session_like_run_and_reports_failures(tmp_path: Path) -
     )
     assert res.exit_code == 1, res.output
     assert "2 of 3 sessions processed" in res.output
-    assert "broken" in res.output and "error:" in res.output
+    # the failure is printed once (stderr is no terminal here), naming the file and line
+    error = f"error: {broken}/ranges.csv:2: range -3.0 m is negative; expected 0..2000 m"
+    assert res.output.count("error:") == 1 and error in res.output
     listing = json.loads((root / "batch.json").read_text())["sessions"]
-    assert [s["ok"] for s in listing] == [True, True, False]
+    # sorted by output name; the session as its absolute path
+    assert [(s["output"], s["ok"], s["status"]) for s in listing] == [
+        ("broken", False, "failed"),
+        ("s3", True, "processed"),
+        ("s4", True, "processed"),
+    ]
+    assert listing[0]["session"] == str(broken.resolve())
+    assert listing[0]["error"] == error.removeprefix("error: ")
     stacked = pd.read_csv(root / "batch_metrics.csv")
     assert stacked.columns[0] == "session"
     assert set(stacked["session"]) == {"s3", "s4"}
