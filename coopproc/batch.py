@@ -18,11 +18,13 @@ just this call's (coopproc.batch_root.merge_listing).
 
 from __future__ import annotations
 
+import asyncio
 import datetime as dt
 import os
 import socket
 import tempfile
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -232,11 +234,12 @@ def _entry(
     return BatchEntry(str(session.resolve()), name, outcome.ok, outcome.error, status, when)
 
 
-def check_scheduler(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
-    """Raise CoopprocError unless something accepts connections at a tcp/tls ``address``.
+def check_scheduler(address: str) -> None:
+    """Raise CoopprocError unless a Dask scheduler answers at ``address``, within seconds.
 
-    A plain socket connect, so an address with nothing behind it fails at once (refused)
-    or within ``timeout_s`` (no answer), naming the address and the cause.
+    A socket connect first (nothing there: refused at once, or no answer within
+    CONNECT_TIMEOUT_S), then for tcp the scheduler's identity within HANDSHAKE_TIMEOUT_S
+    (something else listening there never gives it); one line naming address and cause.
     """
     from distributed.comm import parse_address, parse_host_port
 
@@ -250,18 +253,50 @@ def check_scheduler(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
             f"scheduler {address}: not an address ({err}); expected tcp://host:port"
         ) from err
     try:
-        with socket.create_connection((host, port), timeout=timeout_s):
+        with socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S):
             pass
     except TimeoutError as err:
+        cause = f"no answer within {CONNECT_TIMEOUT_S:g} s"
         raise CoopprocError(
-            f"scheduler {address}: cannot connect (no answer within {timeout_s:g} s); "
-            "is a Dask scheduler running there?"
+            f"scheduler {address}: cannot connect ({cause}); is a Dask scheduler running there?"
         ) from err
     except OSError as err:
         raise CoopprocError(
             f"scheduler {address}: cannot connect ({_cause(err)}); "
             "is a Dask scheduler running there?"
         ) from err
+    if scheme == "tcp":  # tls needs the cluster's certificates: the client checks it
+        with ThreadPoolExecutor(1) as pool:  # its own event loop, even under a running one
+            problem = pool.submit(asyncio.run, _not_a_scheduler(address)).result()
+        if problem:
+            raise CoopprocError(f"scheduler {address}: {problem}")
+
+
+async def _not_a_scheduler(address: str) -> str:
+    """Why what answers at ``address`` is no Dask scheduler ("" when it is one)."""
+    from distributed.comm import connect
+
+    async def identity() -> object:
+        comm = await connect(address, timeout=HANDSHAKE_TIMEOUT_S)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    try:
+        reply = await asyncio.wait_for(identity(), HANDSHAKE_TIMEOUT_S)
+    except TimeoutError:
+        return (
+            "something listens there but is no Dask scheduler "
+            f"(no reply within {HANDSHAKE_TIMEOUT_S:g} s)"
+        )
+    except Exception as err:  # any failure of the probe: the connection broke
+        return f"no Dask scheduler answered ({type(err).__name__}: {err})"
+    kind = reply.get("type") if isinstance(reply, dict) else None
+    if kind == "Scheduler":
+        return ""
+    return f"a Dask {kind} answers there, not the scheduler" if kind else "no Dask scheduler"
 
 
 def _cause(err: OSError) -> str:

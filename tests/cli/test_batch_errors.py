@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner, Result
 
+import coopproc.batch
 from coopproc.cli import main
 
 
@@ -84,6 +85,48 @@ def test_an_unreachable_scheduler_fails_at_once_naming_address_and_cause(
         "is a Dask scheduler running there?\n"
     )
     assert not root.exists()  # checked before any work
+
+
+def test_something_else_at_the_address_is_no_scheduler(
+    session: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(coopproc.batch, "HANDSHAKE_TIMEOUT_S", 1.0)
+    with socket.socket() as listener:  # accepts connections, never answers
+        listener.bind(("127.0.0.1", 0))
+        listener.listen()
+        address = f"tcp://127.0.0.1:{listener.getsockname()[1]}"
+        res = CliRunner().invoke(
+            main, ["batch", str(session), "-o", str(tmp_path / "r"), "--scheduler", address]
+        )
+    assert res.exit_code == 1, res.output
+    assert res.output == (
+        f"error: scheduler {address}: something listens there but is no Dask scheduler "
+        "(no reply within 1 s)\n"
+    )
+
+
+def test_a_running_scheduler_processes_the_sessions(session: Path, tmp_path: Path) -> None:
+    from dask.distributed import LocalCluster
+
+    root = tmp_path / "root"
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, protocol="tcp", dashboard_address=None
+    ) as cluster:
+        worker = next(iter(cluster.scheduler_info["workers"]))
+        res = CliRunner().invoke(
+            main, ["batch", str(session), "-o", str(root), "--scheduler", worker]
+        )
+        assert res.exit_code == 1, res.output
+        assert res.output == (
+            f"error: scheduler {worker}: a Dask Worker answers there, not the scheduler\n"
+        )
+        address = cluster.scheduler_address
+        res = CliRunner().invoke(
+            main, ["batch", str(session), "-o", str(root), "--scheduler", address, "--no-figures"]
+        )
+    assert res.exit_code == 0, res.output
+    assert "1 of 1 sessions processed" in res.output
+    assert (root / "s1" / "run.json").is_file()
 
 
 def test_a_scheduler_that_is_no_address_is_refused(session: Path, tmp_path: Path) -> None:
