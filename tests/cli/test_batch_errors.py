@@ -5,9 +5,12 @@ work where they can be.
 
 from __future__ import annotations
 
+import errno
 import json
+import os
 import shutil
 import socket
+import tempfile
 import time
 from pathlib import Path
 
@@ -16,6 +19,7 @@ import pytest
 from click.testing import CliRunner, Result
 
 import coopproc.batch
+import coopproc.output
 from coopproc.cli import main
 
 
@@ -194,3 +198,34 @@ def test_a_root_that_cannot_be_made_is_one_line_before_the_work(
     res = batch(session, "-o", afile)
     assert res.exit_code == 1, res.output
     assert res.output == f"error: {afile}: exists and is not a directory\n"
+
+
+def test_a_root_that_cannot_be_written_is_one_line_before_the_work(
+    session: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def read_only(*args: object, **kwargs: object) -> str:
+        raise OSError(errno.EROFS, os.strerror(errno.EROFS))
+
+    monkeypatch.setattr(tempfile, "mkdtemp", read_only)  # the probe (root may write anywhere)
+    res = batch(session, "-o", tmp_path / "root")
+    assert res.exit_code == 1, res.output
+    assert res.output == (
+        f"error: {tmp_path}/root: cannot write the outputs there (Read-only file system)\n"
+    )
+
+
+def test_a_disk_that_fills_during_a_session_fails_that_session_in_one_line(
+    session: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def full(*args: object, **kwargs: object) -> None:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(tmp_path / "x.csv"))
+
+    monkeypatch.setattr(coopproc.output, "write_run", full)  # threads: the same process
+    root = tmp_path / "root"
+    res = batch(session, "-o", root)
+    assert res.exit_code == 1, res.output
+    error = f"error: {session}: {tmp_path}/x.csv: No space left on device"
+    assert res.output.count("error:") == 1 and error in res.output
+    entries = json.loads((root / "batch.json").read_text())["sessions"]
+    assert entries[0]["error"] == error.removeprefix("error: ")
+    assert not (root / "batch_metrics.csv").exists()
