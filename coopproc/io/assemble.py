@@ -2,12 +2,8 @@
 
 Decisions (documented in docs/formats.md):
 
-- time base not given: Unix if any nav/range time exceeds 3.15e8 s (1980 in Unix
-  seconds), else gps_tow; a note says which;
-- gps_tow without ``gps_week``: the GPS week of the first epoch of the first .pos file
-  (sorted by platform) aligns RTKLIB times; a note says which;
-- a file whose times do not fit the time base is an error (e.g. Unix seconds against
-  gps_tow);
+- the time base, the GPS week and the checks of every file's times against them are in
+  :mod:`coopproc.io.timebase`; :func:`to_session_time` converts GPST times to the base;
 - reference epochs whose quality is not in ``[reference] quality`` are dropped (noted);
 - origin: ``[frame] origin``, else the first geodetic/ECEF reference fix (platforms in
   sorted order), else the first geodetic/ECEF nav fix; all-ENU sessions record (0, 0, 0).
@@ -27,53 +23,13 @@ from coopproc.io.ranges_csv import RangesRead
 from coopproc.model import Platform, SessionConfig, Trajectory
 
 __all__ = [
-    "UNIX_MIN_S",
     "check_ranges",
-    "check_time_base",
     "choose_origin",
     "filter_quality",
-    "infer_time_base",
     "platforms_of",
     "to_session_time",
     "to_trajectory",
 ]
-
-#: Unix seconds at 1980-01-06; any time above this is taken for Unix seconds.
-UNIX_MIN_S = timeconv.UNIX_AT_GPS_EPOCH_S
-_UNIX_MAX_S = 4.1e9  # year 2099
-_TOW_MAX_S = 2 * timeconv.SECONDS_PER_WEEK  # a session may run into the next week
-_RELATIVE_MAX_S = 1.0e7
-
-
-def infer_time_base(times: list[np.ndarray]) -> str:
-    """``unix`` if any time looks like Unix seconds, else ``gps_tow``."""
-    top = max((float(np.max(t)) for t in times if t.size), default=0.0)
-    return "unix" if top > UNIX_MIN_S else "gps_tow"
-
-
-def check_time_base(time_s: np.ndarray, base: str, path: str) -> InputError | None:
-    """An error when ``time_s`` does not fit the time base, else None."""
-    lo, hi = float(np.min(time_s)), float(np.max(time_s))
-    looks = "Unix seconds" if hi > UNIX_MIN_S else "seconds of week or from start"
-    if base == "gps_tow" and not (lo >= 0 and hi < _TOW_MAX_S):
-        return InputError(
-            path,
-            f"times {lo:.3f}..{hi:.3f} look like {looks}; expected GPS seconds of week "
-            '(0..604800) as [time] base = "gps_tow" says',
-        )
-    if base == "unix" and not (lo > UNIX_MIN_S and hi < _UNIX_MAX_S):
-        return InputError(
-            path,
-            f"times {lo:.3f}..{hi:.3f} look like {looks}; expected Unix seconds "
-            'as [time] base = "unix" says',
-        )
-    if base == "relative" and not (lo > -_RELATIVE_MAX_S and hi < _RELATIVE_MAX_S):
-        return InputError(
-            path,
-            f"times {lo:.3f}..{hi:.3f} look like {looks}; expected seconds from the start "
-            'as [time] base = "relative" says',
-        )
-    return None
 
 
 def to_session_time(raw: RawTrajectory, base: str, gps_week: int | None) -> RawTrajectory:
@@ -209,8 +165,13 @@ def check_ranges(
     platforms: Mapping[str, Platform],
     nav: Mapping[str, Trajectory],
     skip: set[str],
+    spans: Mapping[str, Trajectory] | None = None,
 ) -> list[CoopprocError]:
-    """Ranges naming platforms without navigation, and time spans that do not overlap."""
+    """Ranges naming platforms without navigation, and time spans that do not overlap.
+
+    ``spans``: the navigation whose span is checked against the ranges' (default all of
+    ``nav``; the loader leaves out files whose times already failed the time-base check).
+    """
     problems: list[CoopprocError] = []
     frame = ranges.table.frame
     ids = np.concatenate([frame["from"].to_numpy(), frame["to"].to_numpy()])
@@ -228,12 +189,13 @@ def check_ranges(
         )
     times = frame["time"].to_numpy(dtype=np.float64)
     lo, hi = float(times.min()), float(times.max())
-    for pid in sorted(nav):
-        a, b = nav[pid].span_s
+    spans = nav if spans is None else spans
+    for pid in sorted(spans):
+        a, b = spans[pid].span_s
         if b < lo or a > hi:
             problems.append(
                 InputError(
-                    nav[pid].source,
+                    spans[pid].source,
                     f"time span {a:.3f}..{b:.3f} does not overlap the ranges' "
                     f"{lo:.3f}..{hi:.3f} ({ranges.where.path}); expected the same period "
                     "and time base",

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
@@ -19,6 +20,7 @@ from coopproc.io.mcap_read import McapContent, decode_mcap, read_mcap_raw
 from coopproc.io.ranges_csv import RangesRead, read_ranges_csv
 from coopproc.io.registry import find_files, read_trajectory, sensor_note
 from coopproc.io.session_toml import TomlRead, mcap_mapping, parse_session_toml, read_session_toml
+from coopproc.io.timebase import TimedFile, WeekSource, check_times, infer_time_base
 from coopproc.model import SensorFile, Session, SessionConfig, Trajectory
 
 __all__ = ["inspect_session", "read_session", "validate_session"]
@@ -168,37 +170,7 @@ class _Loader:
         if ranges is None and "<ranges>" not in self.failed:
             self.add(InputError(root, "no ranges; expected ranges.csv (or .mcap /uwb/range)"))
         # Time base.
-        session_times = [r.time_s for r in nav_raw.values() if r.time_kind == "session"]
-        if ranges is not None:
-            session_times.append(ranges.table.frame["time"].to_numpy(dtype=np.float64))
-        base = config.time_base
-        if not (toml and toml.base_given):
-            base = assemble.infer_time_base(session_times)  # type: ignore[assignment]
-            self.notes.append(f"[time] base not given: {base} assumed from the times")
-        week = config.gps_week
-        gpst = [ref_raw[p] for p in sorted(ref_raw) if ref_raw[p].time_kind == "gpst"]
-        gpst += [nav_raw[p] for p in sorted(nav_raw) if nav_raw[p].time_kind == "gpst"]
-        if base == "gps_tow" and week is None and gpst:
-            week = gpst[0].gps_week
-            self.notes.append(f"[time] gps_week not given: week {week} of {gpst[0].source} used")
-        config = replace(config, time_base=base, gps_week=week)
-        for group in (nav_raw, ref_raw):
-            for pid in sorted(group):
-                try:
-                    group[pid] = assemble.to_session_time(group[pid], base, week)
-                except CoopprocError as err:
-                    self.add(err)
-                    del group[pid]
-                    continue
-                err2 = assemble.check_time_base(group[pid].time_s, base, group[pid].source)
-                if err2 is not None:
-                    self.add(err2)
-        if ranges is not None:
-            err3 = assemble.check_time_base(
-                ranges.table.frame["time"].to_numpy(dtype=np.float64), base, ranges.where.path
-            )
-            if err3 is not None:
-                self.add(err3)
+        config, bad_times = self._time_base(config, toml, nav_raw, ref_raw, ranges)
         # Reference quality filter.
         for pid in sorted(ref_raw):
             kept, note = assemble.filter_quality(ref_raw[pid], tuple(config.reference_quality))
@@ -221,13 +193,16 @@ class _Loader:
         for pid in sorted(set(reference) - set(nav)):
             self.notes.append(f"reference of {pid} has no navigation beside it")
         for pid in sorted(set(reference) & set(nav)):
-            self._check_overlap(nav[pid], reference[pid])
+            if not {nav[pid].source, reference[pid].source} & bad_times:
+                self._check_overlap(nav[pid], reference[pid])
         if ranges is not None:
             skip = self.failed - {"<ranges>"}
             if "<toml>" in self.failed:  # anchors unknown: do not blame ranges for them
                 frame = ranges.table.frame
                 skip |= set(frame["from"]) | set(frame["to"])
-            self.problems.extend(assemble.check_ranges(ranges, platforms, nav, skip))
+            spans = {} if ranges.where.path in bad_times else nav
+            spans = {p: t for p, t in spans.items() if t.source not in bad_times}
+            self.problems.extend(assemble.check_ranges(ranges, platforms, nav, skip, spans))
         if self.problems or ranges is None:
             return None
         return Session(
@@ -242,6 +217,65 @@ class _Loader:
             notes=tuple(self.notes),
             sensor_files=tuple(self.sensors),
         )
+
+    def _time_base(
+        self,
+        config: SessionConfig,
+        toml: TomlRead | None,
+        nav_raw: dict[str, RawTrajectory],
+        ref_raw: dict[str, RawTrajectory],
+        ranges: RangesRead | None,
+    ) -> tuple[SessionConfig, set[str]]:
+        """Choose the base and week, convert GPST files to it, check every file's times.
+
+        Returns the config with the base and week used, and the files whose times do not
+        fit (their span checks would only repeat the problem).
+        """
+        own = [
+            TimedFile(r.source, r.time_s, "nav")
+            for r in nav_raw.values()
+            if r.time_kind == "session"
+        ]
+        if ranges is not None:
+            times = ranges.table.frame["time"].to_numpy(dtype=np.float64)
+            own.append(TimedFile(ranges.where.path, times, "ranges"))
+        base = config.time_base
+        inferred_from = None
+        given = bool(toml and toml.base_given)
+        if not given:
+            base, inferred_from = infer_time_base(own)  # type: ignore[assignment]
+            self.notes.append(f"[time] base not given: {base} assumed from the times")
+        week = WeekSource(config.gps_week, toml=toml.source if toml else None)
+        gpst = [ref_raw[p] for p in sorted(ref_raw) if ref_raw[p].time_kind == "gpst"]
+        gpst += [nav_raw[p] for p in sorted(nav_raw) if nav_raw[p].time_kind == "gpst"]
+        if base == "gps_tow" and week.week is None and gpst:
+            week = WeekSource(gpst[0].gps_week, taken_from=gpst[0].source)
+            self.notes.append(
+                f"[time] gps_week not given: week {week.week} of {gpst[0].source} used"
+            )
+        config = replace(config, time_base=base, gps_week=week.week)
+        files: list[TimedFile] = []
+        groups: tuple[tuple[Literal["nav", "ref"], dict[str, RawTrajectory]], ...] = (
+            ("nav", nav_raw),
+            ("ref", ref_raw),
+        )
+        for role, group in groups:
+            for pid in sorted(group):
+                raw = group[pid]
+                try:
+                    group[pid] = assemble.to_session_time(raw, base, week.week)
+                except CoopprocError as err:
+                    self.add(err)
+                    del group[pid]
+                    continue
+                absolute = raw.gps_week if raw.time_kind == "gpst" else None
+                files.append(TimedFile(raw.source, group[pid].time_s, role, absolute))
+        files += [f for f in own if f.role == "ranges"]
+        problems, bad = check_times(
+            files, base, base_given=given, inferred_from=inferred_from, week=week
+        )
+        self.problems.extend(problems)
+        return config, bad
 
     def _check_overlap(self, nav: Trajectory, ref: Trajectory) -> None:
         a, b = nav.span_s

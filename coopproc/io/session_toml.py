@@ -181,6 +181,8 @@ class TomlRead:
 
     config: SessionConfig
     base_given: bool
+    #: Where it was read from (a path, or an MCAP file's attachment), for messages.
+    source: str = "session.toml"
 
 
 def parse_session_toml(text: str, where: str = "session.toml") -> TomlRead:
@@ -218,7 +220,7 @@ def parse_session_toml(text: str, where: str = "session.toml") -> TomlRead:
         files=files,
         mcap=dict(doc.get("mcap", {})),
     )
-    return TomlRead(config, base_given=time_t.base is not None)
+    return TomlRead(config, base_given=time_t.base is not None, source=where)
 
 
 def _platforms(table: Any, where: str) -> dict[str, Platform]:
