@@ -10,6 +10,7 @@ so a misspelled optional column is not silently ignored.
 from __future__ import annotations
 
 import gzip
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +34,7 @@ from coopproc.model import Trajectory
 from coopproc.outdir import write_csv
 
 __all__ = [
+    "NAV_HEADER",
     "POSITION_FORMS",
     "TRAJECTORY_COLUMNS",
     "read_csv_table",
@@ -61,22 +63,68 @@ TRAJECTORY_COLUMNS: tuple[str, ...] = (
     "quality",
 )
 
+#: The header a nav/ref table starts with, for messages.
+NAV_HEADER = "time,east,north,up (or lat,lon,height or x,y,z for the position)"
 
-def _header_line(path: Path) -> int:
-    """1-based line number of the header (after ``#`` comments and blank lines)."""
+
+def _header_line(path: Path) -> tuple[int, str]:
+    """1-based line number and text of the header (after ``#`` comments and blank lines)."""
     opener = gzip.open if path.name.endswith(".gz") else open
     with opener(path, "rt", encoding="utf-8") as fh:
         for number, text in enumerate(fh, start=1):
             stripped = text.strip()
             if stripped and not stripped.startswith("#"):
-                return number
+                return number, stripped
     raise InputError(path, "empty file; expected a header line and data rows")
 
 
-def read_csv_table(path: Path) -> tuple[pd.DataFrame, Locator]:
-    """A comma-separated table with ``#`` comments before its header, and its row lines."""
+_SEPARATORS = ((";", "';'"), ("\t", "tab"), ("|", "'|'"), (" ", "space"))
+
+
+def _check_header(path: Path, number: int, text: str, known: Sequence[str], expected: str) -> None:
+    """One clear error for a header that is not comma separated, or not a header at all."""
+    if "," not in text:
+        for sep, name in _SEPARATORS:
+            if len([f for f in text.split(sep) if f.strip()]) >= 2:
+                shown = text if len(text) <= 40 else text[:37] + "..."
+                raise InputError(
+                    path,
+                    f"uses {name} as separator (header {shown!r}); coopproc expects ','",
+                    line=number,
+                )
+    fields = [f.strip().strip('"') for f in text.split(",")]
+    if not known or any(f in known for f in fields):
+        return
+    if any(_is_number(f) for f in fields):
+        values = [one_line(f, 20) for f in fields if f]
+        like = ", ".join(values[:3]) + (", ..." if len(values) > 3 else "")
+        which = "first line" if number == 1 else "first line after the comments"
+        raise InputError(
+            path,
+            f"{which} is not a header (found values like {like}); expected the header {expected}",
+            line=number,
+        )
+
+
+def _is_number(text: str) -> bool:
     try:
-        header = _header_line(path)
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def read_csv_table(
+    path: Path, known: Sequence[str] = (), expected: str = ""
+) -> tuple[pd.DataFrame, Locator]:
+    """A comma-separated table with ``#`` comments before its header, and its row lines.
+
+    ``known``: column names the header should hold (for the message of a file without a
+    header, which names ``expected``, e.g. ``time,from,to,range``).
+    """
+    try:
+        header, text = _header_line(path)
+        _check_header(path, header, text, known, expected)
         frame = pd.read_csv(
             path,
             skiprows=header - 1,
@@ -183,7 +231,7 @@ def trajectory_from_frame(frame: pd.DataFrame, platform: str, where: Locator) ->
 def read_traj_csv(path: str | Path, platform: str) -> RawTrajectory:
     """Read a nav/ref CSV (or .csv.gz) of ``platform``; raises InputError."""
     p = Path(path)
-    frame, where = read_csv_table(p)
+    frame, where = read_csv_table(p, TRAJECTORY_COLUMNS, NAV_HEADER)
     return trajectory_from_frame(frame, platform, where)
 
 

@@ -36,6 +36,8 @@ __all__ = [
 
 #: Ranges above this are absurd for UWB (typical reach is a few hundred metres).
 MAX_RANGE_M = 2000.0
+#: A median sigma from this up is not metres either (with ranges in millimetres).
+_MAX_SIGMA_M = 10.0
 
 _REQUIRED = ("time", "from", "to", "range")
 
@@ -123,7 +125,22 @@ def range_table_from_frame(frame: pd.DataFrame, where: Locator) -> RangesRead:
             )
         )
     big = np.isfinite(range_m) & (range_m > MAX_RANGE_M)
-    if big.any():
+    finite = range_m[np.isfinite(range_m)]
+    if big.any() and float(np.median(finite)) > MAX_RANGE_M:
+        # Most ranges absurd: a unit, not outliers (paper 000 ranges are a few to 100 m).
+        idx = np.flatnonzero(big)
+        sigmas = sigma_m[np.isfinite(sigma_m)]
+        mm_sigma = sigmas.size and float(np.median(sigmas)) >= _MAX_SIGMA_M
+        both = "ranges and sigmas" if mm_sigma else "ranges"
+        problems.append(
+            where.error(
+                f"ranges look like millimetres (median {float(np.median(finite)):,.0f}; "
+                f"{idx.size} of {finite.size} rows above {MAX_RANGE_M:g}); expected metres: "
+                f"divide the {both} by 1000",
+                int(idx[0]),
+            )
+        )
+    elif big.any():
         idx = np.flatnonzero(big)
         problems.append(
             where.error(
@@ -185,7 +202,9 @@ def range_table_from_frame(frame: pd.DataFrame, where: Locator) -> RangesRead:
 
 def read_ranges_csv(path: str | Path) -> RangesRead:
     """Read ranges.csv (or .csv.gz); raises InputError."""
-    frame, where = read_csv_table(Path(path))
+    frame, where = read_csv_table(
+        Path(path), RANGE_COLUMNS, "time,from,to,range (then optional sigma and extra columns)"
+    )
     return range_table_from_frame(frame, where)
 
 

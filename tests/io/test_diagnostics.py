@@ -168,6 +168,87 @@ def test_one_file_in_another_time_base_is_the_one_to_convert(sample_dir: Path) -
     ]
 
 
+def test_millimetre_ranges(sample_dir: Path) -> None:
+    path = sample_dir / "ranges.csv"
+    frame = pd.read_csv(path)
+    frame["range"] = frame["range"] * 1000.0 + 7345.0
+    frame.to_csv(path, index=False)
+    assert _problems(sample_dir) == [
+        "ranges.csv:2: ranges look like millimetres (median 14,345; 20 of 20 rows above "
+        "2000); expected metres: divide the ranges by 1000"
+    ]
+    frame["sigma"] = 100.0
+    frame.to_csv(path, index=False)
+    assert _problems(sample_dir)[0].endswith("divide the ranges and sigmas by 1000")
+
+
+def test_a_few_absurd_ranges_are_outliers_not_millimetres(sample_dir: Path) -> None:
+    path = sample_dir / "ranges.csv"
+    lines = path.read_text().splitlines()
+    lines[5] = "432001.000000,B,A,12000.0,0.1,-78.0"
+    path.write_text("\n".join(lines) + "\n")
+    assert _problems(sample_dir) == [
+        "ranges.csv:6: range 12000.0 m is absurd for UWB; expected 0..2000 m"
+    ]
+
+
+@pytest.mark.parametrize(
+    ("name", "expected"),
+    [
+        (
+            "ranges.csv",
+            "ranges.csv:1: first line is not a header (found values like 432000.000000, A, "
+            "B, ...); expected the header time,from,to,range (then optional sigma and extra "
+            "columns)",
+        ),
+        (
+            "nav_A.csv",
+            "nav_A.csv:1: first line is not a header (found values like 432000.000000, "
+            "0.000062, 0.014937, ...); expected the header time,east,north,up (or "
+            "lat,lon,height or x,y,z for the position)",
+        ),
+    ],
+)
+def test_headerless_csv_is_one_line(sample_dir: Path, name: str, expected: str) -> None:
+    path = sample_dir / name
+    path.write_text("".join(path.read_text().splitlines(keepends=True)[1:]))
+    assert _problems(sample_dir) == [expected]
+
+
+def test_headerless_csv_after_comments(sample_dir: Path) -> None:
+    path = sample_dir / "ranges.csv"
+    rows = path.read_text().splitlines(keepends=True)[1:]
+    path.write_text("# exported by the logger\n" + "".join(rows))
+    assert _problems(sample_dir) == [
+        "ranges.csv:2: first line after the comments is not a header (found values like "
+        "432000.000000, A, B, ...); expected the header time,from,to,range (then optional "
+        "sigma and extra columns)"
+    ]
+
+
+@pytest.mark.parametrize(
+    ("name", "sep", "expected"),
+    [
+        (
+            "ranges.csv",
+            ";",
+            "ranges.csv:1: uses ';' as separator (header 'time;from;to;range;sigma;rssi'); "
+            "coopproc expects ','",
+        ),
+        (
+            "nav_B.csv",
+            "\t",
+            "nav_B.csv:1: uses tab as separator (header "
+            "'time\\teast\\tnorth\\tup\\tsigma_east\\tsigma_n...'); coopproc expects ','",
+        ),
+    ],
+)
+def test_other_separator_is_one_line(sample_dir: Path, name: str, sep: str, expected: str) -> None:
+    path = sample_dir / name
+    path.write_text(path.read_text().replace(",", sep))
+    assert _problems(sample_dir) == [expected]
+
+
 @pytest.mark.parametrize(
     ("times", "kind"),
     [
