@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from coopproc.model import FloatArray, Trajectory, pair_name
 from coopproc.sim.params import NlosSpec, OutageSpec, SimParams
 
-__all__ = ["PairModel", "RangeOutput", "nlos_mean_m", "simulate_ranges"]
+__all__ = ["PairModel", "RangeOutput", "nlos_mean_m", "range_times_rel", "simulate_ranges"]
 
 
 @dataclass(frozen=True)
@@ -76,6 +76,26 @@ def nlos_mean_m(event: NlosSpec, t_rel_s: FloatArray, seed: int) -> FloatArray:
     return np.asarray(event.mean_m + event.wander_m * wave, dtype=np.float64)
 
 
+def range_times_rel(
+    truth: Mapping[str, Trajectory], links: Sequence[PairModel], params: SimParams, start_s: float
+) -> dict[str, FloatArray]:
+    """Ranging epochs of every link over the truth's common span, s from ``start_s``.
+
+    Each pair at the ranging rate with its own offset in the period (13 ms + 21 ms per
+    pair in sorted order), as a DW1000 polls pairs in turn.
+    """
+    period = 1.0 / params.range_rate_hz
+    t_end = min(float(traj.time_s[-1]) for traj in truth.values()) - start_s
+    out = {}
+    for index, link in enumerate(sorted(links, key=lambda item: item.pair)):
+        offset = (0.013 + 0.021 * index) % period
+        t_rel = np.round(
+            offset + period * np.arange(int(np.floor((t_end - offset) / period)) + 1), 6
+        )
+        out[link.pair] = t_rel[t_rel <= t_end + 1e-9]
+    return out
+
+
 def simulate_ranges(
     truth: Mapping[str, Trajectory],
     links: Sequence[PairModel],
@@ -85,18 +105,20 @@ def simulate_ranges(
     start_s: float,
     seed: int,
 ) -> RangeOutput:
-    """Ranges of every link over the truth's common span; times in the session base."""
-    period = 1.0 / params.range_rate_hz
-    t_end = min(float(traj.time_s[-1]) for traj in truth.values()) - start_s
-    frames, dists, gross_rows, event_rows = [], [], [], []
-    for index, link in enumerate(sorted(links, key=lambda item: item.pair)):
+    """Ranges of every link over the truth's common span; times in the session base.
+
+    An NLOS event none of whose epochs is written (dropouts, outages) is left out of
+    the truth's ``nlos_events``.
+    """
+    times = range_times_rel(truth, links, params, start_s)
+    ranges: list[dict[str, np.ndarray]] = []
+    dists: list[dict[str, np.ndarray]] = []
+    gross_rows: list[dict[str, np.ndarray]] = []
+    event_rows: list[dict[str, object]] = []
+    for link in sorted(links, key=lambda item: item.pair):
         pair = link.pair
         rng = _pair_rng(seed, pair)
-        offset = (0.013 + 0.021 * index) % period
-        t_rel = np.round(
-            offset + period * np.arange(int(np.floor((t_end - offset) / period)) + 1), 6
-        )
-        t_rel = t_rel[t_rel <= t_end + 1e-9]
+        t_rel = times[pair]
         n = t_rel.shape[0]
         time = start_s + t_rel
         distance = np.linalg.norm(
@@ -138,16 +160,14 @@ def simulate_ranges(
         else:
             measured = np.round(distance + error + nlos_total + gross, 3)
         forward = np.arange(n) % 2 == 0
-        frame = pd.DataFrame(
-            {
-                "time": time,
-                "pair": pair,
-                "from": np.where(forward, link.a, link.b),
-                "to": np.where(forward, link.b, link.a),
-                "range": measured,
-                "sigma": params.uwb_declared_sigma_m,
-            }
-        )
+        columns = {
+            "time": time,
+            "pair": np.full(n, pair),
+            "from": np.where(forward, link.a, link.b),
+            "to": np.where(forward, link.b, link.a),
+            "range": measured,
+            "sigma": np.full(n, params.uwb_declared_sigma_m),
+        }
         if params.rssi:
             d = np.maximum(distance, 0.5)
             rssi = (
@@ -156,40 +176,47 @@ def simulate_ranges(
                 - 8.0 * (nlos_total > 0)
                 + rng.normal(0.0, 1.5, size=n)
             )
-            frame["rssi"] = np.round(rssi, 1)
-        frames.append(frame.loc[keep])
+            columns["rssi"] = np.round(rssi, 1)
+        ranges.append({key: value[keep] for key, value in columns.items()})
         dists.append(
-            pd.DataFrame(
-                {"time": time, "pair": pair, "distance": distance, "error": measured - distance}
-            ).loc[keep]
+            {
+                "time": time[keep],
+                "pair": columns["pair"][keep],
+                "distance": distance[keep],
+                "error": (measured - distance)[keep],
+            }
         )
+        written = keep & gross_mask
         gross_rows.append(
-            pd.DataFrame({"time": time, "pair": pair, "error": gross}).loc[keep & gross_mask]
+            {"time": time[written], "pair": columns["pair"][written], "error": gross[written]}
         )
         for event, mask, added in nlos_added:
             used = mask & keep
-            realized = float(added[used].mean()) if used.any() else float("nan")
+            if not used.any():
+                continue
             event_rows.append(
                 {
                     "pair": pair,
                     "start": start_s + event.start_s,
                     "end": start_s + event.end_s,
                     "nominal_mean": event.mean_m,
-                    "realized_mean": realized,
+                    "realized_mean": float(added[used].mean()),
                     "epochs": int(used.sum()),
                 }
             )
-    ranges = _sorted(pd.concat(frames, ignore_index=True))
-    distances = _sorted(pd.concat(dists, ignore_index=True))
-    gross_errors = _sorted(pd.concat(gross_rows, ignore_index=True))
     nlos = pd.DataFrame(
         event_rows, columns=["pair", "start", "end", "nominal_mean", "realized_mean", "epochs"]
     )
     nlos = nlos.sort_values(["start", "pair"], kind="stable").reset_index(drop=True)
     return RangeOutput(
-        ranges=ranges, distances=distances, nlos_events=nlos, gross_errors=gross_errors
+        ranges=_sorted(ranges),
+        distances=_sorted(dists),
+        nlos_events=nlos,
+        gross_errors=_sorted(gross_rows),
     )
 
 
-def _sorted(frame: pd.DataFrame) -> pd.DataFrame:
+def _sorted(parts: list[dict[str, np.ndarray]]) -> pd.DataFrame:
+    """One table of the pairs' columns (in pair order), sorted by time then pair (stable)."""
+    frame = pd.DataFrame({key: np.concatenate([p[key] for p in parts]) for key in parts[0]})
     return frame.sort_values(["time", "pair"], kind="stable").reset_index(drop=True)
