@@ -60,7 +60,7 @@ _SCENARIO_HELP = "\n".join(f"  {name}" for name in SCENARIOS)
     "settings",
     multiple=True,
     metavar="KEY=VALUE",
-    help="Override one simulation parameter (see docs/simulator.md), e.g. --set aux_static=true.",
+    help="Override one simulation parameter (see docs/simulator.md), e.g. --set uwb_noise_m=0.05.",
 )
 def simulate(
     out: Path,
@@ -77,9 +77,15 @@ def simulate(
 
     The same scenario, options and seed give byte-identical files.
     """
-    sim = run_simulation(
-        scenario, seed=seed, duration_s=duration, platforms=platforms, **_parse_set(settings)
-    )
+    overrides = _parse_set(settings)
+    for option, key, value in (
+        ("--duration", "duration_s", duration),
+        ("--platforms", "platforms", platforms),
+    ):
+        if value is not None and key in overrides:
+            raise ConfigError(f"{option} and --set {key} both given: use one")
+        overrides.setdefault(key, value)
+    sim = run_simulation(scenario, seed=seed, **overrides)
     files = write_simulation(sim, out, mcap=mcap, force=force, mcap_encoding=mcap_encoding)
     session = sim.session
     click.echo(

@@ -7,8 +7,10 @@ a seed gives the same session bit for bit, and all per-sample work is vectorized
 from __future__ import annotations
 
 import dataclasses
+import functools
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import pandas as pd
@@ -25,7 +27,8 @@ from coopproc.sim.deadreckoning import (
     draw_dr_faults,
 )
 from coopproc.sim.gnss import leader_drift_sigma_mps, leader_jitter, leader_nav, ppk_reference
-from coopproc.sim.params import NavGapSpec, NlosSpec, SimParams, apply_overrides
+from coopproc.sim.options import changed_options, check_options
+from coopproc.sim.params import NavGapSpec, NlosSpec, OutageSpec, SimParams, apply_overrides
 from coopproc.sim.scenarios import SCENARIOS, Actor, named_rng
 from coopproc.sim.truth import (
     DR_ERROR_COLUMNS,
@@ -35,60 +38,88 @@ from coopproc.sim.truth import (
     Simulation,
     Truth,
 )
-from coopproc.sim.uwb import simulate_ranges
+from coopproc.sim.uwb import range_times_rel, simulate_ranges
 
 __all__ = ["scenario_params", "simulate"]
 
 
 def scenario_params(scenario: str, **overrides: Any) -> SimParams:
-    """The effective parameters of ``scenario`` with ``overrides`` applied."""
+    """The effective parameters of ``scenario`` with ``overrides`` applied.
+
+    A parameter set where it can do nothing is a ConfigError
+    (:func:`coopproc.sim.options.check_options`). The scenario's own NLOS events, outages
+    and nav gaps move with ``duration_s`` (:func:`_rescale`); given ones stay as given.
+    """
+    return _resolve(scenario, overrides)[0]
+
+
+def _resolve(
+    scenario: str, overrides: Mapping[str, Any]
+) -> tuple[SimParams, frozenset[str], tuple[str, ...]]:
+    """The effective parameters, the names given (not None) and the names whose value
+    differs from the scenario's."""
+    base = _scenario_defaults(scenario)
+    params = apply_overrides(base, overrides)
+    changed = changed_options(base, params)
+    check_options(scenario, params, changed)
+    given = frozenset(key for key, value in overrides.items() if value is not None)
+    if params.duration_s == base.duration_s:
+        return params, given, changed
+    span = (base.duration_s, params.duration_s, _nav_times_rel(params))
+    ranging = 1.0 / params.range_rate_hz
+    changes: dict[str, Any] = {}
+    if "nlos_events" not in given:
+        changes["nlos_events"] = _rescale(params.nlos_events, *span, ranging)
+    if "outages" not in given:
+        changes["outages"] = _rescale(params.outages, *span, ranging)
+    if "nav_gaps" not in given:
+        changes["nav_gaps"] = _rescale(params.nav_gaps, *span, 0.0)
+    return dataclasses.replace(params, **changes), given, changed
+
+
+@functools.cache
+def _scenario_defaults(scenario: str) -> SimParams:
     if scenario not in SCENARIOS:
         raise ConfigError(f"unknown scenario '{scenario}'{nearest(scenario, SCENARIOS)}")
-    spec = SCENARIOS[scenario]
-    base = apply_overrides(SimParams(), spec.defaults)
-    params = apply_overrides(base, overrides)
-    nominal = float(spec.defaults.get("duration_s", SimParams().duration_s))
-    if "nlos_events" not in overrides or overrides["nlos_events"] is None:
-        params = dataclasses.replace(
-            params, nlos_events=_scale_events(params.nlos_events, nominal, params.duration_s)
-        )
-    if "nav_gaps" not in overrides or overrides["nav_gaps"] is None:
-        params = dataclasses.replace(
-            params, nav_gaps=_scale_gaps(params.nav_gaps, nominal, params.duration_s)
-        )
-    return params
+    return apply_overrides(SimParams(), SCENARIOS[scenario].defaults)
 
 
-def _scale_events(
-    events: tuple[NlosSpec, ...], nominal_s: float, duration_s: float
-) -> tuple[NlosSpec, ...]:
-    """Scenario events at the same fraction of a shorter/longer session, same length."""
-    if duration_s == nominal_s:
-        return events
+_Spec = TypeVar("_Spec", NlosSpec, OutageSpec, NavGapSpec)
+
+
+def _rescale(
+    items: tuple[_Spec, ...],
+    nominal_s: float,
+    duration_s: float,
+    nav_times: np.ndarray,
+    min_length_s: float,
+) -> tuple[_Spec, ...]:
+    """A scenario's NLOS events, outages or nav gaps in a session of another length.
+
+    Each moves to the same fraction of the session and keeps its length, ending at the
+    latest 1 s before the session end (and at the last nav epoch); a nav gap that reached
+    the session end still does. Dropped when it no longer fits: shorter than
+    ``min_length_s`` (events and outages: one ranging period, so that every pair has a
+    ranging epoch inside) or holding no nav epoch.
+    """
+    last = float(nav_times[-1])
     out = []
-    for event in events:
-        start = event.start_s * duration_s / nominal_s
-        end = min(start + (event.end_s - event.start_s), duration_s - 1.0)
-        if end > start:
-            out.append(dataclasses.replace(event, start_s=start, end_s=end))
+    for item in items:
+        start = item.start_s * duration_s / nominal_s
+        if isinstance(item, NavGapSpec) and item.end_s >= nominal_s:
+            end = duration_s
+        else:
+            end = min(start + (item.end_s - item.start_s), duration_s - 1.0, last)
+        holds = bool(((nav_times >= start - 1e-9) & (nav_times <= end + 1e-9)).any())
+        if end > start and end - start >= min_length_s and holds:
+            out.append(dataclasses.replace(item, start_s=start, end_s=end))
     return tuple(out)
 
 
-def _scale_gaps(
-    gaps: tuple[NavGapSpec, ...], nominal_s: float, duration_s: float
-) -> tuple[NavGapSpec, ...]:
-    """Scenario nav gaps like events: same fraction, same length; one that reached the
-    session end still does."""
-    if duration_s == nominal_s:
-        return gaps
-    out = []
-    for gap in gaps:
-        start = gap.start_s * duration_s / nominal_s
-        end = start + (gap.end_s - gap.start_s)
-        end = duration_s if gap.end_s >= nominal_s else min(end, duration_s - 1.0)
-        if end > start:
-            out.append(dataclasses.replace(gap, start_s=start, end_s=end))
-    return tuple(out)
+def _nav_times_rel(params: SimParams) -> np.ndarray:
+    """The nav-rate time grid of a session, seconds from its start (the truth's too)."""
+    dt = 1.0 / params.nav_rate_hz
+    return np.round(dt * np.arange(int(np.floor(params.duration_s / dt + 1e-9)) + 1), 9)
 
 
 def _random_events(params: SimParams, pairs: list[str], seed: int) -> list[NlosSpec]:
@@ -140,9 +171,10 @@ def simulate(
     ``duration_s``, ``platforms`` and any other :class:`SimParams` field override the
     scenario's defaults; unknown names raise ConfigError.
     """
-    params = scenario_params(scenario, duration_s=duration_s, platforms=platforms, **overrides)
-    dt = 1.0 / params.nav_rate_hz
-    t_rel = np.round(dt * np.arange(int(np.floor(params.duration_s / dt + 1e-9)) + 1), 9)
+    params, given, changed = _resolve(
+        scenario, {"duration_s": duration_s, "platforms": platforms, **overrides}
+    )
+    t_rel = _nav_times_rel(params)
     world = SCENARIOS[scenario].build(params, seed, t_rel)
     start = params.start_tow_s
     time = start + t_rel
@@ -172,7 +204,7 @@ def simulate(
             actor, heading, time, params, seed, drifting=actor.id == drifting
         )
         if errors is not None:
-            fault_rows += _fault_rows(actor.id, errors, start, params.duration_s)
+            fault_rows += _fault_rows(actor.id, errors, start, params.duration_s, t_rel)
             dr_param_rows.append(
                 [
                     actor.id,
@@ -234,7 +266,13 @@ def simulate(
             f"NLOS events on pairs without ranging: {', '.join(unknown)} "
             f"(pairs: {', '.join(pairs)})"
         )
-    outages = world.outages
+    _check_epochs(params, given, range_times_rel(truth_traj, world.links, params, start), t_rel)
+    if not events and "nlos_sigma_m" in changed:
+        raise ConfigError(
+            "simulation parameter 'nlos_sigma_m' does nothing in a session without NLOS "
+            "events (set nlos_events or random_nlos_per_pair_hour)"
+        )
+    outages: Sequence[OutageSpec] = params.outages
     if params.exact_ranges:
         events, outages = [], ()
     out = simulate_ranges(truth_traj, world.links, params, events, outages, start, seed)
@@ -321,15 +359,19 @@ def _has_dr_faults(params: SimParams) -> bool:
     )
 
 
-def _fault_rows(pid: str, errors: DrErrors, start: float, duration: float) -> list[list[object]]:
-    """``truth/nav_faults.csv`` rows of one follower's drawn dead-reckoning faults."""
+def _fault_rows(
+    pid: str, errors: DrErrors, start: float, duration: float, t_rel: np.ndarray
+) -> list[list[object]]:
+    """``truth/nav_faults.csv`` rows of one follower's drawn dead-reckoning faults (a
+    slip only if a nav step ends inside it: one that did nothing is no fault)."""
     rows: list[list[object]] = []
     if errors.heading_drift_dpm:
         rows.append([pid, "heading_drift", start, start + duration, errors.heading_drift_dpm])
     if errors.odo_scale_fault:
         rows.append([pid, "odo_scale", start, start + duration, errors.odo_scale_fault])
     for slip in errors.slips:
-        rows.append([pid, "slip", start + slip.start_s, start + slip.end_s, slip.over_read])
+        if ((t_rel[1:] > slip.start_s) & (t_rel[1:] <= slip.end_s)).any():
+            rows.append([pid, "slip", start + slip.start_s, start + slip.end_s, slip.over_read])
     return rows
 
 
@@ -340,6 +382,44 @@ def _logged(t_rel: np.ndarray, gaps: tuple[NavGapSpec, ...], pid: str) -> np.nda
         if gap.platform == pid:
             keep &= ~((t_rel >= gap.start_s - 1e-9) & (t_rel <= gap.end_s + 1e-9))
     return keep
+
+
+def _check_epochs(
+    params: SimParams,
+    given: frozenset[str],
+    range_times: Mapping[str, np.ndarray],
+    nav_times: np.ndarray,
+) -> None:
+    """Refuse NLOS events, outages and nav gaps given explicitly that hold no epoch.
+
+    (The scenario's own, moved with the session length, always hold one: :func:`_rescale`.)
+    """
+    session = f"the session is 0-{params.duration_s:g} s"
+    if "nlos_events" in given:
+        for event in params.nlos_events:
+            t = range_times[event.pair]
+            if not ((t >= event.start_s) & (t <= event.end_s)).any():
+                raise ConfigError(
+                    f"simulation parameter 'nlos_events': the event on {event.pair} at "
+                    f"{event.start_s:g}-{event.end_s:g} s holds no range of the pair "
+                    f"({session}, ranges at {params.range_rate_hz:g} Hz)"
+                )
+    if "outages" in given:
+        every = np.concatenate([*range_times.values(), np.empty(0)])
+        for outage in params.outages:
+            if not ((every >= outage.start_s) & (every <= outage.end_s)).any():
+                raise ConfigError(
+                    f"simulation parameter 'outages': the outage at {outage.start_s:g}-"
+                    f"{outage.end_s:g} s removes no range ({session})"
+                )
+    if "nav_gaps" in given:
+        for gap in params.nav_gaps:
+            if _logged(nav_times, (gap,), gap.platform).all():
+                raise ConfigError(
+                    f"simulation parameter 'nav_gaps': the gap of {gap.platform} at "
+                    f"{gap.start_s:g}-{gap.end_s:g} s removes no nav row ({session}, nav "
+                    f"at {params.nav_rate_hz:g} Hz)"
+                )
 
 
 def _check_gaps(params: SimParams, actors: tuple[Actor, ...], t_rel: np.ndarray) -> None:

@@ -2,7 +2,8 @@
 
 A scenario is a set of defaults for :class:`SimParams`; a caller overrides single fields
 by name (``simulate(..., uwb_noise_m=0.05)``, ``coopproc simulate --set uwb_noise_m=0.05``).
-Unknown names are a :class:`~coopproc.errors.ConfigError` naming the nearest valid one.
+Unknown names are a :class:`~coopproc.errors.ConfigError` naming the nearest valid one;
+a name set where it can do nothing is one too (:mod:`coopproc.sim.options`).
 """
 
 from __future__ import annotations
@@ -202,6 +203,11 @@ class SimParams:
         for gap in self.nav_gaps:
             if gap.end_s < gap.start_s:
                 raise ValueError(f"nav gap of {gap.platform} ends before it starts")
+        for outage in self.outages:
+            if outage.end_s < outage.start_s:
+                raise ValueError(
+                    f"outage at {outage.start_s:g}-{outage.end_s:g} s ends before it starts"
+                )
         low, high = self.odo_scale_fault
         if not 0.0 <= low <= high:
             raise ValueError(

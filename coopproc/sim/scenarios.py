@@ -57,17 +57,22 @@ class World:
     time_rel_s: FloatArray
     actors: tuple[Actor, ...]
     links: tuple[PairModel, ...]
-    outages: tuple[OutageSpec, ...] = ()
 
 
 @dataclass(frozen=True)
 class Scenario:
-    """A named scenario: its description, default parameters and its world builder."""
+    """A named scenario: its description, default parameters and its world builder.
+
+    ``unused``: the parameters its world has nothing to act on (no GNSS/INS leader, no
+    formation, no auxiliary), each with the reason; setting one is refused
+    (:mod:`coopproc.sim.options`).
+    """
 
     name: str
     description: str
     build: Callable[[SimParams, int, FloatArray], World]
     defaults: Mapping[str, Any] = field(default_factory=dict)
+    unused: Mapping[str, str] = field(default_factory=dict)
 
 
 def _all_links(ids: list[str]) -> tuple[PairModel, ...]:
@@ -213,7 +218,7 @@ def _anchors(params: SimParams, seed: int, t: FloatArray) -> World:
         site = np.array([*_ANCHOR_SITES[k], 2.0 + 0.1 * k])
         actors.append(Actor(f"AN{k + 1}", "anchor", "none", np.tile(site, (t.shape[0], 1))))
     links = tuple(PairModel("tag", f"AN{k + 1}") for k in range(count))
-    return World(time_rel_s=t, actors=tuple(actors), links=links, outages=params.outages)
+    return World(time_rel_s=t, actors=tuple(actors), links=links)
 
 
 #: paper 000 section 4.4: two NLOS events on each leader pair (the estimated means, rounded)
@@ -233,6 +238,27 @@ _BODY_EVENTS = (
     NlosSpec("A-D", 350.0, 450.0, 0.8, 0.15),
 )
 
+#: The leader's GNSS/INS figures: nothing to act on without a GNSS/INS platform.
+_LEADER_OPTIONS = (
+    "leader_sigma_m",
+    "leader_sigma_up_m",
+    "leader_corr_s",
+    "leader_white_m",
+    "leader_velocity",
+    "leader_vel_sigma_mps",
+)
+#: The options of paper 004's auxiliaries (single-auxiliary only).
+_AUX_OPTIONS = ("aux_static", "second_aux", "aux2_bias_m", "aux2_noise_m")
+
+_NO_AUX = dict.fromkeys(_AUX_OPTIONS, "no auxiliary A1/A2")
+_ANCHORS_UNUSED = {
+    **_NO_AUX,
+    **dict.fromkeys(
+        _LEADER_OPTIONS, "no GNSS/INS platform: the tag dead-reckons, the anchors stand still"
+    ),
+    "distance_rate_mps": "no formation: the tag follows a fixed route among fixed anchors",
+}
+
 SCENARIOS: dict[str, Scenario] = {
     "paper-experiment": Scenario(
         "paper-experiment",
@@ -240,6 +266,7 @@ SCENARIOS: dict[str, Scenario] = {
         "10 min, UWB 1 Hz, two NLOS events on A-B and two on B-C, A-C line of sight",
         _paper_experiment,
         {"duration_s": 600.0, "platforms": 3, "nlos_events": _PAPER_EVENTS},
+        unused=_NO_AUX,
     ),
     "paper-table1": Scenario(
         "paper-table1",
@@ -257,6 +284,7 @@ SCENARIOS: dict[str, Scenario] = {
                 NlosSpec("A-B", 90.0, 95.0, 0.60),
             ),
         },
+        unused=_NO_AUX,
     ),
     "anchors": Scenario(
         "anchors",
@@ -274,6 +302,7 @@ SCENARIOS: dict[str, Scenario] = {
             ),
             "outages": (OutageSpec(450.0, 480.0),),
         },
+        unused=_ANCHORS_UNUSED,
     ),
     "single-auxiliary": Scenario(
         "single-auxiliary",
@@ -281,6 +310,7 @@ SCENARIOS: dict[str, Scenario] = {
         "and azimuth), moving GNSS auxiliary A1; options aux_static, second_aux (A2, biased)",
         _single_auxiliary,
         {"duration_s": 300.0, "platforms": 2, "speed_mps": 1.0, "distance_rate_mps": 0.0},
+        unused={"distance_rate_mps": "no formation: T, A1 and A2 drive loops of their own"},
     ),
     "large": Scenario(
         "large",
@@ -288,6 +318,7 @@ SCENARIOS: dict[str, Scenario] = {
         "for benchmarks",
         _large,
         {"duration_s": 3600.0, "platforms": 10, "random_nlos_per_pair_hour": 0.5},
+        unused=_NO_AUX,
     ),
     # how processing fails on real data (issue 10, item 8)
     "dr-faults": Scenario(
@@ -305,6 +336,7 @@ SCENARIOS: dict[str, Scenario] = {
             "odo_scale_fault": (0.01, 0.03),
             "slip_rate_per_hour": 30.0,
         },
+        unused=_NO_AUX,
     ),
     "noisy-leader": Scenario(
         "noisy-leader",
@@ -320,6 +352,7 @@ SCENARIOS: dict[str, Scenario] = {
             "leader_velocity": True,
             "leader_vel_sigma_mps": 0.02,
         },
+        unused=_NO_AUX,
     ),
     "body-blocked": Scenario(
         "body-blocked",
@@ -328,6 +361,7 @@ SCENARIOS: dict[str, Scenario] = {
         "540 s), means 0.4-0.8 m wandering slowly by up to 0.25 m",
         _body_blocked,
         {"duration_s": 600.0, "platforms": 4, "nlos_events": _BODY_EVENTS},
+        unused=_NO_AUX,
     ),
     "nav-gaps": Scenario(
         "nav-gaps",
@@ -340,5 +374,6 @@ SCENARIOS: dict[str, Scenario] = {
             "nlos_events": _PAPER_EVENTS,
             "nav_gaps": (NavGapSpec("A", 270.0, 330.0), NavGapSpec("C", 540.0, 600.0)),
         },
+        unused=_NO_AUX,
     ),
 }

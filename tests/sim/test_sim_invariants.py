@@ -44,5 +44,11 @@ def test_any_session_is_consistent(scenario: str, seed: int, duration: float) ->
         assert ref.quality is not None and set(np.unique(ref.quality)) <= {1, 2}
     events = truth.nlos_events
     assert (events["end"] >= events["start"]).all()
-    used = events[events["epochs"] > 0]
-    assert (used["realized_mean"] >= 0).all()
+    # the truth lists only what the session holds: events with written epochs, gaps
+    # that remove nav rows, outages without ranges
+    assert (events["epochs"] > 0).all() and (events["realized_mean"] >= 0).all()
+    assert (faults[faults["fault"] == "nav_gap"]["value"] > 0).all()
+    t_rel = ranges["time"].to_numpy() - start
+    for outage in truth.params.outages:
+        assert outage.end_s <= duration
+        assert not ((t_rel >= outage.start_s) & (t_rel <= outage.end_s)).any()

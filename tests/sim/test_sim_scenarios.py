@@ -178,7 +178,7 @@ def test_nav_gaps_keep_their_length_and_reach_the_end_in_a_shorter_session() -> 
 @pytest.mark.parametrize(
     ("scenario", "options"),
     [
-        ("paper-experiment", {"gross_error_rate": 0.05}),
+        ("paper-experiment", {"platforms": 4}),
         ("anchors", {}),
         ("single-auxiliary", {"second_aux": True}),
         ("large", {"platforms": 3, "duration_s": 600.0}),
