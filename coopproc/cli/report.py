@@ -71,6 +71,16 @@ def report(
     coopproc report out --metrics max,rmse --pairs A-B
     coopproc report out --plots --pdf --html    figures (PNG + PDF) and report.html
     """
+    from coopproc.outdir import (
+        check_output_file,
+        check_writable_dir,
+        output_errors,
+        write_text_atomic,
+    )
+
+    if output is not None:
+        check_output_file(output)  # a mistyped directory fails before the work
+
     import matplotlib
 
     matplotlib.use("Agg")
@@ -79,6 +89,8 @@ def report(
 
     run = load_run(out)
     plots = plots or pdf or svg
+    if plots or make_html:
+        check_writable_dir(out, out)
     if show_table or fmt is not None or output is not None or not (plots or make_html):
         text = format_tables(
             run,
@@ -88,7 +100,7 @@ def report(
             platforms=_names(platforms),
         )
         if output is not None:
-            output.write_text(text, encoding="utf-8")
+            write_text_atomic(output, text)
             click.echo(f"wrote {output}")
         else:
             click.echo(text, nl=False)
@@ -96,9 +108,13 @@ def report(
         from coopproc.report.figures import write_figures
 
         formats = ["png", *(["pdf"] if pdf else []), *(["svg"] if svg else [])]
-        for path in write_figures(run, out / "figures", formats=formats, dpi=dpi):
+        with output_errors(out):
+            written = write_figures(run, out / "figures", formats=formats, dpi=dpi)
+        for path in written:
             click.echo(f"wrote {path}")
     if make_html:
         from coopproc.report.html import write_html
 
-        click.echo(f"wrote {write_html(out, run)}")
+        with output_errors(out):
+            html = write_html(out, run)
+        click.echo(f"wrote {html}")

@@ -46,6 +46,12 @@ def run(
     SESSION is a session directory (nav_<ID>.csv, ranges.csv, ref_<ID>.pos, ...) or a
     .mcap file; see docs/formats.md.
     """
+    from coopproc.outdir import check_output_dir
+
+    started = dt.datetime.now(dt.UTC)
+    # before the imports and the work: a read-only or mistyped OUT fails at once
+    check_output_dir(out_dir, force=force, protect=[session])
+
     import dataclasses
 
     import matplotlib
@@ -57,17 +63,14 @@ def run(
     from coopproc.config import load_run_config
     from coopproc.coverage import prepare_run
     from coopproc.io import read_session
-    from coopproc.outdir import check_output_dir
     from coopproc.output import write_run
     from coopproc.pipeline import run_pipeline
     from coopproc.summary import summarize
 
-    started = dt.datetime.now(dt.UTC)
     say = (lambda text: None) if quiet else (lambda text: click.echo(text, err=True))
     config = load_run_config(config_path)
     if no_figures:
         config = dataclasses.replace(config, run=dataclasses.replace(config.run, figures=False))
-    check_output_dir(out_dir, force=force, protect=[session])
     data = read_session(session)
     check_output_dir(out_dir, force=force, protect=[data.root, *data.inputs])
     say(
