@@ -1,6 +1,7 @@
 """The ``coopproc`` command line: thin click commands over the library API.
 
-Each command lives in its own module here and is registered on :data:`main` below.
+Each command lives in its own module here, is listed in :mod:`coopproc.cli.commands`,
+and is imported only when it runs, so that ``--version`` and ``--help`` start at once.
 Errors: a :class:`~coopproc.errors.CoopprocError` becomes one ``error: ...`` line on
 stderr and exit status 1 (2 for usage errors, as click does); ``--debug`` shows the
 traceback instead. Any other exception is reported the same way as an internal error.
@@ -14,13 +15,30 @@ from typing import Any
 import click
 
 from coopproc import __version__
+from coopproc.cli.commands import LazyCommands
 from coopproc.errors import CoopprocError
 
 __all__ = ["main"]
 
 
 class _Group(click.Group):
-    """A click group that turns every error into one line unless ``--debug`` is given."""
+    """A click group that turns every error into one line unless ``--debug`` is given,
+    with its commands imported on demand."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.lazy_commands = LazyCommands()
+        self.commands = self.lazy_commands
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        """The commands with their one-line help, without importing them."""
+        names = self.list_commands(ctx)
+        if not names:
+            return
+        limit = formatter.width - 6 - max(map(len, names))
+        rows = [(name, self.lazy_commands.short_help(name, limit)) for name in names]
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
 
     def invoke(self, ctx: click.Context) -> Any:
         try:
@@ -59,10 +77,3 @@ def main(ctx: click.Context, debug: bool) -> None:
     """
     ctx.ensure_object(dict)
     ctx.obj["debug"] = debug
-
-
-# Command registry: one module per command, one line each.
-from coopproc.cli import commands as _commands  # noqa: E402
-
-for _command in _commands.load():
-    main.add_command(_command)

@@ -6,9 +6,6 @@ from pathlib import Path
 
 import click
 
-from coopproc.io import read_session
-from coopproc.io.info import format_info, session_info
-
 __all__ = ["info"]
 
 
@@ -21,4 +18,7 @@ def info(session: Path) -> None:
     share of the navigation span they cover; pairs with range counts, rates and gaps;
     and the notes of what the readers decided (defaults used, rows sorted, ...).
     """
+    from coopproc.io import read_session
+    from coopproc.io.info import format_info, session_info
+
     click.echo(format_info(session_info(read_session(session))))

@@ -7,8 +7,6 @@ from pathlib import Path
 
 import click
 
-from coopproc.io.session import inspect_session
-
 __all__ = ["validate"]
 
 
@@ -29,6 +27,7 @@ def validate(session: Path, quiet: bool) -> None:
     from coopproc.coverage import coverage_warnings, session_start_s
     from coopproc.framecheck import frame_notes
     from coopproc.io.registry import sensor_note
+    from coopproc.io.session import inspect_session
 
     data, problems = inspect_session(session)
     for line in problems:
