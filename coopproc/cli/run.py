@@ -44,7 +44,8 @@ def run(
     fuse the positions, and write the tables, figures and report to OUT.
 
     SESSION is a session directory (nav_<ID>.csv, ranges.csv, ref_<ID>.pos, ...) or a
-    .mcap file; see docs/formats.md.
+    .mcap file; see docs/formats.md. The closing summary goes to standard output;
+    progress and notes go to standard error.
     """
     from coopproc.outdir import check_output_dir
 
@@ -67,20 +68,22 @@ def run(
     from coopproc.pipeline import run_pipeline
     from coopproc.summary import summarize
 
-    say = (lambda text: None) if quiet else (lambda text: click.echo(text, err=True))
+    # the closing summary on stdout (`> log` keeps it); progress and notes on stderr
+    note = (lambda text: None) if quiet else (lambda text: click.echo(text, err=True))
+    say = (lambda text: None) if quiet else click.echo
     config = load_run_config(config_path)
     if no_figures:
         config = dataclasses.replace(config, run=dataclasses.replace(config.run, figures=False))
     data = read_session(session)
     check_output_dir(out_dir, force=force, protect=[data.root, *data.inputs])
-    say(
+    note(
         f"session {data.name}: {len(data.platforms)} platforms, "
         f"{len(data.ranges.pairs)} pairs, {len(data.ranges)} ranges"
     )
     # ranges the navigation does not cover left out, frames checked; notes appended
     data, _ = prepare_run(data)
-    for note in data.notes:
-        say(f"note: {note}")
+    for text in data.notes:
+        note(f"note: {text}")
 
     show_bar = not quiet and sys.stderr.isatty()
     with tqdm(total=_STEPS, disable=not show_bar, unit="step", leave=False) as bar:

@@ -1,13 +1,15 @@
-"""CLI start (issue 16, item 5).
+"""CLI start and output streams (issue 16, item 5).
 
 ``coopproc --version`` and the help pages import no numerical library (their speed is
-measured by benchmarks/cli_start.py, not here).
+measured by benchmarks/cli_start.py, not here); ``coopproc run`` prints its closing
+summary on stdout and its progress and notes on stderr.
 """
 
 from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 import click
 import pytest
@@ -73,3 +75,32 @@ def test_unknown_command_is_a_usage_error() -> None:
     res = CliRunner().invoke(main, ["rnu"])
     assert res.exit_code == 2
     assert res.output.splitlines()[-1] == "Error: No such command 'rnu'. Did you mean 'run'?"
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("start") / "session"
+    res = CliRunner().invoke(
+        main, ["simulate", str(path), "--scenario", "paper-table1", "--duration", "60"]
+    )
+    assert res.exit_code == 0, res.output
+    return path
+
+
+def test_run_summary_on_stdout_notes_on_stderr(session: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["run", str(session), "-o", str(out), "--no-figures"])
+    assert res.exit_code == 0, res.output
+    stdout = res.stdout.splitlines()
+    assert stdout[0] == "self-calibration (declared values in brackets):"
+    assert any(line.startswith("NLOS events (DI-Based): ") for line in stdout)
+    assert stdout[-1] == f"tables: {out}/ (9 CSV), figures: 0"
+    assert res.stderr.splitlines()[0].startswith("session ")
+    assert "NLOS events" not in res.stderr and "tables:" not in res.stderr
+
+
+def test_run_quiet_prints_nothing_on_either_stream(session: Path, tmp_path: Path) -> None:
+    out = tmp_path / "q"
+    res = CliRunner().invoke(main, ["run", str(session), "-o", str(out), "-q", "--no-figures"])
+    assert res.exit_code == 0, res.output
+    assert res.stdout == "" and res.stderr == ""
