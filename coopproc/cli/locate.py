@@ -34,7 +34,12 @@ def _read_config(path: Path | None) -> dict[str, object]:
 @output_option("out_dir", "Output directory (replaced only with --force).", required=True)
 @config_option("TOML file with a [locate] table (N, M, alpha, beta, lambda, Omega1, ...).")
 @click.option("--force", is_flag=True, help="Replace an existing output directory.")
-@click.option("--seed", type=int, default=None, help="Random seed (overrides the config).")
+@click.option(
+    "--seed",
+    type=click.IntRange(min=0),
+    default=None,
+    help="Random seed, 0 or more (overrides the config).",
+)
 @click.option("--no-figures", is_flag=True, help="Write the tables only.")
 def locate(
     session: Path,
