@@ -43,7 +43,9 @@ _SCENARIO_HELP = "\n".join(f"  {name}" for name in SCENARIOS)
     type=click.Choice(sorted(SCENARIOS)),
     help="What to simulate.",
 )
-@click.option("--seed", type=int, default=0, show_default=True, help="Random seed.")
+@click.option(
+    "--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Random seed (>= 0)."
+)
 @click.option("--duration", type=float, default=None, help="Session length, s (scenario default).")
 @click.option("--platforms", type=int, default=None, help="Number of platforms (scenario default).")
 @click.option("--mcap", is_flag=True, help="Also write the session as one MCAP file in OUT/mcap/.")

@@ -183,7 +183,7 @@ SIMULATE = _join(
     ),
     st.sampled_from(["60", "20", "0", "-5", "nan", "abc"]).map(lambda d: ["--duration", d]),
     _option("--platforms", "2", "1", "0"),
-    _option("--seed", "3", "12345"),
+    _option("--seed", "3", "12345", "-1"),
     _flag("--force"),
 )
 

@@ -151,6 +151,8 @@ class LocateParams:
             )
         if self.aco_candidates < 1:
             raise ValueError(f"aco_candidates must be >= 1, found {self.aco_candidates}")
+        if self.seed < 0:
+            raise ValueError(f"seed must be >= 0, found {self.seed}")
         if not 0.0 <= self.lambda_ <= 1.0:
             raise ValueError(f"lambda_ must be in [0, 1], found {self.lambda_}")
         if self.residual_window < 2:
