@@ -253,8 +253,7 @@ def check_scheduler(address: str) -> None:
             f"scheduler {address}: not an address ({err}); expected tcp://host:port"
         ) from err
     try:
-        with socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S):
-            pass
+        socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S).close()
     except TimeoutError as err:
         cause = f"no answer within {CONNECT_TIMEOUT_S:g} s"
         raise CoopprocError(
