@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from coopproc.model import FloatArray
+from coopproc.stages.filters import MAD_SCALE
 
 __all__ = [
     "MAD_SCALE",
@@ -38,7 +39,6 @@ __all__ = [
     "white_sigma",
 ]
 
-MAD_SCALE = 1.4826
 #: Fewer usable differences than this: no estimate (the caller keeps its prior).
 MIN_SAMPLES = 20
 #: More values than this: the MAD is taken of an evenly thinned subset.

@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from coopproc.errors import ConfigError
-from coopproc.sim import SCENARIOS, SimParams, simulate
+from coopproc.sim import SCENARIOS, simulate
 from coopproc.sim.deadreckoning import DrErrors, dead_reckon
 from coopproc.sim.formation import distance_rate_rms
+from tests.sim.quiet import quiet_params
 
 _DPH = np.pi / 180.0 / 3600.0
 
@@ -19,13 +20,6 @@ def _straight(duration_s: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
     return t, enu
 
 
-def _quiet(**changes: float) -> SimParams:
-    base = {
-        "gyro_bias_dph": 0.0, "gyro_arw_dpsh": 0.0, "heading_init_sigma_deg": 0.0,
-        "odo_scale_sigma": 0.0, "odo_noise_m": 0.0, "init_error_m": 0.0, "height_rw_m": 0.0,
-    }  # fmt: skip
-    base.update(changes)
-    return SimParams(**base)  # type: ignore[arg-type]
 
 
 def test_dr_scale_factor_error_is_scale_times_distance() -> None:
@@ -33,7 +27,7 @@ def test_dr_scale_factor_error_is_scale_times_distance() -> None:
     errors = DrErrors(
         gyro_bias_dph=0.0, odo_scale=0.004, heading_init_deg=0.0, init_error_m=(0, 0, 0)
     )
-    dr, heading, _ = dead_reckon(enu, t, _quiet(), errors, np.random.default_rng(0))
+    dr, heading, _ = dead_reckon(enu, t, quiet_params(), errors, np.random.default_rng(0))
     along = dr[:, 1] - enu[:, 1]
     assert along[-1] == pytest.approx(0.004 * 300.0, rel=1e-9)
     assert np.allclose(dr[:, 0], 0.0)
@@ -46,7 +40,7 @@ def test_dr_gyro_bias_gives_quadratic_cross_track_error() -> None:
     errors = DrErrors(
         gyro_bias_dph=2.7, odo_scale=0.0, heading_init_deg=0.0, init_error_m=(0, 0, 0)
     )
-    dr, heading, _ = dead_reckon(enu, t, _quiet(), errors, np.random.default_rng(0))
+    dr, heading, _ = dead_reckon(enu, t, quiet_params(), errors, np.random.default_rng(0))
     expected = 0.5 * 2.7 * _DPH * 600.0**2 / 2.0
     assert dr[-1, 0] == pytest.approx(expected, rel=0.01)
     half = np.searchsorted(t, 300.0)

@@ -7,18 +7,11 @@ import numpy as np
 import pytest
 
 from coopproc.errors import ConfigError
-from coopproc.sim import NavGapSpec, SimParams, simulate
+from coopproc.sim import NavGapSpec, simulate
 from coopproc.sim.deadreckoning import DrErrors, Slip, dead_reckon
 from coopproc.sim.uwb import nlos_mean_m
+from tests.sim.quiet import quiet_params
 
-
-def _quiet(**changes: float) -> SimParams:
-    base = {
-        "gyro_bias_dph": 0.0, "gyro_arw_dpsh": 0.0, "heading_init_sigma_deg": 0.0,
-        "odo_scale_sigma": 0.0, "odo_noise_m": 0.0, "init_error_m": 0.0, "height_rw_m": 0.0,
-    }  # fmt: skip
-    base.update(changes)
-    return SimParams(**base)  # type: ignore[arg-type]
 
 
 def _heading_error_rate_dpm(nav_deg: np.ndarray, truth_deg: np.ndarray, t_s: np.ndarray) -> float:
@@ -31,7 +24,7 @@ def test_slip_over_reads_the_odometer_inside_the_episode() -> None:
     t = np.arange(0.0, 60.0 + 1e-9, 0.1)
     enu = np.column_stack((np.zeros_like(t), 0.5 * t, np.zeros_like(t)))  # due north
     errors = DrErrors(0.0, 0.0, 0.0, (0.0, 0.0, 0.0), slips=(Slip(10.0, 14.0, 0.3),))
-    dr, _, _ = dead_reckon(enu, t, _quiet(), errors, np.random.default_rng(0))
+    dr, _, _ = dead_reckon(enu, t, quiet_params(), errors, np.random.default_rng(0))
     along = dr[:, 1] - enu[:, 1]
     assert np.allclose(along[t <= 10.0], 0.0)
     assert along[-1] == pytest.approx(0.3 * 0.5 * 4.0, rel=1e-9)  # 4 s at 0.5 m/s, +30 %
