@@ -20,8 +20,6 @@ def _straight(duration_s: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
     return t, enu
 
 
-
-
 def test_dr_scale_factor_error_is_scale_times_distance() -> None:
     t, enu = _straight(600.0, 0.5)
     errors = DrErrors(

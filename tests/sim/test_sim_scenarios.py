@@ -13,7 +13,6 @@ from coopproc.sim.uwb import nlos_mean_m
 from tests.sim.quiet import quiet_params
 
 
-
 def _heading_error_rate_dpm(nav_deg: np.ndarray, truth_deg: np.ndarray, t_s: np.ndarray) -> float:
     """Slope of the nav-minus-true heading over time, deg/min."""
     wrapped = np.unwrap(np.deg2rad(nav_deg - truth_deg))
