@@ -17,7 +17,7 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
-import coopproc.stages.fusion as fusion_mod
+import coopproc.stages.fusion.fuse as fusion_mod
 from coopproc.model import Platform, RangeTable, Session, SessionConfig, Trajectory
 
 

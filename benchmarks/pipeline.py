@@ -16,10 +16,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from coopproc.config import RunConfig
 from coopproc.io import read_session
-from coopproc.output import write_run
-from coopproc.pipeline import run_pipeline
+from coopproc.run.config import RunConfig
+from coopproc.run.output import write_run
+from coopproc.run.pipeline import run_pipeline
 from coopproc.sim import simulate, write_simulation
 
 

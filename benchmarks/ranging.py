@@ -19,11 +19,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from coopproc.stages.calibration import pair_noise, robust_sigma
-from coopproc.stages.di import DISmoothingParams, di_variance, smooth_di
-from coopproc.stages.nlos import filter_distance
-from coopproc.stages.ranging import RangingConfig, kernel_params
-from coopproc.stages.twoway import filter_distance_two_way
+from coopproc.stages.ranging.calibration import pair_noise, robust_sigma
+from coopproc.stages.ranging.di import DISmoothingParams, di_variance, smooth_di
+from coopproc.stages.ranging.nlos import filter_distance
+from coopproc.stages.ranging.stage import RangingConfig, kernel_params
+from coopproc.stages.ranging.twoway import filter_distance_two_way
 
 #: The stage's defaults (paper 000: gamma = 3 sigma, M = 3 s), sigma 0.15 m, 60 s window.
 PARAMS = kernel_params(RangingConfig(), 0.15, 0.15, 60, rn=False)

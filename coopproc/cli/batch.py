@@ -11,7 +11,7 @@ import click
 from coopproc.cli.options import config_option, output_option
 
 if TYPE_CHECKING:
-    from coopproc.batch import BatchResult
+    from coopproc.run.batch import BatchResult
 
 __all__ = ["batch"]
 
@@ -74,8 +74,8 @@ def batch(
 
     from tqdm import tqdm
 
-    from coopproc.batch import SessionOutcome, run_batch
-    from coopproc.config import load_run_config
+    from coopproc.run.batch import SessionOutcome, run_batch
+    from coopproc.run.config import load_run_config
 
     config = load_run_config(config_path)
     if no_figures:

@@ -61,6 +61,6 @@ def config(config_path: Path | None) -> None:
 
     Save it, edit it, and pass it to `coopproc run --config FILE`.
     """
-    from coopproc.config import load_run_config
+    from coopproc.run.config import load_run_config
 
     click.echo(render_config(load_run_config(config_path)), nl=False)

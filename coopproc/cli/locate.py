@@ -57,7 +57,7 @@ def locate(
     Writes OUT/locate.csv, OUT/locate_summary.csv, OUT/observability.csv and
     OUT/figures/; see docs/locate.md.
     """
-    from coopproc.outdir import atomic_output_dir, check_output_dir
+    from coopproc.run.outdir import atomic_output_dir, check_output_dir
 
     # before the imports and the work: a read-only or mistyped OUT fails at once
     check_output_dir(out_dir, force=force, protect=[session])
@@ -68,8 +68,8 @@ def locate(
     matplotlib.use("Agg")
 
     from coopproc.io import read_session
-    from coopproc.outdir import write_csv
     from coopproc.report.locate_figures import write_locate_figures
+    from coopproc.run.outdir import write_csv
     from coopproc.stages.particle import (
         LOCATE_COLUMNS,
         LOCATE_SUMMARY_COLUMNS,

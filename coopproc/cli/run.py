@@ -47,7 +47,7 @@ def run(
     .mcap file; see docs/formats.md. The closing summary goes to standard output;
     progress and notes go to standard error.
     """
-    from coopproc.outdir import check_output_dir
+    from coopproc.run.outdir import check_output_dir
 
     started = dt.datetime.now(dt.UTC)
     # before the imports and the work: a read-only or mistyped OUT fails at once
@@ -60,13 +60,13 @@ def run(
     matplotlib.use("Agg")
     from tqdm import tqdm
 
-    from coopproc.calibration_summary import calibration_lines
-    from coopproc.config import load_run_config
-    from coopproc.coverage import prepare_run
+    from coopproc.checks.coverage import prepare_run
     from coopproc.io import read_session
-    from coopproc.output import write_run
-    from coopproc.pipeline import run_pipeline
-    from coopproc.summary import summarize
+    from coopproc.run.calibration_summary import calibration_lines
+    from coopproc.run.config import load_run_config
+    from coopproc.run.output import write_run
+    from coopproc.run.pipeline import run_pipeline
+    from coopproc.run.summary import summarize
 
     # the closing summary on stdout (`> log` keeps it); progress and notes on stderr
     note = (lambda text: None) if quiet else (lambda text: click.echo(text, err=True))

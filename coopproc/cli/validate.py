@@ -24,8 +24,8 @@ def validate(session: Path, quiet: bool) -> None:
     does not cover; and notes: raw-sensor files this version does not use, and a
     platform whose navigation seems to be in a frame of its own.
     """
-    from coopproc.coverage import coverage_warnings, session_start_s
-    from coopproc.framecheck import frame_notes
+    from coopproc.checks.coverage import coverage_warnings, session_start_s
+    from coopproc.checks.framecheck import frame_notes
     from coopproc.io.registry import sensor_note
     from coopproc.io.session import inspect_session
 

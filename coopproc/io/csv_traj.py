@@ -31,7 +31,7 @@ from coopproc.io._common import (
     parser_error,
 )
 from coopproc.model import Trajectory
-from coopproc.outdir import write_csv
+from coopproc.run.outdir import write_csv
 
 __all__ = [
     "NAV_HEADER",

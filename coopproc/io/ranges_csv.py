@@ -24,7 +24,7 @@ from coopproc.io._common import (
 )
 from coopproc.io.csv_traj import read_csv_table
 from coopproc.model import RANGE_COLUMNS, RangeTable
-from coopproc.outdir import write_csv
+from coopproc.run.outdir import write_csv
 
 __all__ = [
     "MAX_RANGE_M",

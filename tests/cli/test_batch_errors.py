@@ -18,8 +18,8 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner, Result
 
-import coopproc.batch
-import coopproc.output
+import coopproc.run.batch
+import coopproc.run.output
 from coopproc.cli import main
 
 
@@ -94,7 +94,7 @@ def test_an_unreachable_scheduler_fails_at_once_naming_address_and_cause(
 def test_something_else_at_the_address_is_no_scheduler(
     session: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(coopproc.batch, "HANDSHAKE_TIMEOUT_S", 1.0)
+    monkeypatch.setattr(coopproc.run.batch, "HANDSHAKE_TIMEOUT_S", 1.0)
     with socket.socket() as listener:  # accepts connections, never answers
         listener.bind(("127.0.0.1", 0))
         listener.listen()
@@ -220,7 +220,7 @@ def test_a_disk_that_fills_during_a_session_fails_that_session_in_one_line(
     def full(*args: object, **kwargs: object) -> None:
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(tmp_path / "x.csv"))
 
-    monkeypatch.setattr(coopproc.output, "write_run", full)  # threads: the same process
+    monkeypatch.setattr(coopproc.run.output, "write_run", full)  # threads: the same process
     root = tmp_path / "root"
     res = batch(session, "-o", root)
     assert res.exit_code == 1, res.output

@@ -13,9 +13,9 @@ from typing import Any
 import pytest
 from click.testing import CliRunner, Result
 
-from coopproc.batch_root import stale_reason
 from coopproc.cli import main
-from coopproc.config import RunConfig
+from coopproc.run.batch_root import stale_reason
+from coopproc.run.config import RunConfig
 
 
 @pytest.fixture(scope="module")

@@ -22,9 +22,9 @@ import pytest
 from click.testing import CliRunner, Result
 
 import coopproc.io
-import coopproc.output
+import coopproc.run.output
 from coopproc.cli import main
-from coopproc.outdir import write_csv
+from coopproc.run.outdir import write_csv
 
 ROFS = os.strerror(errno.EROFS)  # "Read-only file system"
 EACCES = os.strerror(errno.EACCES)  # "Permission denied"
@@ -206,7 +206,7 @@ def _disk_full_after(calls: int) -> Callable[..., Path]:
 def test_run_disk_full_leaves_nothing_half_written(
     session: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(coopproc.output, "write_csv", _disk_full_after(2))
+    monkeypatch.setattr(coopproc.run.output, "write_csv", _disk_full_after(2))
     out = tmp_path / "out"
     res = _cli("run", str(session), "-o", str(out), "--no-figures", "-q")
     _one_error_line(res, f"{out}: cannot write the output ({ENOSPC}); nothing was written")
@@ -220,7 +220,7 @@ def test_run_disk_full_keeps_the_previous_output(
     res = _cli("run", str(session), "-o", str(out), "--no-figures", "-q")
     assert res.exit_code == 0
     before = {p.name: p.read_bytes() for p in out.iterdir()}
-    monkeypatch.setattr(coopproc.output, "write_csv", _disk_full_after(0))
+    monkeypatch.setattr(coopproc.run.output, "write_csv", _disk_full_after(0))
     res = _cli("run", str(session), "-o", str(out), "--no-figures", "-q", "--force")
     _one_error_line(
         res, f"{out}: cannot write the output ({ENOSPC}); the existing output is unchanged"
@@ -319,12 +319,12 @@ class _FullDisk:
 def test_report_disk_full_leaves_no_partial_file(
     finished_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, existing: bool
 ) -> None:
-    import coopproc.outdir
+    import coopproc.run.outdir
 
     target = tmp_path / "t.tex"
     if existing:
         target.write_text("previous table\n")
-    monkeypatch.setattr(coopproc.outdir, "open", _FullDisk, raising=False)
+    monkeypatch.setattr(coopproc.run.outdir, "open", _FullDisk, raising=False)
     res = _cli("report", str(finished_run), "--format", "latex", "-o", str(target))
     left = "the existing file is unchanged" if existing else "nothing was written"
     _one_error_line(res, f"{target}: cannot write ({ENOSPC}); {left}")

@@ -33,10 +33,10 @@ def _fused_mean_errors(run: E2ERun, column: str) -> dict[str, float]:
     import numpy as np
     import pandas as pd
 
-    from coopproc.config import RunConfig
     from coopproc.io import read_session
     from coopproc.model import pair_members
-    from coopproc.stages.fusion_calibration import calibrated_fuse
+    from coopproc.run.config import RunConfig
+    from coopproc.stages.fusion.calibration import calibrated_fuse
 
     session = read_session(run.session)
     rows = run.ranges[np.isfinite(run.ranges[column])]

@@ -19,7 +19,7 @@ from coopproc.stages.filters import (
     robust_factors,
     rts_step,
 )
-from coopproc.stages.fusion_ekf import OBS_ANCHOR, OBS_RANGE, _observe, ekf_forward, rts_backward
+from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_RANGE, _observe, ekf_forward, rts_backward
 
 
 @pytest.mark.parametrize(("k0", "k1"), [(3.0, 4.0), (2.5, 4.5), (3.5, 3.8)])

@@ -13,8 +13,8 @@ import pytest
 from click.testing import CliRunner
 from matplotlib.figure import Figure
 
+from coopproc.checks.coverage import coverage_warnings, restrict_to_coverage
 from coopproc.cli import main
-from coopproc.coverage import coverage_warnings, restrict_to_coverage
 from coopproc.io import read_session
 from coopproc.report.figures import make_figures
 from coopproc.report.plots import plot_position_errors

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from coopproc.pipeline import PipelineOutput
+from coopproc.run.pipeline import PipelineOutput
 
 __all__ = ["calibration_facts", "calibration_lines"]
 

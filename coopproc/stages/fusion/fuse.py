@@ -39,22 +39,22 @@ import pandas as pd
 from coopproc.configtools import from_table
 from coopproc.errors import StageError
 from coopproc.model import FloatArray, Session, Trajectory
-from coopproc.stages.fusion_data import (
+from coopproc.stages.fusion.data import (
     anchor_positions,
     clean_ranges,
     epoch_groups,
     platform_codes,
 )
-from coopproc.stages.fusion_data import range_sigma_default as _range_sigma_default
-from coopproc.stages.fusion_ekf import (
+from coopproc.stages.fusion.data import range_sigma_default as _range_sigma_default
+from coopproc.stages.fusion.ekf import (
     OBS_ANCHOR,
     OBS_POSITION,
     OBS_RANGE,
     ekf_forward,
     rts_backward,
 )
-from coopproc.stages.fusion_output import trajectories_from_states
-from coopproc.stages.lsq import LsqParams, robust_lsq_positions
+from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
+from coopproc.stages.fusion.output import trajectories_from_states
 
 __all__ = ["FusionOutput", "FusionParams", "fuse", "fusion_params_from_toml"]
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from coopproc.model import FloatArray
-from coopproc.stages.nlos import DistanceFilterOutput, KernelParams, filter_distance
+from coopproc.stages.ranging.nlos import DistanceFilterOutput, KernelParams, filter_distance
 
 __all__ = ["filter_distance_two_way", "reverse_increments"]
 

@@ -11,17 +11,17 @@
    cooperative solution ``cp`` (two passes in post-processing: the fusion with the
    observed ranges runs first, over the whole session, and its solution is differenced
    here), both interpolated at the range epochs; anchors use their fixed position;
-3. the DI smoothing filter (:mod:`coopproc.stages.di`), then the distance filter with NLOS
-   detection and estimation (:mod:`coopproc.stages.nlos`) for the DI method, and the same
-   filter driven by the relative-velocity range rate (:mod:`coopproc.stages.rn`) with a
+3. the DI smoothing filter (:mod:`coopproc.stages.ranging.di`), then the distance filter with NLOS
+   detection and estimation (:mod:`coopproc.stages.ranging.nlos`) for the DI method, and the same
+   filter driven by the relative-velocity range rate (:mod:`coopproc.stages.ranging.rn`) with a
    one-shot NLOS estimate for the RN method.
 
 The UWB sigma of a pair ("data"): with ``[ranging.nlos] self_calibrate`` (default) the
 white noise, the DI growth and the innovation spread behind gamma_max are estimated from the
 pair's own data, the declared ``session.toml [uwb] sigma`` entering as a prior
-(:mod:`coopproc.stages.calibration`, :func:`_calibrated`); the DI-Based series passes the
+(:mod:`coopproc.stages.ranging.calibration`, :func:`_calibrated`); the DI-Based series passes the
 line-of-sight ranges through when the DI is too poor to smooth them (``passthrough_gain``);
-both filters run forward and backward (:mod:`coopproc.stages.twoway`). Without
+both filters run forward and backward (:mod:`coopproc.stages.ranging.twoway`). Without
 self-calibration or enough epochs: the declared sigma ("session.toml"), else the adaptive
 estimate ("adaptive", the median over the pair's epochs of the sigma used), else
 ``[ranging.nlos] default_sigma_m`` ("default").
@@ -47,23 +47,23 @@ from coopproc.model import (
     Trajectory,
     pair_members,
 )
-from coopproc.stages.calibration import (
+from coopproc.stages.ranging.calibration import (
     pair_noise,
     posterior_sigma,
     robust_sigma,
     steady_gain,
 )
-from coopproc.stages.di import (
+from coopproc.stages.ranging.config import RangingConfig, ranging_config_from_toml
+from coopproc.stages.ranging.di import (
     SmoothedDI,
     anchored_increments,
     di_variance,
     range_increments,
     smooth_di,
 )
-from coopproc.stages.nlos import DistanceFilterOutput, KernelParams, filter_distance
-from coopproc.stages.ranging_config import RangingConfig, ranging_config_from_toml
-from coopproc.stages.rn import platform_velocity, rn_increments
-from coopproc.stages.twoway import filter_distance_two_way
+from coopproc.stages.ranging.nlos import DistanceFilterOutput, KernelParams, filter_distance
+from coopproc.stages.ranging.rn import platform_velocity, rn_increments
+from coopproc.stages.ranging.twoway import filter_distance_two_way
 
 __all__ = [
     "PairCalibration",

@@ -11,7 +11,7 @@ from typing import Any
 
 import pandas as pd
 
-from coopproc.pipeline import PipelineOutput
+from coopproc.run.pipeline import PipelineOutput
 
 __all__ = ["RunSummary", "summarize"]
 

@@ -16,7 +16,7 @@ are often optimistic (the dr-faults scenario: a 3 deg/min heading drift). So
    that solution: the RMS (bias included: a pair whose ranges are persistently long cannot
    be explained by any position, and must pull less) after dropping gross errors beyond 5
    MAD, combined with the declared sigma as a prior
-   (:func:`~coopproc.stages.calibration.posterior_sigma`), and never below the declared
+   (:func:`~coopproc.stages.ranging.calibration.posterior_sigma`), and never below the declared
    sigma (inflate only) nor below ``sigma_floor``;
 3. when one platform's pairs are all worse than the others' (:func:`_platform_range_factor`)
    estimates a constant range bias of that platform by iteration and corrects its ranges,
@@ -39,9 +39,9 @@ import numpy as np
 import pandas as pd
 
 from coopproc.model import FloatArray, Session, pair_members, pair_name
-from coopproc.stages.calibration import MAD_SCALE, posterior_sigma
-from coopproc.stages.fusion import FusionOutput, FusionParams, fuse
-from coopproc.stages.fusion_data import anchor_positions
+from coopproc.stages.fusion.data import anchor_positions
+from coopproc.stages.fusion.fuse import FusionOutput, FusionParams, fuse
+from coopproc.stages.ranging.calibration import MAD_SCALE, posterior_sigma
 
 __all__ = ["FusionCalibration", "calibrated_fuse", "postfit_residuals"]
 

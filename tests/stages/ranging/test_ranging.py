@@ -22,7 +22,7 @@ from coopproc.model import (
     Trajectory,
     pair_name,
 )
-from coopproc.stages.ranging import RangingConfig, ranging_config_from_toml, run_ranging
+from coopproc.stages.ranging.stage import RangingConfig, ranging_config_from_toml, run_ranging
 
 NLOS = (50.0, 70.0, 0.5)  # A-B: start s, end s, mean m
 

@@ -28,10 +28,10 @@ from typing import Any
 
 import pandas as pd
 
-from coopproc.config import RunConfig
 from coopproc.errors import CoopprocError, OutputError
-from coopproc.outdir import write_csv
 from coopproc.report.rundir import RUN_FILES
+from coopproc.run.config import RunConfig
+from coopproc.run.outdir import write_csv
 
 __all__ = [
     "STACKED",

@@ -10,8 +10,8 @@ import pandas as pd
 import pytest
 
 from coopproc.sim import simulate
-from coopproc.stages.fusion import FusionParams, fuse
-from coopproc.stages.ranging import RangingConfig, RangingOutput, run_ranging
+from coopproc.stages.fusion.fuse import FusionParams, fuse
+from coopproc.stages.ranging.stage import RangingConfig, RangingOutput, run_ranging
 
 
 def _run(scenario: str, seed: int = 0) -> tuple[pd.DataFrame, pd.DataFrame, RangingOutput]:

@@ -23,7 +23,6 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
-from coopproc.config import RunConfig
 from coopproc.model import (
     POSITIONS_COLUMNS,
     FloatArray,
@@ -34,10 +33,11 @@ from coopproc.model import (
 )
 from coopproc.report.metrics import distance_metrics, nlos_scores, position_metrics
 from coopproc.report.scores import nlos_event_scores
-from coopproc.stages.dr_quality import DeadReckoningQuality, dead_reckoning_quality
-from coopproc.stages.fusion import FusionOutput
-from coopproc.stages.fusion_calibration import FusionCalibration, calibrated_fuse
-from coopproc.stages.ranging import PairCalibration, run_ranging
+from coopproc.run.config import RunConfig
+from coopproc.stages.fusion.calibration import FusionCalibration, calibrated_fuse
+from coopproc.stages.fusion.dr_quality import DeadReckoningQuality, dead_reckoning_quality
+from coopproc.stages.fusion.fuse import FusionOutput
+from coopproc.stages.ranging.stage import PairCalibration, run_ranging
 
 __all__ = ["PipelineOutput", "run_pipeline"]
 

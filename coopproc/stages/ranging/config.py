@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from coopproc.configtools import from_table
-from coopproc.stages.di import DISmoothingParams
+from coopproc.stages.ranging.di import DISmoothingParams
 
 __all__ = [
     "DistanceParams",

@@ -231,11 +231,11 @@ def prepare_run(session: Session) -> tuple[Session, list[str]]:
 
     Raises for roles it cannot process (:func:`check_processable`), leaves out the ranges
     the navigation does not cover (:func:`restrict_to_coverage`) and checks each
-    platform's navigation frame (:func:`coopproc.framecheck.frame_notes`). Returns the
+    platform's navigation frame (:func:`coopproc.checks.framecheck.frame_notes`). Returns the
     session (the same object when there is nothing to note) and the new notes, which
     are also appended to its ``notes`` (and so reach run.json).
     """
-    from coopproc.framecheck import frame_notes
+    from coopproc.checks.framecheck import frame_notes
 
     check_processable(session)
     session, notes = restrict_to_coverage(session)

@@ -9,8 +9,8 @@ import pandas as pd
 import pytest
 
 from coopproc.model import Platform, RangeTable, Session, SessionConfig, Trajectory, pair_name
-from coopproc.stages.fusion import FusionParams, fuse
-from coopproc.stages.lsq import LsqParams, robust_lsq_positions
+from coopproc.stages.fusion.fuse import FusionParams, fuse
+from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
 
 ANCHORS = {
     "N1": (0.0, 0.0, 2.5),

@@ -6,8 +6,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from coopproc.stages.nlos import filter_distance
-from coopproc.stages.ranging import RangingConfig, kernel_params
+from coopproc.stages.ranging.nlos import filter_distance
+from coopproc.stages.ranging.stage import RangingConfig, kernel_params
 
 #: The stage's RN-mode defaults (one-shot estimate, no back-dating), sigma 0.15 m.
 PARAMS = kernel_params(RangingConfig(), 0.15, 0.15, 600, rn=True)

@@ -8,12 +8,12 @@ at ``scheduler`` for a real cluster. ``<name>`` is the session directory's name 
 Checked before any work: the names, the scheduler (something answers at its address
 within a few seconds), ROOT (a directory that can be written), and each ``ROOT/<name>/``:
 an existing one is replaced only with ``force``; with ``resume`` a complete and current
-run there is kept and its session skipped, a stale one redone (coopproc.batch_root). A
+run there is kept and its session skipped, a stale one redone (coopproc.run.batch_root). A
 session that fails, a missing path included, is reported with its one-line error and does
 not stop the others.
 
 ``ROOT/batch.json`` and the stacked tables always describe every session under ROOT, not
-just this call's (coopproc.batch_root.merge_listing).
+just this call's (coopproc.run.batch_root.merge_listing).
 """
 
 from __future__ import annotations
@@ -28,7 +28,8 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
-from coopproc.batch_root import (
+from coopproc.errors import CoopprocError, OutputError
+from coopproc.run.batch_root import (
     BatchEntry,
     merge_listing,
     read_listing,
@@ -36,9 +37,8 @@ from coopproc.batch_root import (
     stale_reason,
     write_listing,
 )
-from coopproc.config import RunConfig
-from coopproc.errors import CoopprocError, OutputError
-from coopproc.outdir import check_output_dir
+from coopproc.run.config import RunConfig
+from coopproc.run.outdir import check_output_dir
 
 __all__ = ["BatchEntry", "BatchResult", "SessionOutcome", "check_scheduler", "run_batch", "run_one"]
 
@@ -83,11 +83,11 @@ def run_one(
     import matplotlib
 
     matplotlib.use("Agg")
-    from coopproc.coverage import prepare_run
+    from coopproc.checks.coverage import prepare_run
     from coopproc.io import read_session
-    from coopproc.output import write_run
-    from coopproc.pipeline import run_pipeline
-    from coopproc.summary import summarize
+    from coopproc.run.output import write_run
+    from coopproc.run.pipeline import run_pipeline
+    from coopproc.run.summary import summarize
 
     started = dt.datetime.now(dt.UTC)
     try:

@@ -13,8 +13,8 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner
 
+from coopproc.checks.framecheck import fit_frame, frame_notes
 from coopproc.cli import main
-from coopproc.framecheck import fit_frame, frame_notes
 from coopproc.io import read_session
 
 REPO = Path(__file__).resolve().parents[2]

@@ -8,7 +8,7 @@ import pytest
 
 from coopproc.configtools import from_table
 from coopproc.errors import ConfigError
-from coopproc.stages.di import (
+from coopproc.stages.ranging.di import (
     DISmoothingParams,
     anchored_increments,
     cp_noise_var,

@@ -1,6 +1,6 @@
 """How good each platform's own dead reckoning is, measured against the cooperative solution.
 
-The self-calibrated fusion of the observed ranges (:mod:`coopproc.stages.fusion_calibration`)
+The self-calibrated fusion of the observed ranges (:mod:`coopproc.stages.fusion.calibration`)
 is the best estimate of where the platforms were that the session holds without a reference.
 Its difference from a platform's own navigation, e(t) = nav(t) - fused(t), is that
 navigation's error as far as the ranges can tell. Three figures summarize it:

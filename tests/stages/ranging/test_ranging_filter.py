@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from coopproc.stages.nlos import KernelParams, filter_distance
+from coopproc.stages.ranging.nlos import KernelParams, filter_distance
 
 BASE = KernelParams(
     sigma_m=0.15,

@@ -5,8 +5,8 @@ effective configuration with each key's help. Sections:
 
 - ``[run]``: what the pipeline does around the stages (this module, :class:`RunParams`);
 - ``[ranging]`` with sub-tables ``di``, ``distance``, ``nlos``, ``rn``
-  (:mod:`coopproc.stages.ranging_config`);
-- ``[fusion]`` (:mod:`coopproc.stages.fusion`).
+  (:mod:`coopproc.stages.ranging.config`);
+- ``[fusion]`` (:mod:`coopproc.stages.fusion.fuse`).
 
 Defaults reproduce paper 000's experiment (gamma = 3 sigma, M = 3 s, ...). An unknown
 section or key is an error naming the nearest valid one.
@@ -22,8 +22,8 @@ from typing import Any, Literal
 
 from coopproc.configtools import check_keys, from_table, to_table
 from coopproc.errors import ConfigError
-from coopproc.stages.fusion import FusionParams, fusion_params_from_toml
-from coopproc.stages.ranging_config import RangingConfig, ranging_config_from_toml
+from coopproc.stages.fusion.fuse import FusionParams, fusion_params_from_toml
+from coopproc.stages.ranging.config import RangingConfig, ranging_config_from_toml
 
 __all__ = ["RunConfig", "RunParams", "load_run_config", "run_config_from_toml"]
 
