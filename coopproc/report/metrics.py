@@ -23,10 +23,13 @@ order statistics).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import pandas as pd
 
-from coopproc.model import METHODS, METRICS_COLUMNS, POSITION_METRICS_COLUMNS, FloatArray
+from coopproc.model import METRICS_COLUMNS, POSITION_METRICS_COLUMNS, FloatArray
+from coopproc.report.methods import method_order, position_methods_of, range_methods_of
 from coopproc.report.scores import nlos_scores
 
 __all__ = [
@@ -36,7 +39,6 @@ __all__ = [
     "distance_stats",
     "nlos_scores",
     "position_metrics",
-    "range_methods",
 ]
 
 #: Method name of reference rows in ``positions`` (an extension of DATA.md: the reference
@@ -45,19 +47,6 @@ REFERENCE_METHOD = "reference"
 
 #: Columns position_metrics adds after the contract ones.
 POSITION_METRICS_EXTRA_COLUMNS: tuple[str, ...] = ("rms_east", "rms_north", "cep50", "cep95")
-
-_NOT_METHODS = frozenset({"time", "pair", "reference", "nlos_flag", "nlos_estimate"})
-
-
-def range_methods(ranges: pd.DataFrame) -> list[str]:
-    """Method columns of a ranges table: :data:`METHODS` first, then any extra numeric columns."""
-    known = [m for m in METHODS if m in ranges.columns]
-    extra = [
-        c
-        for c in ranges.columns
-        if c not in _NOT_METHODS and c not in METHODS and pd.api.types.is_numeric_dtype(ranges[c])
-    ]
-    return known + extra
 
 
 def distance_stats(value_m: FloatArray, reference_m: FloatArray) -> dict[str, float]:
@@ -96,17 +85,19 @@ def distance_stats(value_m: FloatArray, reference_m: FloatArray) -> dict[str, fl
     }
 
 
-def distance_metrics(ranges: pd.DataFrame) -> pd.DataFrame:
+def distance_metrics(ranges: pd.DataFrame, methods: Sequence[str] | None = None) -> pd.DataFrame:
     """Table 2: one row per pair and method (``metrics.csv``, METRICS_COLUMNS).
 
-    ``ranges`` has the columns of RANGES_OUT_COLUMNS; every method column
-    (:func:`range_methods`) is scored against ``reference``. Rows are sorted by pair, then
-    methods in :data:`METHODS` order; a pair without any reference gives rows with n = 0.
+    Every range method column of ``ranges`` is scored against ``reference``: ``methods``
+    (the run's, e.g. :func:`~coopproc.report.methods.range_methods`), by default those
+    derived from the columns (:func:`~coopproc.report.methods.range_methods_of`). Rows are
+    sorted by pair, then methods in that order; a pair without any reference gives rows
+    with n = 0.
     """
-    missing = [c for c in ("time", "pair", "reference") if c not in ranges.columns]
+    methods = range_methods_of(ranges) if methods is None else tuple(methods)
+    missing = [c for c in ("time", "pair", "reference", *methods) if c not in ranges.columns]
     if missing:
         raise ValueError(f"ranges table lacks columns {missing}")
-    methods = range_methods(ranges)
     rows: list[dict[str, object]] = []
     ordered = ranges.sort_values(["pair", "time"], kind="stable")
     for pair, group in ordered.groupby("pair", sort=True):
@@ -141,25 +132,24 @@ def _rms(x: FloatArray) -> float:
     return float(np.sqrt(np.mean(x * x))) if x.size else float("nan")
 
 
-def position_metrics(positions: pd.DataFrame) -> pd.DataFrame:
+def position_metrics(positions: pd.DataFrame, methods: Sequence[str] | None = None) -> pd.DataFrame:
     """Table 3: one row per platform and method (``position_metrics.csv``).
 
     Columns: POSITION_METRICS_COLUMNS then :data:`POSITION_METRICS_EXTRA_COLUMNS`. Statistics
     of the horizontal error ``error_h`` (2D norm) over the epochs that have one; rows of
-    method ``reference`` are not scored, they give the per-axis errors. Sorted by platform,
-    then ``nav``, the :data:`METHODS`, then other methods alphabetically.
+    method ``reference`` are not scored, they give the per-axis errors. Every method with
+    rows is scored; sorted by platform, then ``nav``, ``methods`` (the run's position
+    methods; by default :func:`~coopproc.report.methods.position_methods_of`), then any
+    other method alphabetically.
     """
     columns = [*POSITION_METRICS_COLUMNS, *POSITION_METRICS_EXTRA_COLUMNS]
     rows: list[dict[str, object]] = []
-    order = {m: i for i, m in enumerate(("nav", *METHODS))}
+    order = ("nav", *(position_methods_of(positions) if methods is None else methods))
     for platform, group in positions.groupby("platform", sort=True):
         refs = group[group["method"] == REFERENCE_METHOD]
         ref = refs if len(refs) else None
-        methods = sorted(
-            (m for m in group["method"].unique() if m != REFERENCE_METHOD),
-            key=lambda m: (order.get(m, len(order)), m),
-        )
-        for method in methods:
+        present = sorted(str(m) for m in group["method"].unique() if m != REFERENCE_METHOD)
+        for method in method_order(present, order):
             own = group[group["method"] == method].sort_values("time", kind="stable")
             h = own["error_h"].to_numpy(dtype=np.float64, na_value=np.nan)
             h = h[np.isfinite(h)]

@@ -16,13 +16,14 @@ event's epochs that have a reference; the event's error is ``estimate - bias`` (
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from coopproc.model import METHODS, NLOS_EVENT_COLUMNS, FloatArray
+from coopproc.model import NLOS_EVENT_COLUMNS, FloatArray
+from coopproc.report.methods import detection_methods_of, range_methods_of
 
 __all__ = [
     "NLOS_EVENT_SCORE_COLUMNS",
@@ -85,10 +86,10 @@ def true_nlos(observed_m: FloatArray, reference_m: FloatArray, sigma_m: float) -
 
 
 def detection_methods(ranges: pd.DataFrame, nlos_events: pd.DataFrame) -> list[str]:
-    """Methods that detect NLOS: :data:`METHODS` but ``observed``, then others with events."""
-    known = [m for m in METHODS if m != "observed" and m in ranges.columns]
-    extra = sorted(set(nlos_events["method"].astype(str)) - set(known) - {"observed"})
-    return known + extra
+    """Methods that detect NLOS, derived from the tables: the range methods of ``ranges``
+    that are known detectors (``rn``, ``di``) or have events, then others with events
+    (:func:`~coopproc.report.methods.detection_methods_of`)."""
+    return list(detection_methods_of(range_methods_of(ranges), nlos_events))
 
 
 def _in_events(time_s: FloatArray, events: pd.DataFrame) -> NDArray[np.bool_]:
@@ -153,7 +154,10 @@ def nlos_event_scores(ranges: pd.DataFrame, nlos_events: pd.DataFrame) -> pd.Dat
 
 
 def nlos_scores(
-    ranges: pd.DataFrame, nlos_events: pd.DataFrame, sigma: Mapping[str, float]
+    ranges: pd.DataFrame,
+    nlos_events: pd.DataFrame,
+    sigma: Mapping[str, float],
+    methods: Sequence[str] | None = None,
 ) -> pd.DataFrame:
     """Precision, recall and F1 of NLOS detection per pair and method (``nlos_scores.csv``).
 
@@ -161,12 +165,15 @@ def nlos_scores(
     from it (or with a non-positive value) gets 1.4826 MAD of observed - reference.
     Also the count of events and the mean absolute / maximum absolute error of their
     estimates against the reference-derived bias (:func:`nlos_event_scores`).
+    ``methods``: the methods scored, in order (the run's
+    :func:`~coopproc.report.methods.nlos_methods`); by default :func:`detection_methods`.
     Columns :data:`NLOS_SCORE_COLUMNS`; a pair with no reference has epochs = 0.
     """
     missing = [c for c in NLOS_EVENT_COLUMNS if c not in nlos_events.columns]
     if missing:
         raise ValueError(f"nlos_events table lacks columns {missing}")
-    methods = detection_methods(ranges, nlos_events)
+    if methods is None:
+        methods = detection_methods(ranges, nlos_events)
     event_scores = nlos_event_scores(ranges, nlos_events)
     rows: list[dict[str, object]] = []
     for pair, group in ranges.sort_values(["pair", "time"], kind="stable").groupby("pair"):
