@@ -3,12 +3,17 @@
 :class:`RunTables` is the reporters' input: the output tables (DATA.md "Output") and the
 run facts of ``run.json``. :func:`load_run` reads it from a directory; the pipeline builds
 it from its in-memory tables with the plain constructor.
+
+The methods of a run are not fixed (:mod:`coopproc.report.methods`): ``ranges.csv`` has
+``time, pair, observed``, then one column per range method of the chain, then
+``reference, nlos_flag, nlos_estimate`` (:func:`ranges_columns`); only those six are
+required, plus every range method that run.json ``"methods"`` lists.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,18 +29,44 @@ from coopproc.model import (
     NLOS_EVENT_COLUMNS,
     POSITION_METRICS_COLUMNS,
     POSITIONS_COLUMNS,
-    RANGES_OUT_COLUMNS,
 )
+from coopproc.report.methods import METHOD_KEYS, listed_methods, range_methods_of
 from coopproc.report.scores import NLOS_EVENT_SCORE_COLUMNS, NLOS_SCORE_COLUMNS
 
-__all__ = ["RUN_FILES", "RunTables", "load_run"]
+__all__ = [
+    "RANGES_LEADING_COLUMNS",
+    "RANGES_REQUIRED_COLUMNS",
+    "RANGES_TRAILING_COLUMNS",
+    "RUN_FILES",
+    "RunTables",
+    "load_run",
+    "ranges_columns",
+]
 
 #: Columns read as text (ids); every other contract column is numeric.
 _TEXT_COLUMNS = ("pair", "platform", "method")
 
-#: (file name, RunTables attribute, required columns, required file).
+#: ``ranges.csv`` columns before the range methods (``observed`` is always one) and after.
+RANGES_LEADING_COLUMNS: tuple[str, ...] = ("time", "pair", "observed")
+RANGES_TRAILING_COLUMNS: tuple[str, ...] = ("reference", "nlos_flag", "nlos_estimate")
+#: The columns every ``ranges.csv`` has, whatever its methods.
+RANGES_REQUIRED_COLUMNS = (*RANGES_LEADING_COLUMNS, *RANGES_TRAILING_COLUMNS)
+
+
+def ranges_columns(methods: Sequence[str]) -> tuple[str, ...]:
+    """Columns of ``ranges.csv`` for the range ``methods`` in chain order (``observed``
+    included or not): ``time, pair, observed, <methods>, reference, nlos_flag, nlos_estimate``."""
+    middle = [m for m in dict.fromkeys(methods) if m not in RANGES_REQUIRED_COLUMNS]
+    return (*RANGES_LEADING_COLUMNS, *middle, *RANGES_TRAILING_COLUMNS)
+
+
+#: (file name, RunTables attribute, leading columns, required file). The leading columns
+#: are written first, in this order, and required on reading. For ``ranges.csv`` they are
+#: :data:`RANGES_LEADING_COLUMNS`: the method columns follow in the table's own order and
+#: the reader also requires :data:`RANGES_TRAILING_COLUMNS` (order the table with
+#: :func:`ranges_columns`).
 RUN_FILES: tuple[tuple[str, str, tuple[str, ...], bool], ...] = (
-    ("ranges.csv", "ranges", RANGES_OUT_COLUMNS, True),
+    ("ranges.csv", "ranges", RANGES_LEADING_COLUMNS, True),
     ("di.csv", "di", DI_COLUMNS, True),
     ("nlos_events.csv", "nlos_events", NLOS_EVENT_COLUMNS, True),
     ("nlos_estimates.csv", "nlos_estimates", NLOS_ESTIMATE_COLUMNS, False),
@@ -77,13 +108,27 @@ class RunTables:
         return min(times) if times else 0.0
 
 
-def _read_table(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
+#: Columns each table must have, by attribute (the leading columns unless listed here).
+_REQUIRED = {"ranges": RANGES_REQUIRED_COLUMNS}
+
+
+def _read_table(path: Path, columns: Sequence[str]) -> pd.DataFrame:
     try:
         header = pd.read_csv(path, nrows=0).columns
         text = {c: str for c in _TEXT_COLUMNS if c in header}
         frame = pd.read_csv(path, dtype=text, keep_default_na=True)
     except (OSError, ValueError, pd.errors.ParserError) as err:
         raise InputError(path, f"not a readable CSV table ({err})") from err
+    if not len(frame):  # header only: every column but the ids is numeric (e.g. a method)
+        for col in frame.columns:
+            if col not in _TEXT_COLUMNS:
+                frame[col] = frame[col].astype(np.float64)
+    _check_columns(path, frame, columns)
+    return frame
+
+
+def _check_columns(path: Path, frame: pd.DataFrame, columns: Sequence[str]) -> None:
+    """One-line InputError for a missing column or a non-number; converts empty columns."""
     missing = [c for c in columns if c not in frame.columns]
     if missing:
         raise InputError(path, f"missing columns {missing}; expected {list(columns)}", line=1)
@@ -101,14 +146,36 @@ def _read_table(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
                 f"column {col!r}: expected a number, found {frame[col].iloc[row]!r}",
                 line=row + 2,
             )
-    return frame
+
+
+def _read_info(run_json: Path) -> dict[str, Any]:
+    if not run_json.is_file():
+        raise InputError(run_json, "missing; is this an output directory of coopproc run?")
+    try:
+        info = json.loads(run_json.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise InputError(run_json, f"not valid JSON ({err})") from err
+    if not isinstance(info, dict):
+        raise InputError(run_json, "expected a JSON object")
+    methods = info.get("methods")
+    if methods is not None and (
+        not isinstance(methods, dict)
+        or any(k in methods and listed_methods(info, k) is None for k in METHOD_KEYS)
+    ):
+        raise InputError(
+            run_json,
+            'key "methods": expected an object of method-name lists, e.g. '
+            '{"ranges": ["observed", "di"], "positions": ["observed", "di"]}',
+        )
+    return info
 
 
 def load_run(out_dir: str | Path) -> RunTables:
     """Read the output directory of ``coopproc run``.
 
     Raises :class:`InputError` naming the file when the directory, a required table or
-    ``run.json`` is missing, or a table lacks a contract column or holds a non-number.
+    ``run.json`` is missing, or a table lacks a contract column (for ``ranges.csv`` also a
+    range method that run.json lists) or holds a non-number.
     """
     root = Path(out_dir)
     if not root.is_dir():
@@ -127,14 +194,11 @@ def load_run(out_dir: str | Path) -> RunTables:
                 raise InputError(path, "missing; is this an output directory of coopproc run?")
             tables[attr] = pd.DataFrame(columns=list(columns)) if attr == "nlos_estimates" else None
             continue
-        tables[attr] = _read_table(path, columns)
-    run_json = root / "run.json"
-    if not run_json.is_file():
-        raise InputError(run_json, "missing; is this an output directory of coopproc run?")
-    try:
-        info = json.loads(run_json.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise InputError(run_json, f"not valid JSON ({err})") from err
-    if not isinstance(info, dict):
-        raise InputError(run_json, "expected a JSON object")
+        tables[attr] = _read_table(path, _REQUIRED.get(attr, columns))
+    info = _read_info(root / "run.json")
+    ranges = tables["ranges"]
+    if ranges is not None:  # the range methods are columns of numbers too
+        listed = listed_methods(info, "ranges")
+        methods = range_methods_of(ranges) if listed is None else listed
+        _check_columns(root / "ranges.csv", ranges, ranges_columns(methods))
     return RunTables(info=info, **tables)  # type: ignore[arg-type]
