@@ -3,7 +3,10 @@
 ``make_figures`` builds matplotlib Figures (no pyplot, no global state: the style of
 :mod:`coopproc.report.style` is applied with ``rc_context``); ``write_figures`` saves them
 as PNG (300 dpi by default), PDF and/or SVG with fixed metadata, so the same run gives the
-same files. Figures whose data are missing (no reference, no NLOS estimates) are skipped.
+same files. Figures whose data are missing (no reference, no NLOS estimates, no DI table
+rows) are skipped. The methods drawn are the run's (:mod:`coopproc.report.methods`); the
+*primary* method (``di`` if the run has it, else its last processed range method) is the
+one whose NLOS events are shaded and that gets one convergence panel per event.
 
 | file | content | paper 000 |
 |---|---|---|
@@ -29,7 +32,12 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from coopproc.errors import ConfigError
-from coopproc.model import METHODS
+from coopproc.report.methods import (
+    nlos_methods,
+    position_methods,
+    primary_method,
+    range_methods,
+)
 from coopproc.report.plots import (
     plot_di_errors,
     plot_distance_errors,
@@ -52,8 +60,6 @@ _METADATA: dict[str, dict[str, Any]] = {
 }
 #: Most panels stacked in one column; more go into a 3-column grid.
 _MAX_STACK = 6
-#: Method whose events are shaded and whose estimates get one convergence panel each.
-_PRIMARY = "di"
 
 
 def _label(i: int, text: str) -> str:
@@ -121,13 +127,19 @@ def distance_errors_figure(run: RunTables) -> Figure | None:
     if not pairs:
         return None
     t0 = run.time_origin_s
+    methods = range_methods(run)
     events = run.nlos_events
-    if _PRIMARY in set(events["method"]):
-        events = events[events["method"] == _PRIMARY]
+    primary = primary_method(run)
+    if primary is not None and primary in set(events["method"]):
+        events = events[events["method"] == primary]
     fig, axes = _stack(len(pairs))
     for i, (ax, pair) in enumerate(zip(axes, pairs, strict=True)):
         plot_distance_errors(
-            ax, ranges[ranges["pair"] == pair], events[events["pair"] == pair], time_origin_s=t0
+            ax,
+            ranges[ranges["pair"] == pair],
+            events[events["pair"] == pair],
+            methods=methods,
+            time_origin_s=t0,
         )
         ax.set_title(_label(i, pair), loc="left")
     _time_label(axes, t0)
@@ -153,14 +165,16 @@ def di_errors_figure(run: RunTables) -> Figure | None:
 
 def position_errors_figure(run: RunTables) -> Figure | None:
     """Paper 000 fig. 12: one panel per platform with a horizontal error."""
-    pos = run.positions[_has(run.positions, "error_h") & run.positions["method"].isin(METHODS)]
+    methods = position_methods(run)
+    pos = run.positions[_has(run.positions, "error_h") & run.positions["method"].isin(methods)]
     platforms = sorted(pos["platform"].unique())
     if not platforms:
         return None
     t0 = run.time_origin_s
     fig, axes = _stack(len(platforms))
     for i, (ax, platform) in enumerate(zip(axes, platforms, strict=True)):
-        plot_position_errors(ax, pos[pos["platform"] == platform], time_origin_s=t0)
+        rows = pos[pos["platform"] == platform]
+        plot_position_errors(ax, rows, methods=methods, time_origin_s=t0)
         ax.set_title(_label(i, f"Platform {platform}"), loc="left")
     _time_label(axes, t0)
     _legend(fig, axes)
@@ -170,13 +184,17 @@ def position_errors_figure(run: RunTables) -> Figure | None:
 def convergence_panels(run: RunTables) -> list[tuple[str, pd.DataFrame, float | None]]:
     """(title, estimate rows of every method, reference bias) per event of the primary method.
 
+    The primary method is the run's (:func:`~coopproc.report.methods.primary_method`) if
+    it has estimates, else the first NLOS method with estimates, else the first by name.
     Events of other methods of the same pair join the panel whose time span they overlap
     (spans widened by one step spacing).
     """
     est = run.nlos_estimates
     if est is None or not len(est):
         return []
-    primary = _PRIMARY if _PRIMARY in set(est["method"]) else sorted(est["method"].unique())[0]
+    have = {str(m) for m in est["method"].unique()}
+    preferred = [m for m in (primary_method(run), *nlos_methods(run)) if m in have]
+    primary = preferred[0] if preferred else sorted(have)[0]
     spans = {
         key: (float(g["time"].min()), float(g["time"].max()), g)
         for key, g in est.groupby(["pair", "method", "event"], sort=True)
@@ -227,9 +245,11 @@ def trajectories_figure(run: RunTables) -> Figure | None:
     platforms = sorted(run.positions["platform"].unique())
     if not platforms:
         return None
+    methods = ("reference", "nav", *position_methods(run))
     fig, axes = _grid(len(platforms), 2.3)
     for i, (ax, platform) in enumerate(zip(axes, platforms, strict=True)):
-        plot_trajectory(ax, run.positions[run.positions["platform"] == platform])
+        rows = run.positions[run.positions["platform"] == platform]
+        plot_trajectory(ax, rows, methods=methods)
         ax.set_title(_label(i, f"Platform {platform}"), loc="left")
     _legend(fig, axes)
     return fig

@@ -3,7 +3,9 @@
 Every function takes the rows of ONE pair / platform / event, draws on ``ax`` with the
 styles of :mod:`coopproc.report.style` and returns ``ax``. Each line's ``gid`` is its
 series key (``observed``, ``rn``, ``di``, ``di_dr``, ``reference``...), so tests and users
-can read the plotted data back. Times are shown relative to ``time_origin_s``.
+can read the plotted data back. Times are shown relative to ``time_origin_s``. The methods
+drawn are the given ``methods`` (the run's, :mod:`coopproc.report.methods`), by default
+those found in the rows themselves.
 
 Nothing is drawn across a gap: a time-series line breaks (a NaN is inserted) where
 consecutive samples are further apart than the gap rule of
@@ -19,8 +21,9 @@ import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.ticker import MaxNLocator
 
-from coopproc.model import METHODS, gap_limit_s
-from coopproc.report.style import DI_STYLES, METHOD_STYLES, NLOS_SPAN, method_style
+from coopproc.model import gap_limit_s
+from coopproc.report.methods import position_methods_of, range_methods_of
+from coopproc.report.style import DI_STYLES, NLOS_SPAN, method_style
 
 __all__ = [
     "plot_di_errors",
@@ -50,14 +53,17 @@ def plot_distance_errors(
     pair_ranges: pd.DataFrame,
     pair_events: pd.DataFrame | None = None,
     *,
-    methods: Sequence[str] = METHODS,
+    methods: Sequence[str] | None = None,
     time_origin_s: float = 0.0,
 ) -> Axes:
     """Distance error (method - reference) over time per method, NLOS events shaded.
 
     Paper 000 fig. 9 and 11. Epochs without a reference are left out; ``pair_events``
     (rows of ``nlos_events`` for this pair, any method) are shaded from start to end.
+    ``methods`` default: the range method columns of ``pair_ranges``.
     """
+    if methods is None:
+        methods = range_methods_of(pair_ranges)
     rows = pair_ranges.sort_values("time", kind="stable")
     t = _values(rows, "time") - time_origin_s
     ref = _values(rows, "reference")
@@ -106,10 +112,15 @@ def plot_position_errors(
     ax: Axes,
     platform_positions: pd.DataFrame,
     *,
-    methods: Sequence[str] = METHODS,
+    methods: Sequence[str] | None = None,
     time_origin_s: float = 0.0,
 ) -> Axes:
-    """Horizontal position error over time per method (paper 000 fig. 12)."""
+    """Horizontal position error over time per method (paper 000 fig. 12).
+
+    ``methods`` default: the position methods of the rows (not ``nav`` / ``reference``).
+    """
+    if methods is None:
+        methods = position_methods_of(platform_positions)
     for method in methods:
         rows = platform_positions[platform_positions["method"] == method]
         rows = rows.sort_values("time", kind="stable")
@@ -168,9 +179,14 @@ def plot_trajectory(
     ax: Axes,
     platform_positions: pd.DataFrame,
     *,
-    methods: Sequence[str] = ("reference", "nav", *METHODS),
+    methods: Sequence[str] | None = None,
 ) -> Axes:
-    """The platform's track in the east-north plane per method, start marked by a circle."""
+    """The platform's track in the east-north plane per method, start marked by a circle.
+
+    ``methods`` default: ``reference``, ``nav``, then the position methods of the rows.
+    """
+    if methods is None:
+        methods = ("reference", "nav", *position_methods_of(platform_positions))
     for method in methods:
         rows = platform_positions[platform_positions["method"] == method]
         rows = rows.sort_values("time", kind="stable")
@@ -178,7 +194,7 @@ def plot_trajectory(
         keep = np.isfinite(east) & np.isfinite(north)
         if not keep.any():
             continue
-        style = METHOD_STYLES.get(method, method_style(method))
+        style = method_style(method)
         _, x, y = _break_gaps(_values(rows, "time")[keep], east[keep], north[keep])
         ax.plot(x, y, gid=method, **style.kwargs(east[keep].size))
         ax.plot(

@@ -8,12 +8,15 @@ dead reckoning orange solid, smoothed green dash-dotted). ``RC`` is applied with
 
 from __future__ import annotations
 
+import zlib
 from dataclasses import dataclass
 from typing import Any
 
 __all__ = [
     "COLUMN_WIDTH_IN",
     "DI_STYLES",
+    "EXTRA_COLORS",
+    "EXTRA_DASHES",
     "METHOD_STYLES",
     "NLOS_SPAN",
     "PANEL_HEIGHT_IN",
@@ -68,15 +71,20 @@ DI_STYLES: dict[str, LineStyle] = {
 #: Shading of detected NLOS spans.
 NLOS_SPAN: dict[str, Any] = {"color": "#d62728", "alpha": 0.12, "linewidth": 0}
 
-_EXTRA_COLORS = ("#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
+#: Colours and dash patterns of methods beyond the known ones (a chain may add any).
+EXTRA_COLORS: tuple[str, ...] = ("#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#393b79")
+EXTRA_DASHES: tuple[Any, ...] = ((0, (3, 1, 1, 1)), (0, (5, 1.5)), (0, (1, 1)))
 
 
 def method_style(method: str) -> LineStyle:
-    """The style of a method; methods beyond the known ones get a stable extra colour."""
+    """The style of a method. A method beyond the known ones is labelled by its name and
+    gets a colour and dash pattern from :data:`EXTRA_COLORS` / :data:`EXTRA_DASHES` chosen
+    by a checksum of its name: the same in every figure and every run."""
     if method in METHOD_STYLES:
         return METHOD_STYLES[method]
-    index = sum(ord(c) for c in method) % len(_EXTRA_COLORS)
-    return LineStyle(method, _EXTRA_COLORS[index], (0, (3, 1, 1, 1)))
+    code = zlib.crc32(method.encode("utf-8"))
+    color = EXTRA_COLORS[code % len(EXTRA_COLORS)]
+    return LineStyle(method, color, EXTRA_DASHES[(code // len(EXTRA_COLORS)) % len(EXTRA_DASHES)])
 
 
 RC: dict[Any, Any] = {
