@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from typing import Literal
 
 from coopproc.report.rundir import RunTables
-from coopproc.report.tables import METHOD_LABELS, METRIC_SPECS, MetricSpec, Row, Table, build_tables
+from coopproc.report.tables import METRIC_SPECS, MetricSpec, Row, Table, build_tables, method_label
 
 __all__ = ["Format", "format_tables", "render_table"]
 
@@ -36,7 +36,7 @@ def _change(row: Row, name: str) -> str:
 
 
 def _method(name: str) -> str:
-    return METHOD_LABELS.get(name, name)
+    return method_label(name)
 
 
 def _note(table: Table, best_mark: str) -> str:

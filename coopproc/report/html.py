@@ -22,7 +22,13 @@ from coopproc.report.formats import render_table
 from coopproc.report.rundir import RunTables
 from coopproc.report.scores import NLOS_EVENT_SCORE_COLUMNS, nlos_event_scores
 from coopproc.report.style import RC
-from coopproc.report.tables import POSITION_ALL, distance_table, nlos_table, position_table
+from coopproc.report.tables import (
+    POSITION_ALL,
+    distance_table,
+    nlos_table,
+    position_table,
+    run_method_orders,
+)
 
 __all__ = ["FIGURE_CAPTIONS", "render_html", "write_html"]
 
@@ -142,6 +148,7 @@ def render_html(out_dir: Path, run: RunTables) -> str:
     session = run.info.get("session")
     name = session.get("name", "") if isinstance(session, Mapping) else ""
     title = f"coopproc report {name}".strip()
+    order = run_method_orders(run)
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
@@ -150,11 +157,13 @@ def render_html(out_dir: Path, run: RunTables) -> str:
         "<h2>Run</h2>",
         _facts(run.info),
         "<h2>Tables</h2>",
-        render_table(distance_table(run.metrics), "html"),
-        render_table(position_table(run.position_metrics, POSITION_ALL), "html"),
+        render_table(distance_table(run.metrics, order=order["table2"]), "html"),
+        render_table(
+            position_table(run.position_metrics, POSITION_ALL, order=order["table3"]), "html"
+        ),
     ]
     if run.nlos_scores is not None and len(run.nlos_scores):
-        parts.append(render_table(nlos_table(run.nlos_scores), "html"))
+        parts.append(render_table(nlos_table(run.nlos_scores, order=order["nlos"]), "html"))
     parts.append(_event_table(run))
     parts.append("<h2>Figures</h2>")
     for fig_name, png in _png_bytes(Path(out_dir), run).items():

@@ -3,7 +3,9 @@
 A :class:`Table` holds the numbers, the relative change against ``observed`` in % (as the
 text of paper 000 quotes it) and which cell is the best of its column within each group
 (pair or platform); :mod:`coopproc.report.formats` renders it as terminal text, CSV,
-Markdown, LaTeX or HTML.
+Markdown, LaTeX or HTML. Rows are the methods of the metrics tables, in the run's method
+order when one is given (:mod:`coopproc.report.methods`); a method without a display name
+in :data:`METHOD_LABELS` is shown by its own name (:func:`method_label`).
 
 Relative change of a method's value v against the observed value o of the same group:
 ``100 (v - o) / |o|``; for the signed ``mean`` it compares magnitudes,
@@ -22,6 +24,7 @@ import pandas as pd
 
 from coopproc.errors import ConfigError
 from coopproc.model import METRICS_COLUMNS
+from coopproc.report.methods import method_order, nlos_methods, position_methods, range_methods
 from coopproc.report.metrics import POSITION_METRICS_EXTRA_COLUMNS
 from coopproc.report.rundir import RunTables
 
@@ -34,8 +37,10 @@ __all__ = [
     "Table",
     "build_tables",
     "distance_table",
+    "method_label",
     "nlos_table",
     "position_table",
+    "run_method_orders",
 ]
 
 Better = Literal["min", "max", "absmin", "one"]
@@ -47,6 +52,11 @@ METHOD_LABELS: dict[str, str] = {
     "di": "DI-Based",
     "nav": "Own nav",
 }
+
+
+def method_label(method: str) -> str:
+    """The display name of a method: :data:`METHOD_LABELS`, else the method's own name."""
+    return METHOD_LABELS.get(method, method)
 
 
 @dataclass(frozen=True)
@@ -147,10 +157,13 @@ def _build(
     title: str,
     group_label: str,
     with_change: bool,
+    order: Sequence[str] = (),
 ) -> Table:
     rows: list[Row] = []
     for group, block in frame.groupby(group_col, sort=True):
         records = block.to_dict("records")
+        ranked = method_order([str(r["method"]) for r in records], order)
+        records.sort(key=lambda r: ranked.index(str(r["method"])))
         observed = next((r for r in records if r["method"] == "observed"), None)
         best = {m: _best(m, [float(r[m]) for r in records]) for m in metrics}
         for i, rec in enumerate(records):
@@ -186,8 +199,9 @@ def distance_table(
     metrics: pd.DataFrame,
     columns: Sequence[str] = _DISTANCE_DEFAULT,
     pairs: Sequence[str] | None = None,
+    order: Sequence[str] = (),
 ) -> Table:
-    """Table 2 of paper 000 from ``metrics.csv`` rows."""
+    """Table 2 of paper 000 from ``metrics.csv`` rows; methods in ``order``, then the rest."""
     frame = _filter(metrics, "pair", pairs, "pair")
     return _build(
         frame,
@@ -197,6 +211,7 @@ def distance_table(
         title="Table 2. Distance errors per pair and method",
         group_label="Pair",
         with_change=True,
+        order=order,
     )
 
 
@@ -204,8 +219,10 @@ def position_table(
     position_metrics: pd.DataFrame,
     columns: Sequence[str] = _POSITION_DEFAULT,
     platforms: Sequence[str] | None = None,
+    order: Sequence[str] = (),
 ) -> Table:
-    """Table 3 of paper 000 (horizontal position errors) from ``position_metrics.csv`` rows."""
+    """Table 3 of paper 000 (horizontal position errors) from ``position_metrics.csv`` rows;
+    methods in ``order``, then the rest."""
     frame = _filter(position_metrics, "platform", platforms, "platform")
     return _build(
         frame,
@@ -215,6 +232,7 @@ def position_table(
         title="Table 3. Horizontal position errors per platform and method",
         group_label="Platform",
         with_change=True,
+        order=order,
     )
 
 
@@ -222,8 +240,10 @@ def nlos_table(
     nlos_scores: pd.DataFrame,
     columns: Sequence[str] = _NLOS_DEFAULT,
     pairs: Sequence[str] | None = None,
+    order: Sequence[str] = (),
 ) -> Table:
-    """NLOS detection scores against the reference (``nlos_scores.csv`` rows)."""
+    """NLOS detection scores against the reference (``nlos_scores.csv`` rows); methods in
+    ``order``, then the rest."""
     frame = nlos_scores if pairs is None else nlos_scores[nlos_scores["pair"].isin(list(pairs))]
     return _build(
         frame,
@@ -233,6 +253,7 @@ def nlos_table(
         title="NLOS detection against the reference",
         group_label="Pair",
         with_change=False,
+        order=order,
     )
 
 
@@ -247,6 +268,15 @@ def _check_metrics(names: Sequence[str]) -> None:
             )
 
 
+def run_method_orders(run: RunTables) -> dict[str, tuple[str, ...]]:
+    """Row order of each table key (table2, table3, nlos): the run's methods."""
+    return {
+        "table2": range_methods(run),
+        "table3": ("nav", *position_methods(run)),
+        "nlos": nlos_methods(run),
+    }
+
+
 def build_tables(
     run: RunTables,
     *,
@@ -257,15 +287,20 @@ def build_tables(
     """Table 2, Table 3 and (if the run has scores) the NLOS table, filtered as asked.
 
     ``metrics`` chooses the columns of every table (in the given order; names a table does
-    not have are skipped there; ``n`` is shown only if asked for). A table left without
-    columns or rows is omitted. Unknown metric, pair or platform names raise ConfigError.
+    not have are skipped there; ``n`` is shown only if asked for). Rows follow the run's
+    method order (:func:`run_method_orders`); every method of the metrics tables is shown.
+    A table left without columns or rows is omitted. Unknown metric, pair or platform
+    names raise ConfigError.
     """
     if metrics is not None:
         _check_metrics(metrics)
+    order = run_method_orders(run)
     tables = [
-        distance_table(run.metrics, metrics or _DISTANCE_DEFAULT, pairs),
-        position_table(run.position_metrics, metrics or _POSITION_DEFAULT, platforms),
+        distance_table(run.metrics, metrics or _DISTANCE_DEFAULT, pairs, order["table2"]),
+        position_table(
+            run.position_metrics, metrics or _POSITION_DEFAULT, platforms, order["table3"]
+        ),
     ]
     if run.nlos_scores is not None and len(run.nlos_scores):
-        tables.append(nlos_table(run.nlos_scores, metrics or _NLOS_DEFAULT, pairs))
+        tables.append(nlos_table(run.nlos_scores, metrics or _NLOS_DEFAULT, pairs, order["nlos"]))
     return [t for t in tables if t.metrics and t.rows]
