@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -46,11 +47,27 @@ def _section_lines(name: str, obj: Any) -> list[str]:
     return out
 
 
+def _chain_lines(cfg: Any) -> list[str]:
+    from coopproc.run.chain import chain_lines, resolve
+
+    lines = ["# the chain this runs (step: inputs -> outputs):"]
+    lines += [f"#   {line}" for line in chain_lines(resolve(cfg.pipeline))]
+    return [*lines, ""]
+
+
 def render_config(cfg: Any) -> str:
-    """The configuration as commented TOML that ``--config`` reads back."""
+    """The configuration as commented TOML that ``--config`` reads back, with the chain
+    that ``[pipeline]`` resolves to as comments after that section."""
     lines: list[str] = []
     for f in dataclasses.fields(cfg):
-        lines.extend(_section_lines(f.name, getattr(cfg, f.name)))
+        value = getattr(cfg, f.name)
+        if isinstance(value, Mapping):  # the other registered stages' sections
+            for name, params in value.items():
+                lines.extend(_section_lines(name, params))
+            continue
+        lines.extend(_section_lines(f.name, value))
+        if f.name == "pipeline":
+            lines.extend(_chain_lines(cfg))
     return "\n".join(lines).rstrip() + "\n"
 
 

@@ -12,10 +12,6 @@ from coopproc.cli.options import config_option, output_option, session_argument
 
 __all__ = ["run"]
 
-#: The pipeline's steps, for the progress display.
-_STEPS = 6
-
-
 @click.command()
 @session_argument()
 @output_option(
@@ -63,6 +59,7 @@ def run(
     from coopproc.checks.coverage import prepare_run
     from coopproc.io import read_session
     from coopproc.run.calibration_summary import calibration_lines
+    from coopproc.run.chain import resolve
     from coopproc.run.config import load_run_config
     from coopproc.run.output import write_run
     from coopproc.run.pipeline import run_pipeline
@@ -86,7 +83,9 @@ def run(
         note(f"note: {text}")
 
     show_bar = not quiet and sys.stderr.isatty()
-    with tqdm(total=_STEPS, disable=not show_bar, unit="step", leave=False) as bar:
+    # the chain's steps, then metrics and writing the outputs
+    total = len(resolve(config.pipeline)) + 2
+    with tqdm(total=total, disable=not show_bar, unit="step", leave=False) as bar:
 
         def progress(label: str) -> None:
             bar.set_description(label)

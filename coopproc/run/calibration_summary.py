@@ -72,27 +72,37 @@ def calibration_lines(output: PipelineOutput) -> list[str]:
     """A few lines per pair and platform for the terminal."""
     lines = ["self-calibration (declared values in brackets):"]
     observed = output.fusion_calibration.get("observed")
+    # per pair, the DI filter's figures (else the first range method's that has any)
+    by_pair: dict[str, Any] = {}
     for (pair, method), cal in sorted(output.ranging_calibration.items()):
-        if method != "di":
-            continue
-        declared = f" [{cal.declared_sigma_m:.3f} m]" if math.isfinite(cal.declared_sigma_m) else ""
-        text = (
-            f"  {pair}: UWB white noise {cal.white_sigma_m:.3f} m{declared}, innovation "
-            f"{cal.detect_sigma_m:.3f} m, DI growth {cal.growth_m2ps:.4f} m^2/s ({cal.source})"
-        )
-        if cal.passthrough:
-            text += (
-                f"; DI too poor to smooth (gain {cal.gain:.2f}): ranges passed through, "
-                "no NLOS detection"
+        if method == "di" or pair not in by_pair:
+            by_pair[pair] = cal
+    fused_pairs = observed.pair_sigma_m if observed is not None else {}
+    for pair in sorted(set(by_pair) | set(fused_pairs)):
+        parts = []
+        cal = by_pair.get(pair)
+        if cal is not None:
+            declared = (
+                f" [{cal.declared_sigma_m:.3f} m]" if math.isfinite(cal.declared_sigma_m) else ""
             )
-
+            text = (
+                f"UWB white noise {cal.white_sigma_m:.3f} m{declared}, innovation "
+                f"{cal.detect_sigma_m:.3f} m, DI growth {cal.growth_m2ps:.4f} m^2/s ({cal.source})"
+            )
+            if cal.passthrough:
+                text += (
+                    f"; DI too poor to smooth (gain {cal.gain:.2f}): ranges passed through, "
+                    "no NLOS detection"
+                )
+            parts.append(text)
         if observed is not None and pair in observed.pair_sigma_m:
             sigma = observed.pair_sigma_m[pair]
-            text += f"; fusion sigma {sigma:.3f} m"
+            text = f"fusion sigma {sigma:.3f} m"
             bias = observed.pair_bias_m.get(pair, math.nan)
             if math.isfinite(bias) and abs(bias) >= max(BIAS_FRACTION * sigma, BIAS_MIN_M):
                 text += f", ranges read {bias:+.3f} m long"
-        lines.append(text)
+            parts.append(text)
+        lines.append(f"  {pair}: " + "; ".join(parts))
     for platform, q in sorted(output.dr_quality.items()):
         declared = f" [{q.declared_drift_mps:.4f}]" if math.isfinite(q.declared_drift_mps) else ""
         scale = observed.drift_scale.get(platform) if observed is not None else None

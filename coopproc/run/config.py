@@ -4,9 +4,11 @@
 effective configuration with each key's help. Sections:
 
 - ``[run]``: what the pipeline does around the stages (this module, :class:`RunParams`);
+- ``[pipeline]``: which methods the chain produces (:mod:`coopproc.run.chain`);
 - ``[ranging]`` with sub-tables ``di``, ``distance``, ``nlos``, ``rn``
   (:mod:`coopproc.stages.ranging.config`);
-- ``[fusion]`` (:mod:`coopproc.stages.fusion.fuse`).
+- ``[fusion]`` (:mod:`coopproc.stages.fusion.fuse`);
+- one table per other registered stage (e.g. ``[median]``), named by its ``section``.
 
 Defaults reproduce paper 000's experiment (gamma = 3 sigma, M = 3 s, ...). An unknown
 section or key is an error naming the nearest valid one.
@@ -22,8 +24,10 @@ from typing import Any, Literal
 
 from coopproc.configtools import check_keys, from_table, to_table
 from coopproc.errors import ConfigError
+from coopproc.run.chain import PipelineParams
 from coopproc.stages.fusion.fuse import FusionParams, fusion_params_from_toml
 from coopproc.stages.ranging.config import RangingConfig, ranging_config_from_toml
+from coopproc.stages.registry import POSITION_STAGES, RANGE_STAGES
 
 __all__ = ["RunConfig", "RunParams", "load_run_config", "run_config_from_toml"]
 
@@ -55,21 +59,59 @@ class RunConfig:
     """The effective configuration of a run."""
 
     run: RunParams = field(default_factory=RunParams)
+    pipeline: PipelineParams = field(default_factory=PipelineParams)
     ranging: RangingConfig = field(default_factory=RangingConfig)
     fusion: FusionParams = field(default_factory=FusionParams)
+    #: the parameters of every other registered stage, by its section (``[median]``)
+    stages: Mapping[str, Any] = field(default_factory=lambda: _stage_params({}, ""))
+
+    def params_for(self, section: str) -> Any:
+        """A stage's parameters by its section: ``ranging``, ``fusion.lsq``, ``median``."""
+        head, _, rest = section.partition(".")
+        if head in self.stages:
+            return self.stages[head]
+        value: Any = getattr(self, head)
+        for part in rest.split(".") if rest else ():
+            value = getattr(value, part)
+        return value
 
     def to_dict(self) -> dict[str, Any]:
         """Plain nested dict (for run.json and ``coopproc config``)."""
-        return {
+        out = {
             "run": to_table(self.run),
+            "pipeline": to_table(self.pipeline),
             "ranging": to_table(self.ranging),
             "fusion": to_table(self.fusion),
         }
+        out.update({name: to_table(params) for name, params in self.stages.items()})
+        return out
+
+
+#: Sections read by the run itself; every other stage section comes from the registry.
+_OWN_SECTIONS: tuple[str, ...] = ("run", "pipeline", "ranging", "fusion")
+
+
+def _extra_sections() -> dict[str, type]:
+    """Top-level sections of the registered stages beyond the ones RunConfig names."""
+    out: dict[str, type] = {}
+    sections = [(s.section, s.params_type) for s in RANGE_STAGES.values()]
+    sections += [(s.section, s.params_type) for s in POSITION_STAGES.values()]
+    for section, params_type in sections:
+        if "." not in section and section not in _OWN_SECTIONS:
+            out[section] = params_type
+    return out
+
+
+def _stage_params(table: Mapping[str, Any], where: str) -> dict[str, Any]:
+    return {
+        name: from_table(cls, table.get(name), f"{where} [{name}]".strip())
+        for name, cls in _extra_sections().items()
+    }
 
 
 #: Top-level sections a run config may have (``[locate]`` is read by ``coopproc locate``
 #: and only checked here, so that one file can configure both commands).
-SECTIONS: tuple[str, ...] = ("run", "ranging", "fusion", "locate")
+SECTIONS: tuple[str, ...] = (*_OWN_SECTIONS, *_extra_sections(), "locate")
 
 
 def run_config_from_toml(table: Mapping[str, Any], where: str = "run config") -> RunConfig:
@@ -84,6 +126,8 @@ def run_config_from_toml(table: Mapping[str, Any], where: str = "run config") ->
         locate_params(table["locate"], f"{where} [locate]")
     return RunConfig(
         run=from_table(RunParams, table.get("run"), f"{where} [run]"),
+        pipeline=from_table(PipelineParams, table.get("pipeline"), f"{where} [pipeline]"),
+        stages=_stage_params(table, where),
         ranging=ranging_config_from_toml(table, where),
         fusion=fusion_params_from_toml(table, where),
     )

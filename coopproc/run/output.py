@@ -82,6 +82,12 @@ def write_run(
         "python": platform.python_version(),
         "session": {"name": session.name, "path": str(session.root)},
         "config": config.to_dict(),
+        "pipeline": [
+            {"step": s.label, "inputs": list(s.inputs), "outputs": list(s.outputs)}
+            | ({"reason": s.reason} if s.reason else {})
+            for s in output.chain
+        ],
+        "methods": {k: list(v) for k, v in (output.methods or {}).items()},
         "inputs": [
             {"file": _relative(p, session.root), "sha256": sha256_of(p)} for p in session.inputs
         ],

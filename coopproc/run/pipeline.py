@@ -1,4 +1,6 @@
-"""The stage chain of ``coopproc run`` (paper 000's processing, figure 5).
+"""Run the stage chain of ``coopproc run`` on a session (:mod:`coopproc.run.chain`).
+
+The default chain is paper 000's processing (figure 5):
 
 1. cooperative fusion with the observed ranges (the CP solution, paper 000 sec. 3.1.1);
 2. DI smoothing, distance filtering, NLOS detection and estimation, DI- and RN-Based
@@ -8,8 +10,10 @@
 3. fusion again with each processed range set (``rn``, ``di``);
 4. positions of every method against the reference, and the statistics of Tables 2 and 3.
 
-The pipeline reads no files and prints nothing; ``progress`` is called with a short label
-before each step so that the CLI can show where it is.
+``[pipeline]`` changes which range methods and position estimators run; this module runs
+whatever :func:`coopproc.run.chain.resolve` gives, in order, and builds the output tables
+from the stages' products. It reads no files and prints nothing; ``progress`` is called
+with each step's label so that the CLI can show where it is.
 """
 
 from __future__ import annotations
@@ -18,12 +22,16 @@ import contextlib
 import time
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
 
+from coopproc.errors import StageError
 from coopproc.model import (
+    DI_COLUMNS,
+    NLOS_ESTIMATE_COLUMNS,
+    NLOS_EVENT_COLUMNS,
     POSITIONS_COLUMNS,
     FloatArray,
     Result,
@@ -33,16 +41,14 @@ from coopproc.model import (
 )
 from coopproc.report.metrics import distance_metrics, nlos_scores, position_metrics
 from coopproc.report.scores import nlos_event_scores
+from coopproc.run.chain import Step, resolve
 from coopproc.run.config import RunConfig
-from coopproc.stages.fusion.calibration import FusionCalibration, calibrated_fuse
+from coopproc.stages.base import PositionInput, PositionProduct, RangeInput, RangeProduct
 from coopproc.stages.fusion.dr_quality import DeadReckoningQuality, dead_reckoning_quality
-from coopproc.stages.fusion.fuse import FusionOutput
-from coopproc.stages.ranging.stage import PairCalibration, run_ranging
+from coopproc.stages.ranging.table import observed_table
+from coopproc.stages.registry import POSITION_STAGES, RANGE_STAGES
 
 __all__ = ["PipelineOutput", "run_pipeline"]
-
-#: Processed range methods that are fused again (the observed fusion is step 1).
-PROCESSED_METHODS: tuple[str, ...] = ("rn", "di")
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,25 +60,30 @@ class PipelineOutput:
     nlos_event_scores: pd.DataFrame
     timings_s: Mapping[str, float]
     sigma: Mapping[str, tuple[float, str]]
-    #: the ranging stage's self-calibration, (pair, method) -> figures
-    ranging_calibration: Mapping[tuple[str, str], PairCalibration]
-    #: each fusion's self-calibration, by range method
-    fusion_calibration: Mapping[str, FusionCalibration]
+    #: the range processors' self-calibration, (pair, method) -> figures
+    ranging_calibration: Mapping[tuple[str, str], Any]
+    #: each position method's self-calibration (the fusions'), by method
+    fusion_calibration: Mapping[str, Any]
     #: each moving platform's dead reckoning against the observed cooperative solution
     dr_quality: Mapping[str, DeadReckoningQuality]
     notes: tuple[str, ...]
+    #: the steps that ran, in order
+    chain: tuple[Step, ...] = ()
+    #: the run's methods: "ranges" (observed first, ranges.csv order) and "positions"
+    methods: Mapping[str, tuple[str, ...]] | None = None
+    #: the range methods that detect NLOS, in chain order
+    nlos_methods: tuple[str, ...] = ()
 
 
-def _ranges_for(method_table: pd.DataFrame, method: str, sigma: pd.Series) -> pd.DataFrame:
-    """The processed distances of one method in the shape :func:`fuse` takes."""
-    rows = method_table[["time", "pair", method]].rename(columns={method: "range"})
-    members = {p: pair_members(p) for p in rows["pair"].unique()}
+def _ranges_for(base: pd.DataFrame, values: FloatArray, sigma: pd.Series) -> pd.DataFrame:
+    """One processed method's distances in the shape the position estimators take."""
+    members = {p: pair_members(p) for p in base["pair"].unique()}
     out = pd.DataFrame(
         {
-            "time": rows["time"].to_numpy(),
-            "from": [members[p][0] for p in rows["pair"]],
-            "to": [members[p][1] for p in rows["pair"]],
-            "range": rows["range"].to_numpy(),
+            "time": base["time"].to_numpy(),
+            "from": [members[p][0] for p in base["pair"]],
+            "to": [members[p][1] for p in base["pair"]],
+            "range": values,
             "sigma": sigma.to_numpy(),
         }
     )
@@ -183,85 +194,174 @@ def run_pipeline(
     config: RunConfig,
     progress: Callable[[str], None] | None = None,
 ) -> PipelineOutput:
-    """Run the whole stage chain on a session (see the module docstring)."""
-    step = progress or (lambda label: None)
+    """Run the configured stage chain on a session (see the module docstring)."""
+    step_label = progress or (lambda label: None)
     timings: dict[str, float] = {}
 
     @contextlib.contextmanager
     def timed(label: str) -> Iterator[None]:
-        step(label)
+        step_label(label)
         start = time.perf_counter()
         yield
         timings[label] = round(time.perf_counter() - start, 3)
 
-    observed = session.ranges.frame[["time", "from", "to", "range", "sigma"]]
+    steps = resolve(config.pipeline)
+    for step in steps:
+        check = POSITION_STAGES[step.stage].check if step.kind == "positions" else None
+        if check is not None:
+            check(session)
     output: Literal["ranges", "nav"] = config.run.positions_at
-    fused: dict[str, FusionOutput] = {}
-    fusion_cal: dict[str, FusionCalibration] = {}
-    with timed("fusion (observed)"):
-        fused["observed"], fusion_cal["observed"] = calibrated_fuse(
-            session, observed, config.fusion, output=output
-        )
-        cp_fusion = fused["observed"]
-        if output != "ranges":
-            cp_fusion, _ = calibrated_fuse(session, observed, config.fusion, output="ranges")
-    cp = cp_fusion.forward if config.run.cp_solution == "forward" else cp_fusion.smoothed
-
-    with timed("ranging (DI, RN, NLOS)"):
-        ranging = run_ranging(session, cp, config.ranging)
-    table = ranging.ranges
-    sigma_by_row = _row_sigma(session, table)
-    for method in PROCESSED_METHODS:
-        with timed(f"fusion ({method})"):
-            ranges = _ranges_for(table, method, sigma_by_row)
-            fused[method], fusion_cal[method] = calibrated_fuse(
+    base = observed_table(session)
+    sigma_by_row = _row_sigma(session, base)
+    range_sets = {"observed": session.ranges.frame[["time", "from", "to", "range", "sigma"]]}
+    columns: dict[str, FloatArray] = {}
+    range_products: list[RangeProduct] = []
+    products: dict[str, PositionProduct] = {}
+    cp_product: PositionProduct | None = None
+    for step in steps:
+        with timed(step.label):
+            if step.kind == "ranges":
+                product = _run_range_step(step, session, base, config, cp_product)
+                range_products.append(product)
+                for method in step.methods:
+                    columns[method] = product.values[method]
+                    range_sets[method] = _ranges_for(base, columns[method], sigma_by_row)
+                continue
+            stage = POSITION_STAGES[step.stage]
+            assert step.range_set is not None
+            observed = None
+            if stage.needs_observed and step.range_set != "observed":
+                observed = products[stage.method("observed")]
+            position_input = PositionInput(
                 session,
-                ranges,
-                config.fusion,
-                output=output,
-                label=method,
-                sigma_floor=fusion_cal["observed"].pair_sigma_m,
+                step.range_set,
+                range_sets[step.range_set],
+                output,
+                observed=observed,
+                want_cp="cp" in step.outputs,
             )
+            products[step.methods[0]] = stage.run(position_input, config.params_for(stage.section))
+            if "cp" in step.outputs:
+                cp_product = products[step.methods[0]]
 
     with timed("metrics"):
-        own = _own_epochs(session) if output == "ranges" else None
-        solutions = {m: _at_own_epochs(f.smoothed, own) for m, f in fused.items()}
-        nav = _nav_at(session, solutions["observed"])
-        parts = [
-            _reference_rows(session, solutions["observed"]),
-            _positions_rows(session, "nav", nav),
-        ]
-        for method in ("observed", *PROCESSED_METHODS):
-            parts.append(_positions_rows(session, method, solutions[method]))
-        positions = pd.concat(parts, ignore_index=True)
-        positions = positions.sort_values(["platform", "method", "time"], kind="stable")
-        positions = positions.reset_index(drop=True)[list(POSITIONS_COLUMNS)]
-        sigma = dict(ranging.sigma)
+        table = _range_table(base, columns, range_products)
+        positions = _positions_table(session, products, output)
+        sigma = {p: s for prod in range_products for p, s in prod.sigma.items()}
         # true NLOS is labelled against the declared sigma (or, without one, the robust
         # spread of observed - reference), never against what the detector estimated
         declared = session.config.uwb_sigma_m
         label_sigma = {} if declared is None else {p: float(declared) for p in sigma}
-        scores = nlos_scores(table, ranging.nlos_events, label_sigma)
+        events = _concat_or_empty([p.nlos_events for p in range_products], NLOS_EVENT_COLUMNS)
+        scores = nlos_scores(table, events, label_sigma)
+        di = next((p.di for p in range_products if p.di is not None), None)
         result = Result(
             ranges=table,
-            di=ranging.di,
-            nlos_events=ranging.nlos_events,
-            nlos_estimates=ranging.nlos_estimates,
+            di=di if di is not None else pd.DataFrame(columns=list(DI_COLUMNS)),
+            nlos_events=events,
+            nlos_estimates=_concat_or_empty(
+                [p.nlos_estimates for p in range_products], NLOS_ESTIMATE_COLUMNS
+            ),
             positions=positions,
             metrics=distance_metrics(table),
             position_metrics=position_metrics(positions),
         )
+    cp_positions = cp_product or products.get("observed")
     return PipelineOutput(
         result=result,
         nlos_scores=scores,
-        nlos_event_scores=nlos_event_scores(table, ranging.nlos_events),
+        nlos_event_scores=nlos_event_scores(table, events),
         timings_s=timings,
         sigma=sigma,
-        ranging_calibration=ranging.calibration,
-        fusion_calibration=fusion_cal,
-        dr_quality=dead_reckoning_quality(session, fused["observed"].smoothed),
-        notes=tuple(n for cal in fusion_cal.values() for n in cal.notes),
+        ranging_calibration={k: v for p in range_products for k, v in p.calibration.items()},
+        fusion_calibration={
+            m: p.calibration for m, p in products.items() if p.calibration is not None
+        },
+        dr_quality=(
+            {} if cp_positions is None else dead_reckoning_quality(session, cp_positions.positions)
+        ),
+        notes=tuple(n for p in products.values() for n in p.notes),
+        chain=steps,
+        methods={"ranges": ("observed", *columns), "positions": tuple(products)},
+        nlos_methods=tuple(m for m in columns if any(m in p.nlos for p in range_products)),
     )
+
+
+def _run_range_step(
+    step: Step,
+    session: Session,
+    base: pd.DataFrame,
+    config: RunConfig,
+    cp_product: PositionProduct | None,
+) -> RangeProduct:
+    stage = RANGE_STAGES[step.stage]
+    cp = None
+    if stage.needs_cp:
+        assert cp_product is not None and cp_product.cp is not None  # chain.resolve
+        forward, smoothed = cp_product.cp
+        cp = forward if config.run.cp_solution == "forward" else smoothed
+    product = stage.run(
+        RangeInput(session, base, cp), config.params_for(stage.section), step.methods
+    )
+    for method in step.methods:
+        values = product.values.get(method)
+        if values is None or np.shape(values) != (len(base),):
+            raise StageError(
+                f"{stage.name}: method '{method}' did not give one distance per range row"
+            )
+    return product
+
+
+def _range_table(
+    base: pd.DataFrame, columns: Mapping[str, FloatArray], products: list[RangeProduct]
+) -> pd.DataFrame:
+    """ranges.csv: ``time, pair, observed, <methods>, reference, nlos_flag, nlos_estimate``.
+
+    The NLOS columns come from the DI method (DATA.md), or, without it, from the first
+    method of the chain that detects NLOS; 0 where none does.
+    """
+    nlos = {m: fe for p in products for m, fe in p.nlos.items()}
+    source = "di" if "di" in nlos else next((m for m in columns if m in nlos), None)
+    if source is None:
+        flag, estimate = np.zeros(len(base), dtype=np.int64), np.zeros(len(base))
+    else:
+        flag, estimate = nlos[source]
+    table = base[["time", "pair", "observed"]].copy()
+    for method, values in columns.items():
+        table[method] = values
+    table["reference"] = base["reference"].to_numpy()
+    table["nlos_flag"] = np.asarray(flag, dtype=np.int64)
+    table["nlos_estimate"] = np.asarray(estimate, dtype=np.float64)
+    return table
+
+
+def _positions_table(
+    session: Session, products: Mapping[str, PositionProduct], output: str
+) -> pd.DataFrame:
+    """positions.csv: the reference and the own navigation at the epochs of the observed
+    fusion (else of the first position method), then every position method."""
+    own = _own_epochs(session) if output == "ranges" else None
+    solutions = {m: _at_own_epochs(p.positions, own) for m, p in products.items()}
+    basis = solutions.get("observed") or next(iter(solutions.values()), None)
+    parts = []
+    if basis is not None:
+        parts += [
+            _reference_rows(session, basis),
+            _positions_rows(session, "nav", _nav_at(session, basis)),
+        ]
+    parts += [_positions_rows(session, m, s) for m, s in solutions.items()]
+    if not parts:
+        return pd.DataFrame(columns=list(POSITIONS_COLUMNS))
+    positions = pd.concat(parts, ignore_index=True)
+    positions = positions.sort_values(["platform", "method", "time"], kind="stable")
+    return positions.reset_index(drop=True)[list(POSITIONS_COLUMNS)]
+
+
+def _concat_or_empty(frames: list[pd.DataFrame | None], columns: tuple[str, ...]) -> pd.DataFrame:
+    present = [f for f in frames if f is not None]
+    if not present:
+        return pd.DataFrame(columns=list(columns))
+    return pd.concat(present, ignore_index=True) if len(present) > 1 else present[0]
 
 
 def _row_sigma(session: Session, table: pd.DataFrame) -> pd.Series:

@@ -33,42 +33,68 @@ def _lookup(table: pd.DataFrame, key: str, value: str, method: str, column: str)
     return float(rows[column].iloc[0]) if len(rows) else math.nan
 
 
+#: Short names of the known methods in the summary lines; others print as they are.
+_SHORT = {"observed": "observed", "rn": "RN", "di": "DI"}
+#: Long names of the NLOS-detecting methods in the header line.
+_LONG = {"rn": "RN-Based", "di": "DI-Based"}
+
+
+def _primary(methods: tuple[str, ...]) -> str | None:
+    """The method the headline compares with observed: DI if the run has it, else the
+    last processed one."""
+    processed = [m for m in methods if m != "observed"]
+    if "di" in processed:
+        return "di"
+    return processed[-1] if processed else None
+
+
 def summarize(output: PipelineOutput) -> RunSummary:
     """Headline numbers: NLOS events per pair, RMSE and mean position error vs observed."""
     result = output.result
+    methods = output.methods or {"ranges": ("observed", "rn", "di"), "positions": ()}
+    range_methods = tuple(methods["ranges"])
+    processed = [m for m in range_methods if m != "observed"]
+    detector = "di" if "di" in output.nlos_methods else next(iter(output.nlos_methods), None)
     events = result.nlos_events
-    di_events = events[events["method"] == "di"]
+    det_events = events[events["method"] == detector]
     lines = []
     facts: dict[str, Any] = {"pairs": {}, "platforms": {}}
     pairs = sorted(result.ranges["pair"].unique())
-    lines.append(f"NLOS events (DI-Based): {len(di_events)} on {len(pairs)} pairs")
+    if detector is None:
+        lines.append(
+            f"NLOS events: none (no NLOS-detecting method in the chain), {len(pairs)} pairs"
+        )
+    else:
+        name = _LONG.get(detector, detector)
+        lines.append(f"NLOS events ({name}): {len(det_events)} on {len(pairs)} pairs")
     for pair in pairs:
-        n_events = int((di_events["pair"] == pair).sum())
-        obs = _lookup(result.metrics, "pair", pair, "observed", "rmse")
-        di = _lookup(result.metrics, "pair", pair, "di", "rmse")
-        rn = _lookup(result.metrics, "pair", pair, "rn", "rmse")
-        facts["pairs"][pair] = {
-            "nlos_events": n_events,
-            "rmse_observed": obs,
-            "rmse_rn": rn,
-            "rmse_di": di,
-        }
+        n_events = int((det_events["pair"] == pair).sum())
+        rmse = {m: _lookup(result.metrics, "pair", pair, m, "rmse") for m in range_methods}
+        facts["pairs"][pair] = {"nlos_events": n_events} | {f"rmse_{m}": v for m, v in rmse.items()}
+        obs = rmse.get("observed", math.nan)
         if math.isfinite(obs):
-            lines.append(
-                f"  {pair}: {n_events} events, range RMSE observed {obs:.3f} m, "
-                f"RN {rn:.3f} m ({_change(rn, obs)}), DI {di:.3f} m ({_change(di, obs)})"
-            )
+            parts = [f"range RMSE observed {obs:.3f} m"] + [
+                f"{_SHORT.get(m, m)} {rmse[m]:.3f} m ({_change(rmse[m], obs)})" for m in processed
+            ]
+            lines.append(f"  {pair}: {n_events} events, " + ", ".join(parts))
         else:
             lines.append(f"  {pair}: {n_events} events (no reference: no error statistics)")
     pm = result.position_metrics
+    primary = _primary(tuple(methods["positions"]))
     for platform in sorted(pm["platform"].unique()):
-        obs = _lookup(pm, "platform", platform, "observed", "mean")
-        di = _lookup(pm, "platform", platform, "di", "mean")
         nav = _lookup(pm, "platform", platform, "nav", "mean")
-        facts["platforms"][platform] = {"mean_nav": nav, "mean_observed": obs, "mean_di": di}
+        obs = _lookup(pm, "platform", platform, "observed", "mean")
+        facts["platforms"][platform] = {"mean_nav": nav, "mean_observed": obs}
+        text = f"  {platform}: mean horizontal error own nav {nav:.3f} m"
         if math.isfinite(obs):
-            lines.append(
-                f"  {platform}: mean horizontal error own nav {nav:.3f} m, fused observed "
-                f"{obs:.3f} m, fused DI {di:.3f} m ({_change(di, obs)})"
-            )
+            text += f", fused observed {obs:.3f} m"
+        value = math.nan
+        if primary is not None:
+            value = _lookup(pm, "platform", platform, primary, "mean")
+            facts["platforms"][platform][f"mean_{primary}"] = value
+            label = f"fused {_SHORT[primary]}" if primary in _SHORT else primary
+            text += f", {label} {value:.3f} m ({_change(value, obs)})"
+        # platforms without a reference have no error statistics: no line
+        if math.isfinite(obs) or ("observed" not in methods["positions"] and math.isfinite(value)):
+            lines.append(text)
     return RunSummary(lines=tuple(lines), facts=facts)

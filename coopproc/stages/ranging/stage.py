@@ -36,7 +36,6 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from coopproc.errors import StageError
 from coopproc.model import (
     DI_COLUMNS,
     NLOS_ESTIMATE_COLUMNS,
@@ -45,7 +44,6 @@ from coopproc.model import (
     FloatArray,
     Session,
     Trajectory,
-    pair_members,
 )
 from coopproc.stages.ranging.calibration import (
     pair_noise,
@@ -58,11 +56,10 @@ from coopproc.stages.ranging.di import (
     SmoothedDI,
     anchored_increments,
     di_variance,
-    range_increments,
     smooth_di,
 )
 from coopproc.stages.ranging.nlos import DistanceFilterOutput, KernelParams, filter_distance
-from coopproc.stages.ranging.rn import platform_velocity, rn_increments
+from coopproc.stages.ranging.pair import PairInputs, kernel_params, prepare_pair
 from coopproc.stages.ranging.twoway import filter_distance_two_way
 
 __all__ = [
@@ -102,89 +99,8 @@ class RangingOutput:
     sigma: Mapping[str, tuple[float, str]]
     #: (pair, method) -> the self-calibration of that method's filter, method "di" or "rn"
     calibration: Mapping[tuple[str, str], PairCalibration]
-
-
-def _positions(
-    session: Session,
-    source: Mapping[str, Trajectory],
-    platform: str,
-    time_s: FloatArray,
-    what: str,
-    required: bool,
-) -> FloatArray:
-    info = session.platforms.get(platform)
-    if info is not None and info.role == "anchor" and info.position_enu_m is not None:
-        return np.tile(np.asarray(info.position_enu_m, dtype=np.float64), (time_s.shape[0], 1))
-    traj = source.get(platform)
-    if traj is None:
-        if required:
-            raise StageError(f"ranging: no {what} for platform '{platform}'")
-        return np.full((time_s.shape[0], 3), np.nan)
-    return traj.interpolate(time_s)
-
-
-def _reference_positions(session: Session, platform: str, time_s: FloatArray) -> FloatArray:
-    """Reference positions at ``time_s``; NaN inside gaps of the reference
-    (:meth:`Trajectory.interpolate_within`: DATA.md wants none where there is none)."""
-    out = _positions(session, session.reference, platform, time_s, "reference", False)
-    traj = session.reference.get(platform)
-    info = session.platforms.get(platform)
-    if traj is None or len(traj) < 2 or (info is not None and info.role == "anchor"):
-        return out
-    out[np.isnan(traj.interpolate_within(time_s))] = np.nan
-    return out
-
-
-def _drift(session: Session, platform: str, config: RangingConfig) -> float:
-    info = session.platforms.get(platform)
-    if info is None:
-        return config.di.drift_follower_mps
-    if info.drift_sigma_mps is not None:
-        return float(info.drift_sigma_mps)
-    if info.role == "anchor":
-        return 0.0
-    return config.di.drift_leader_mps if info.role == "leader" else config.di.drift_follower_mps
-
-
-def _initial_sigma(range_m: FloatArray, di_m: FloatArray, config: RangingConfig) -> float:
-    """Robust first guess of the UWB sigma: MAD of (range difference - DI) / sqrt(2)."""
-    e = np.diff(range_m) - di_m[1:]
-    e = e[np.isfinite(e)]
-    if e.shape[0] < 5:
-        return config.nlos.default_sigma_m
-    mad = float(np.median(np.abs(e - np.median(e))))
-    return max(1.4826 * mad / np.sqrt(2.0), config.nlos.min_sigma_m)
-
-
-def kernel_params(
-    config: RangingConfig, sigma_m: float, initial_sigma_m: float, adaptive_n: int, rn: bool
-) -> KernelParams:
-    """The distance filter's numbers from the config: DI-Based, or RN-Based (``rn``: one-shot
-    estimate at detection, no back-dating, no false-alarm check, no suspects)."""
-    nlos = config.nlos
-    return KernelParams(
-        sigma_m=sigma_m,
-        initial_sigma_m=initial_sigma_m,
-        gamma_sigma=nlos.gamma_sigma,
-        window_s=nlos.window_s,
-        aligned=config.distance.transition == "aligned",
-        di_accel_sigma=config.distance.di_accel_sigma,
-        one_shot=rn,
-        backdate_s=0.0 if rn else nlos.backdate_s,
-        onset_fraction=nlos.onset_fraction,
-        confirm_fraction=0.0 if rn else nlos.confirm_fraction,
-        end_confirm_s=nlos.end_confirm_s,
-        end_min_epochs=nlos.end_min_epochs,
-        adaptive_n=adaptive_n,
-        adaptive_min_n=nlos.adaptive_min_epochs,
-        min_sigma_m=nlos.min_sigma_m,
-        suspect_epochs=0 if rn else nlos.suspect_epochs,
-        positive_only=nlos.positive_only,
-        max_event_s=nlos.max_event_s,
-        restart_gap_s=nlos.restart_gap_s,
-        jump_fraction=nlos.jump_fraction,
-        jump_window_s=nlos.jump_window_s,
-    )
+    #: the RN method's (NLOS flag, NLOS estimate) at the rows of ``ranges``, when it ran
+    rn_nlos: tuple[NDArray[np.int64], FloatArray] | None = None
 
 
 def _events(
@@ -203,89 +119,8 @@ def _events(
     return events, steps
 
 
-@dataclass(frozen=True, eq=False)
-class _Pair:
-    """One pair's inputs at its range epochs."""
-
-    name: str
-    members: tuple[str, str]
-    time_s: FloatArray
-    observed_m: FloatArray
-    nav_m: tuple[FloatArray, FloatArray]
-    cp_m: tuple[FloatArray, FloatArray]
-    di_dr_m: FloatArray
-    di_cp_m: FloatArray
-    di_ref_m: FloatArray
-    var_m2: FloatArray
-    reference_m: FloatArray
-    rn_m: FloatArray
-    params: KernelParams
-    sigma_source: str
-
-
-def _prepare(
-    session: Session, cp: Mapping[str, Trajectory], config: RangingConfig, pair: str
-) -> _Pair:
-    frame = session.ranges.frame
-    rows = frame[frame["pair"] == pair].sort_values("time", kind="stable")
-    t = rows["time"].to_numpy(dtype=np.float64)
-    obs = rows["range"].to_numpy(dtype=np.float64)
-    a, b = pair_members(pair)
-    dr_a = _positions(session, session.nav, a, t, "navigation", True)
-    dr_b = _positions(session, session.nav, b, t, "navigation", True)
-    cp_a = _positions(session, cp, a, t, "cooperative solution", True)
-    cp_b = _positions(session, cp, b, t, "cooperative solution", True)
-    ref_a = _reference_positions(session, a, t)
-    ref_b = _reference_positions(session, b, t)
-    if config.di.dr_base == "cp":
-        di_dr = anchored_increments(cp_a, cp_b, dr_a, dr_b)
-    else:
-        di_dr = range_increments(dr_a, dr_b)
-    var = di_variance(
-        t, _drift(session, a, config), _drift(session, b, config), config.di.drift_scaling
-    )
-
-    if session.config.uwb_sigma_m is not None:
-        sigma, source = float(session.config.uwb_sigma_m), "session.toml"
-    elif config.nlos.adaptive:
-        sigma, source = -1.0, "adaptive"
-    else:
-        sigma, source = config.nlos.default_sigma_m, "default"
-    dt = np.diff(t)
-    step_s = float(np.median(dt[dt > 0])) if np.any(dt > 0) else 1.0
-    adaptive_n = max(round(config.nlos.adaptive_window_s / step_s), 1)
-    initial = _initial_sigma(obs, di_dr, config)
-
-    tm = np.empty_like(t)
-    tm[:1] = t[:1]
-    tm[1:] = 0.5 * (t[1:] + t[:-1])
-    rn_inc = rn_increments(
-        t,
-        _positions(session, session.nav, a, tm, "navigation", True),
-        _positions(session, session.nav, b, tm, "navigation", True),
-        _velocity(session, a, tm, config),
-        _velocity(session, b, tm, config),
-    )
-    return _Pair(
-        name=pair,
-        members=(a, b),
-        time_s=t,
-        observed_m=obs,
-        nav_m=(dr_a, dr_b),
-        cp_m=(cp_a, cp_b),
-        di_dr_m=di_dr,
-        di_cp_m=range_increments(cp_a, cp_b),
-        di_ref_m=range_increments(ref_a, ref_b),
-        var_m2=var,
-        reference_m=np.linalg.norm(ref_a - ref_b, axis=1),
-        rn_m=rn_inc,
-        params=kernel_params(config, sigma, initial, adaptive_n, rn=False),
-        sigma_source=source,
-    )
-
-
 def _calibrated(
-    p: _Pair,
+    p: PairInputs,
     increments: FloatArray,
     var_m2: FloatArray,
     params: KernelParams,
@@ -345,7 +180,7 @@ def _calibrated(
 
 
 def _di_method(
-    p: _Pair, config: RangingConfig, mask: NDArray[np.bool_] | None = None
+    p: PairInputs, config: RangingConfig, mask: NDArray[np.bool_] | None = None
 ) -> tuple[SmoothedDI, FloatArray, DistanceFilterOutput, PairCalibration]:
     """DI smoothing + distance filter; ``mask``: epochs whose CP solution is not trusted.
 
@@ -376,7 +211,7 @@ def _di_method(
 
 
 def _event_intervals(
-    pairs: list[_Pair], outs: Mapping[str, DistanceFilterOutput], config: RangingConfig
+    pairs: list[PairInputs], outs: Mapping[str, DistanceFilterOutput], config: RangingConfig
 ) -> dict[str, list[tuple[float, float]]]:
     """Per platform, the DI-method NLOS events of its pairs widened by the CP guard."""
     intervals: dict[str, list[tuple[float, float]]] = {}
@@ -394,9 +229,15 @@ def _event_intervals(
 
 
 def run_ranging(
-    session: Session, cp: Mapping[str, Trajectory], config: RangingConfig
+    session: Session,
+    cp: Mapping[str, Trajectory],
+    config: RangingConfig,
+    methods: tuple[str, ...] = ("rn", "di"),
 ) -> RangingOutput:
     """Process every pair's ranges with the DI-Based and the RN-Based methods (paper 000).
+
+    ``methods``: which of ``rn``, ``di`` to give; the DI method always runs (its NLOS
+    events mask the CP DI of the second pass), the RN filter only when asked for.
 
     Two passes when ``[ranging.di] mask_nlos_cp`` (default): the cooperative solution was
     computed with the observed ranges, so during an NLOS event it is pulled by the NLOS
@@ -404,7 +245,7 @@ def run_ranging(
     of any pair sharing a platform with a pair in a first-pass event (widened by the
     guard times), so there the smoothed DI follows the DR DI plus the DI deviation.
     """
-    pairs = [_prepare(session, cp, config, pair) for pair in session.ranges.pairs]
+    pairs = [prepare_pair(session, cp, config, pair) for pair in session.ranges.pairs]
     results = {p.name: _di_method(p, config) for p in pairs}
     if config.di.mask_nlos_cp:
         intervals = _event_intervals(pairs, {k: v[2] for k, v in results.items()}, config)
@@ -421,19 +262,15 @@ def run_ranging(
     events: list[tuple[object, ...]] = []
     steps: list[tuple[object, ...]] = []
     sigma_used: dict[str, tuple[float, str]] = {}
+    rn_flags: list[tuple[NDArray[np.int64], FloatArray]] = []
     calibration: dict[tuple[str, str], PairCalibration] = {}
     for p in pairs:
         smoothed, di_dr, di_out, di_cal = results[p.name]
-        rn_params = replace(
-            p.params, one_shot=True, backdate_s=0.0, confirm_fraction=0.0, suspect_epochs=0
-        )
-        rn_params, rn_var, rn_cal = _calibrated(p, p.rn_m, p.var_m2, rn_params, config)
-        if config.nlos.two_way:
-            rn_out, _ = filter_distance_two_way(p.time_s, p.observed_m, p.rn_m, rn_var, rn_params)
-        else:
-            rn_out = filter_distance(p.time_s, p.observed_m, p.rn_m, rn_var, rn_params)
         calibration[(p.name, "di")] = di_cal
-        calibration[(p.name, "rn")] = rn_cal
+        outs = {"di": di_out}
+        if "rn" in methods:
+            outs["rn"], calibration[(p.name, "rn")] = _rn_method(p, config)
+            rn_flags.append((outs["rn"].nlos_flag.astype(np.int64), outs["rn"].nlos_estimate_m))
         sigma = di_cal.white_sigma_m
         if di_cal.source == "adaptive":
             sigma = float(np.nanmedian(di_out.sigma_m))
@@ -444,7 +281,7 @@ def run_ranging(
                     "time": p.time_s,
                     "pair": p.name,
                     "observed": p.observed_m,
-                    "rn": _compensated(p.observed_m, rn_out),
+                    "rn": _compensated(p.observed_m, outs["rn"]) if "rn" in outs else np.nan,
                     "di": di_out.distance_m,
                     "reference": p.reference_m,
                     "nlos_flag": di_out.nlos_flag.astype(np.int64),
@@ -466,7 +303,7 @@ def run_ranging(
                 columns=list(DI_COLUMNS),
             )
         )
-        for method, out in (("di", di_out), ("rn", rn_out)):
+        for method, out in outs.items():
             ev, st = _events(p.name, method, p.time_s, out)
             events.extend(ev)
             steps.extend(st)
@@ -477,21 +314,24 @@ def run_ranging(
         nlos_estimates=pd.DataFrame(steps, columns=list(NLOS_ESTIMATE_COLUMNS)),
         sigma=sigma_used,
         calibration=calibration,
+        rn_nlos=_concat_flags(rn_flags) if "rn" in methods else None,
     )
 
 
-def _velocity(
-    session: Session, platform: str, time_s: FloatArray, config: RangingConfig
-) -> FloatArray:
-    info = session.platforms.get(platform)
-    if info is not None and info.role == "anchor" and info.position_enu_m is not None:
-        return np.zeros((time_s.shape[0], 3))
-    traj = session.nav.get(platform)
-    if traj is None:
-        raise StageError(f"ranging: no navigation for platform '{platform}'")
-    if config.rn.velocity == "difference" and traj.vel_enu_mps is not None:
-        traj = replace(traj, vel_enu_mps=None)
-    return platform_velocity(traj, time_s)
+def _rn_method(
+    p: PairInputs, config: RangingConfig
+) -> tuple[DistanceFilterOutput, PairCalibration]:
+    """The RN-Based reference method: the distance filter driven by the relative-velocity
+    range rate, with a one-shot NLOS estimate at detection (paper 000 sec. 4)."""
+    rn_params = replace(
+        p.params, one_shot=True, backdate_s=0.0, confirm_fraction=0.0, suspect_epochs=0
+    )
+    rn_params, rn_var, rn_cal = _calibrated(p, p.rn_m, p.var_m2, rn_params, config)
+    if config.nlos.two_way:
+        rn_out, _ = filter_distance_two_way(p.time_s, p.observed_m, p.rn_m, rn_var, rn_params)
+    else:
+        rn_out = filter_distance(p.time_s, p.observed_m, p.rn_m, rn_var, rn_params)
+    return rn_out, rn_cal
 
 
 def _compensated(observed_m: FloatArray, out: DistanceFilterOutput) -> FloatArray:
@@ -509,3 +349,11 @@ def _concat(parts: list[pd.DataFrame], columns: tuple[str, ...]) -> pd.DataFrame
     if not parts:
         return pd.DataFrame({c: [] for c in columns}, columns=list(columns))
     return pd.concat(parts, ignore_index=True)
+
+
+def _concat_flags(
+    parts: list[tuple[NDArray[np.int64], FloatArray]],
+) -> tuple[NDArray[np.int64], FloatArray]:
+    if not parts:
+        return np.empty(0, dtype=np.int64), np.empty(0)
+    return np.concatenate([f for f, _ in parts]), np.concatenate([e for _, e in parts])

@@ -1,0 +1,156 @@
+"""What a stage of the chain takes and gives: the typed contract between stages and runner.
+
+Two kinds of stage (docs/architecture.md, docs/extending.md):
+
+- a **range processor** (:class:`RangeStage`) takes the session's range table (one row
+  per range epoch and pair: ``time, pair, observed, reference``) and, if it declares
+  ``needs_cp``, the cooperative solution fused with the observed ranges; it gives one
+  distance column per method it produces (``rn``, ``di``, ``median``, ...), aligned with
+  the table's rows, and optionally NLOS flags, events and diagnostics;
+- a **position estimator** (:class:`PositionStage`) takes one range set (the observed
+  ranges or one processed method's) and gives each platform's trajectory.
+
+Stages never read files, print, or convert frames; the runner (:mod:`coopproc.run.pipeline`)
+orders them by their declared inputs and outputs, times them, and turns their products
+into the output tables.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from coopproc.model import FloatArray, Session, Trajectory
+
+__all__ = [
+    "RESERVED_NAMES",
+    "PositionInput",
+    "PositionProduct",
+    "PositionStage",
+    "RangeInput",
+    "RangeProduct",
+    "RangeStage",
+]
+
+#: Names no method may take: columns of ranges.csv that are not methods, and the
+#: positions.csv methods the runner adds itself.
+RESERVED_NAMES: frozenset[str] = frozenset(
+    {"time", "pair", "observed", "reference", "nlos_flag", "nlos_estimate", "nav"}
+)
+
+
+@dataclass(frozen=True, eq=False)
+class RangeInput:
+    """What a range processor gets."""
+
+    session: Session
+    #: one row per range epoch and pair, pairs in session order, each by time:
+    #: ``time, pair, observed, reference`` (reference NaN where there is none)
+    table: pd.DataFrame
+    #: the cooperative solution (fusion with the observed ranges) when the stage
+    #: declares ``needs_cp``, else None
+    cp: Mapping[str, Trajectory] | None
+
+
+@dataclass(frozen=True, eq=False)
+class RangeProduct:
+    """What a range processor gives; every array is aligned with ``RangeInput.table``."""
+
+    #: method -> processed distance (m) at every row; NaN where the method has none
+    values: Mapping[str, FloatArray]
+    #: method -> (NLOS flag 0/1, current NLOS estimate m) at every row, for methods
+    #: that detect NLOS
+    nlos: Mapping[str, tuple[NDArray[np.int64], FloatArray]] = field(default_factory=dict)
+    #: rows of nlos_events.csv / nlos_estimates.csv (coopproc.model columns), or None
+    nlos_events: pd.DataFrame | None = None
+    nlos_estimates: pd.DataFrame | None = None
+    #: rows of di.csv, or None
+    di: pd.DataFrame | None = None
+    #: pair -> (UWB sigma used, where it came from), for run.json
+    sigma: Mapping[str, tuple[float, str]] = field(default_factory=dict)
+    #: (pair, method) -> self-calibration facts (coopproc.stages.ranging.stage.PairCalibration)
+    calibration: Mapping[tuple[str, str], Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class RangeStage:
+    """A registry entry for a range processor."""
+
+    name: str
+    #: the methods it can produce (range-table columns), in its preferred order
+    methods: tuple[str, ...]
+    #: frozen dataclass of its parameters, every field with a default and a help
+    params_type: type
+    #: the run-config table its parameters live in (dotted for a sub-table: "fusion.lsq")
+    section: str
+    #: (input, params, the requested subset of ``methods``) -> product
+    run: Callable[[RangeInput, Any, tuple[str, ...]], RangeProduct]
+    #: one line for ``coopproc config``
+    help: str
+    #: True: it needs the cooperative solution with the observed ranges (input ``cp``)
+    needs_cp: bool = False
+
+
+@dataclass(frozen=True, eq=False)
+class PositionInput:
+    """What a position estimator gets for one range set."""
+
+    session: Session
+    #: the range set's name (``observed``, ``rn``, ``di``, ...)
+    range_set: str
+    #: columns ``time, from, to, range, sigma`` (sigma NaN: the estimator's default)
+    ranges: pd.DataFrame
+    #: epochs of the reported trajectories: the range epochs, or the navigation rate
+    output: Literal["ranges", "nav"]
+    #: this estimator's product on the observed ranges, for the processed sets (None for
+    #: the observed set itself)
+    observed: PositionProduct | None = None
+    #: True: also give the solution at the range epochs as ``cp`` (a range processor
+    #: needs the cooperative solution)
+    want_cp: bool = False
+
+
+@dataclass(frozen=True, eq=False)
+class PositionProduct:
+    """What a position estimator gives for one range set."""
+
+    #: platform -> the reported trajectory (smoothed where the estimator smooths)
+    positions: Mapping[str, Trajectory]
+    #: (causal, smoothed) solutions at the range epochs, when ``want_cp`` was asked
+    cp: tuple[Mapping[str, Trajectory], Mapping[str, Trajectory]] | None = None
+    #: self-calibration facts for run.json (coopproc.stages.fusion.calibration), or None
+    calibration: Any = None
+    notes: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class PositionStage:
+    """A registry entry for a position estimator."""
+
+    name: str
+    params_type: type
+    section: str
+    run: Callable[[PositionInput, Any], PositionProduct]
+    help: str
+    #: True: the positions.csv method of range set ``s`` is ``s`` itself (the cooperative
+    #: fusion, DATA.md's ``observed``/``rn``/``di``); False: ``name`` for the observed
+    #: set and ``name_s`` for the others
+    named_by_range_set: bool = False
+    #: True: it can provide the cooperative solution a range processor needs
+    provides_cp: bool = False
+    #: True: the processed sets' runs take this estimator's product on the observed set
+    needs_observed: bool = False
+    #: raises StageError when the session cannot give this estimator anything (checked
+    #: before any stage runs); None: no check
+    check: Callable[[Session], None] | None = None
+
+    def method(self, range_set: str) -> str:
+        """The positions.csv method of this estimator on ``range_set``."""
+        if self.named_by_range_set:
+            return range_set
+        return self.name if range_set == "observed" else f"{self.name}_{range_set}"

@@ -1,0 +1,170 @@
+"""One pair's inputs to the ranging stage at its range epochs (paper 000 sec. 3.1).
+
+:func:`prepare_pair` gathers, per pair: the observed ranges, DR DI from each platform's
+own navigation and CP DI from the cooperative solution (eq. (1)), the DI variance of
+eq. (7) from the platforms' drift figures, the reference distance, the RN increments
+from the relative velocity, and the distance filter's numbers (:func:`kernel_params`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from coopproc.errors import StageError
+from coopproc.model import FloatArray, Session, Trajectory, pair_members
+from coopproc.stages.ranging.config import RangingConfig
+from coopproc.stages.ranging.di import anchored_increments, di_variance, range_increments
+from coopproc.stages.ranging.nlos import KernelParams
+from coopproc.stages.ranging.rn import platform_velocity, rn_increments
+from coopproc.stages.ranging.table import pair_rows, platform_positions, reference_positions
+
+__all__ = ["PairInputs", "kernel_params", "prepare_pair"]
+
+
+def _drift(session: Session, platform: str, config: RangingConfig) -> float:
+    info = session.platforms.get(platform)
+    if info is None:
+        return config.di.drift_follower_mps
+    if info.drift_sigma_mps is not None:
+        return float(info.drift_sigma_mps)
+    if info.role == "anchor":
+        return 0.0
+    return config.di.drift_leader_mps if info.role == "leader" else config.di.drift_follower_mps
+
+
+def _initial_sigma(range_m: FloatArray, di_m: FloatArray, config: RangingConfig) -> float:
+    """Robust first guess of the UWB sigma: MAD of (range difference - DI) / sqrt(2)."""
+    e = np.diff(range_m) - di_m[1:]
+    e = e[np.isfinite(e)]
+    if e.shape[0] < 5:
+        return config.nlos.default_sigma_m
+    mad = float(np.median(np.abs(e - np.median(e))))
+    return max(1.4826 * mad / np.sqrt(2.0), config.nlos.min_sigma_m)
+
+
+def kernel_params(
+    config: RangingConfig, sigma_m: float, initial_sigma_m: float, adaptive_n: int, rn: bool
+) -> KernelParams:
+    """The distance filter's numbers from the config: DI-Based, or RN-Based (``rn``: one-shot
+    estimate at detection, no back-dating, no false-alarm check, no suspects)."""
+    nlos = config.nlos
+    return KernelParams(
+        sigma_m=sigma_m,
+        initial_sigma_m=initial_sigma_m,
+        gamma_sigma=nlos.gamma_sigma,
+        window_s=nlos.window_s,
+        aligned=config.distance.transition == "aligned",
+        di_accel_sigma=config.distance.di_accel_sigma,
+        one_shot=rn,
+        backdate_s=0.0 if rn else nlos.backdate_s,
+        onset_fraction=nlos.onset_fraction,
+        confirm_fraction=0.0 if rn else nlos.confirm_fraction,
+        end_confirm_s=nlos.end_confirm_s,
+        end_min_epochs=nlos.end_min_epochs,
+        adaptive_n=adaptive_n,
+        adaptive_min_n=nlos.adaptive_min_epochs,
+        min_sigma_m=nlos.min_sigma_m,
+        suspect_epochs=0 if rn else nlos.suspect_epochs,
+        positive_only=nlos.positive_only,
+        max_event_s=nlos.max_event_s,
+        restart_gap_s=nlos.restart_gap_s,
+        jump_fraction=nlos.jump_fraction,
+        jump_window_s=nlos.jump_window_s,
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class PairInputs:
+    """One pair's inputs at its range epochs."""
+
+    name: str
+    members: tuple[str, str]
+    time_s: FloatArray
+    observed_m: FloatArray
+    nav_m: tuple[FloatArray, FloatArray]
+    cp_m: tuple[FloatArray, FloatArray]
+    di_dr_m: FloatArray
+    di_cp_m: FloatArray
+    di_ref_m: FloatArray
+    var_m2: FloatArray
+    reference_m: FloatArray
+    rn_m: FloatArray
+    params: KernelParams
+    sigma_source: str
+
+
+def prepare_pair(
+    session: Session, cp: Mapping[str, Trajectory], config: RangingConfig, pair: str
+) -> PairInputs:
+    rows = pair_rows(session, pair)
+    t = rows["time"].to_numpy(dtype=np.float64)
+    obs = rows["range"].to_numpy(dtype=np.float64)
+    a, b = pair_members(pair)
+    dr_a = platform_positions(session, session.nav, a, t, "navigation", True)
+    dr_b = platform_positions(session, session.nav, b, t, "navigation", True)
+    cp_a = platform_positions(session, cp, a, t, "cooperative solution", True)
+    cp_b = platform_positions(session, cp, b, t, "cooperative solution", True)
+    ref_a = reference_positions(session, a, t)
+    ref_b = reference_positions(session, b, t)
+    if config.di.dr_base == "cp":
+        di_dr = anchored_increments(cp_a, cp_b, dr_a, dr_b)
+    else:
+        di_dr = range_increments(dr_a, dr_b)
+    var = di_variance(
+        t, _drift(session, a, config), _drift(session, b, config), config.di.drift_scaling
+    )
+
+    if session.config.uwb_sigma_m is not None:
+        sigma, source = float(session.config.uwb_sigma_m), "session.toml"
+    elif config.nlos.adaptive:
+        sigma, source = -1.0, "adaptive"
+    else:
+        sigma, source = config.nlos.default_sigma_m, "default"
+    dt = np.diff(t)
+    step_s = float(np.median(dt[dt > 0])) if np.any(dt > 0) else 1.0
+    adaptive_n = max(round(config.nlos.adaptive_window_s / step_s), 1)
+    initial = _initial_sigma(obs, di_dr, config)
+
+    tm = np.empty_like(t)
+    tm[:1] = t[:1]
+    tm[1:] = 0.5 * (t[1:] + t[:-1])
+    rn_inc = rn_increments(
+        t,
+        platform_positions(session, session.nav, a, tm, "navigation", True),
+        platform_positions(session, session.nav, b, tm, "navigation", True),
+        _velocity(session, a, tm, config),
+        _velocity(session, b, tm, config),
+    )
+    return PairInputs(
+        name=pair,
+        members=(a, b),
+        time_s=t,
+        observed_m=obs,
+        nav_m=(dr_a, dr_b),
+        cp_m=(cp_a, cp_b),
+        di_dr_m=di_dr,
+        di_cp_m=range_increments(cp_a, cp_b),
+        di_ref_m=range_increments(ref_a, ref_b),
+        var_m2=var,
+        reference_m=np.linalg.norm(ref_a - ref_b, axis=1),
+        rn_m=rn_inc,
+        params=kernel_params(config, sigma, initial, adaptive_n, rn=False),
+        sigma_source=source,
+    )
+
+
+def _velocity(
+    session: Session, platform: str, time_s: FloatArray, config: RangingConfig
+) -> FloatArray:
+    info = session.platforms.get(platform)
+    if info is not None and info.role == "anchor" and info.position_enu_m is not None:
+        return np.zeros((time_s.shape[0], 3))
+    traj = session.nav.get(platform)
+    if traj is None:
+        raise StageError(f"ranging: no navigation for platform '{platform}'")
+    if config.rn.velocity == "difference" and traj.vel_enu_mps is not None:
+        traj = replace(traj, vel_enu_mps=None)
+    return platform_velocity(traj, time_s)

@@ -1,0 +1,42 @@
+"""Every stage the chain can run, by name: one line per stage.
+
+``[pipeline] ranges`` names methods of the range processors, ``[pipeline] positions``
+names position estimators (:mod:`coopproc.run.chain` resolves them into steps). Adding a
+method is one module with a :class:`coopproc.stages.base.RangeStage` or
+:class:`coopproc.stages.base.PositionStage` and one line here (docs/extending.md).
+"""
+
+from __future__ import annotations
+
+from coopproc.stages.base import PositionStage, RangeStage
+from coopproc.stages.fusion import entry as fusion_entry
+from coopproc.stages.ranging import entry as ranging_entry
+from coopproc.stages.ranging import median
+
+__all__ = ["POSITION_STAGES", "RANGE_STAGES", "range_stage_of"]
+
+#: Range processors, by stage name.
+RANGE_STAGES: dict[str, RangeStage] = {
+    s.name: s
+    for s in (
+        ranging_entry.STAGE,  # rn, di (paper 000)
+        median.STAGE,  # median (a model-free baseline; docs/extending.md)
+    )
+}
+
+#: Position estimators, by stage name.
+POSITION_STAGES: dict[str, PositionStage] = {
+    s.name: s
+    for s in (
+        fusion_entry.FUSION,  # cooperative EKF + RTS (papers 002, 003)
+        fusion_entry.LSQ,  # robust least squares from anchors (paper 003)
+    )
+}
+
+
+def range_stage_of(method: str) -> RangeStage | None:
+    """The range processor that produces ``method``, or None."""
+    for stage in RANGE_STAGES.values():
+        if method in stage.methods:
+            return stage
+    return None
