@@ -57,19 +57,20 @@ def locate(
     Writes OUT/locate.csv, OUT/locate_summary.csv, OUT/observability.csv and
     OUT/figures/; see docs/locate.md.
     """
-    from coopproc.run.outdir import atomic_output_dir, check_output_dir
+    from coopproc.io.outdir import atomic_output_dir, check_output_dir
 
     # before the imports and the work: a read-only or mistyped OUT fails at once
     check_output_dir(out_dir, force=force, protect=[session])
 
+    import math
+
     import matplotlib
-    import numpy as np
 
     matplotlib.use("Agg")
 
     from coopproc.io import read_session
+    from coopproc.io.outdir import write_csv
     from coopproc.report.locate_figures import write_locate_figures
-    from coopproc.run.outdir import write_csv
     from coopproc.stages.particle import (
         LOCATE_COLUMNS,
         LOCATE_SUMMARY_COLUMNS,
@@ -94,8 +95,8 @@ def locate(
     for row in result.summary.to_dict("records"):
         az_err = float(row["azimuth_error"])
         rmse = float(row["rmse_h"])
-        err = "" if np.isnan(az_err) else f" ({az_err:+.2f})"
-        rmse_text = "-" if np.isnan(rmse) else f"{rmse:.3f} m"
+        err = "" if math.isnan(az_err) else f" ({az_err:+.2f})"
+        rmse_text = "-" if math.isnan(rmse) else f"{rmse:.3f} m"
         click.echo(
             f"{row['method']:>6}: initial azimuth {float(row['initial_azimuth']):.2f} deg{err}, "
             f"rmse_h {rmse_text}, observable {int(row['observable'])}"

@@ -71,7 +71,7 @@ def report(
     coopproc report out --metrics max,rmse --pairs A-B
     coopproc report out --plots --pdf --html    figures (PNG + PDF) and report.html
     """
-    from coopproc.run.outdir import (
+    from coopproc.io.outdir import (
         check_output_file,
         check_writable_dir,
         output_errors,

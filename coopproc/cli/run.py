@@ -12,6 +12,7 @@ from coopproc.cli.options import config_option, output_option, session_argument
 
 __all__ = ["run"]
 
+
 @click.command()
 @session_argument()
 @output_option(
@@ -43,7 +44,7 @@ def run(
     .mcap file; see docs/formats.md. The closing summary goes to standard output;
     progress and notes go to standard error.
     """
-    from coopproc.run.outdir import check_output_dir
+    from coopproc.io.outdir import check_output_dir
 
     started = dt.datetime.now(dt.UTC)
     # before the imports and the work: a read-only or mistyped OUT fails at once

@@ -30,8 +30,8 @@ from coopproc.io._common import (
     one_line,
     parser_error,
 )
+from coopproc.io.outdir import write_csv
 from coopproc.model import Trajectory
-from coopproc.run.outdir import write_csv
 
 __all__ = [
     "NAV_HEADER",

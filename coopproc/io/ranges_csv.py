@@ -23,8 +23,8 @@ from coopproc.io._common import (
     numeric_column,
 )
 from coopproc.io.csv_traj import read_csv_table
+from coopproc.io.outdir import write_csv
 from coopproc.model import RANGE_COLUMNS, RangeTable
-from coopproc.run.outdir import write_csv
 
 __all__ = [
     "MAX_RANGE_M",

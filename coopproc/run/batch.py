@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from coopproc.errors import CoopprocError, OutputError
+from coopproc.io.outdir import check_output_dir
 from coopproc.run.batch_root import (
     BatchEntry,
     merge_listing,
@@ -38,7 +39,6 @@ from coopproc.run.batch_root import (
     write_listing,
 )
 from coopproc.run.config import RunConfig
-from coopproc.run.outdir import check_output_dir
 
 __all__ = ["BatchEntry", "BatchResult", "SessionOutcome", "check_scheduler", "run_batch", "run_one"]
 

@@ -29,9 +29,9 @@ from typing import Any
 import pandas as pd
 
 from coopproc.errors import CoopprocError, OutputError
+from coopproc.io.outdir import write_csv
 from coopproc.report.rundir import RUN_FILES
 from coopproc.run.config import RunConfig
-from coopproc.run.outdir import write_csv
 
 __all__ = [
     "STACKED",

@@ -16,13 +16,13 @@ from pathlib import Path
 from typing import Any
 
 from coopproc import __version__
+from coopproc.io.outdir import atomic_output_dir, write_csv
 from coopproc.model import Session
 from coopproc.report.figures import write_figures
 from coopproc.report.html import write_html
 from coopproc.report.rundir import RUN_FILES, RunTables
 from coopproc.run.calibration_summary import calibration_facts
 from coopproc.run.config import RunConfig
-from coopproc.run.outdir import atomic_output_dir, write_csv
 from coopproc.run.pipeline import PipelineOutput
 
 __all__ = ["RunFiles", "run_tables", "sha256_of", "write_run"]
@@ -76,7 +76,7 @@ def write_run(
     started: dt.datetime,
     summary: Mapping[str, Any] | None = None,
 ) -> RunFiles:
-    """Write every output of a run into ``out_dir`` (atomically; see coopproc.run.outdir)."""
+    """Write every output of a run into ``out_dir`` (atomically; see coopproc.io.outdir)."""
     info: dict[str, Any] = {
         "coopproc_version": __version__,
         "python": platform.python_version(),

@@ -244,6 +244,8 @@ def run_pipeline(
             if "cp" in step.outputs:
                 cp_product = products[step.methods[0]]
 
+    # ranges.csv keeps the config's column order whatever order the steps ran in
+    columns = {m: columns[m] for m in config.pipeline.ranges}
     with timed("metrics"):
         table = _range_table(base, columns, range_products)
         positions = _positions_table(session, products, output)

@@ -15,7 +15,7 @@ Layout of ``OUT``::
     truth/params.toml          the effective simulation parameters, scenario and seed
     README.md                  what this is and the command that makes it again
 
-The output directory is written atomically (``coopproc.run.outdir.atomic_output_dir``).
+The output directory is written atomically (``coopproc.io.outdir.atomic_output_dir``).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from typing import Any, Literal
 import pandas as pd
 import tomli_w
 
-from coopproc.run.outdir import atomic_output_dir, write_csv
+from coopproc.io.outdir import atomic_output_dir, write_csv
 from coopproc.sim.params import SimParams, sparse_table
 from coopproc.sim.truth import (
     DISTANCE_COLUMNS,

@@ -24,7 +24,7 @@ from click.testing import CliRunner, Result
 import coopproc.io
 import coopproc.run.output
 from coopproc.cli import main
-from coopproc.run.outdir import write_csv
+from coopproc.io.outdir import write_csv
 
 ROFS = os.strerror(errno.EROFS)  # "Read-only file system"
 EACCES = os.strerror(errno.EACCES)  # "Permission denied"
@@ -319,12 +319,12 @@ class _FullDisk:
 def test_report_disk_full_leaves_no_partial_file(
     finished_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, existing: bool
 ) -> None:
-    import coopproc.run.outdir
+    import coopproc.io.outdir
 
     target = tmp_path / "t.tex"
     if existing:
         target.write_text("previous table\n")
-    monkeypatch.setattr(coopproc.run.outdir, "open", _FullDisk, raising=False)
+    monkeypatch.setattr(coopproc.io.outdir, "open", _FullDisk, raising=False)
     res = _cli("report", str(finished_run), "--format", "latex", "-o", str(target))
     left = "the existing file is unchanged" if existing else "nothing was written"
     _one_error_line(res, f"{target}: cannot write ({ENOSPC}); {left}")

@@ -11,13 +11,13 @@ import pytest
 from report_synth import make_run
 
 from coopproc.errors import InputError
+from coopproc.io.outdir import write_csv
 from coopproc.report.metrics import distance_metrics, position_metrics
 from coopproc.report.rundir import RunTables, load_run
-from coopproc.run.outdir import write_csv
 
 
 def write_run_dir(run: RunTables, out: Path) -> Path:
-    """Write the run's tables the way coopproc run does (coopproc.run.outdir.write_csv)."""
+    """Write the run's tables the way coopproc run does (coopproc.io.outdir.write_csv)."""
     out.mkdir(parents=True, exist_ok=True)
     for name in (
         "ranges",
