@@ -80,8 +80,8 @@ def position_methods_of(positions: pd.DataFrame) -> tuple[str, ...]:
     """Position methods derived from a positions table (see the module doc)."""
     if "method" not in positions.columns:
         return ()
-    names = {str(m) for m in positions["method"].dropna().unique()} - NOT_POSITION_METHODS
-    return _known_first(names, sort_rest=True)
+    names = [str(m) for m in positions["method"].dropna().unique()]
+    return _known_first((m for m in names if m not in NOT_POSITION_METHODS), sort_rest=True)
 
 
 def detection_methods_of(
