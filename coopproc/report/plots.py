@@ -170,6 +170,10 @@ def plot_nlos_convergence(
         pad = 0.1 * max(float(np.ptp(values)), 0.01)
         ax.set_ylim(float(values.min()) - pad, float(values.max()) + pad)
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    steps = np.unique(_values(event_estimates, "step"))
+    steps = steps[np.isfinite(steps)]
+    if steps.size == 1:  # one step (e.g. an RN-only event): whole steps around it
+        ax.set_xlim(float(steps[0]) - 1.0, float(steps[0]) + 1.0)
     ax.set_xlabel("Estimation step")
     ax.set_ylabel("NLOS estimate (m)")
     return ax
