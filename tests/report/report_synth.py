@@ -13,7 +13,7 @@ from coopproc.model import (
     RANGES_OUT_COLUMNS,
 )
 from coopproc.report.metrics import distance_metrics, position_metrics
-from coopproc.report.rundir import RunTables
+from coopproc.report.rundir import RunTables, ranges_columns
 from coopproc.report.scores import nlos_event_scores, nlos_scores
 
 T0 = 1000.0
@@ -111,6 +111,63 @@ def make_run(n: int = 120, seed: int = 7) -> RunTables:
             "inputs": [{"file": "ranges.csv", "sha256": "ab" * 32}],
             "sigma": {p: {"sigma_m": SIGMA, "source": "session.toml"} for p in PAIRS},
         },
+    )
+
+
+#: Method chains of :func:`chain_run`: (range methods, position methods), in chain order.
+CHAINS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
+    "default": (("observed", "rn", "di"), ("observed", "rn", "di")),
+    "no_rn": (("observed", "di"), ("observed", "di")),
+    "no_di": (("observed", "rn"), ("observed", "rn")),
+    "fusion": (("observed",), ("observed",)),
+    "extra": (("observed", "rn", "median", "di"), ("observed", "rn", "median", "di", "lsq")),
+}
+
+
+def chain_run(chain: str, *, listed: bool = True) -> RunTables:
+    """:func:`make_run` as a run of another method chain (:data:`CHAINS`) would write it.
+
+    Dropped methods lose their ranges column, positions rows, events and estimates (without
+    DI, di.csv is empty; without any NLOS method nlos_flag / nlos_estimate are 0); added
+    methods (``median``, ``lsq``) get a ranges column / positions rows. ``listed``: run.json
+    has the ``"methods"`` key (else an older run without it).
+    """
+    range_methods, position_methods = CHAINS[chain]
+    base = make_run()
+    ranges = base.ranges.copy()
+    if "median" in range_methods:
+        ranges["median"] = ranges["reference"] + 0.4 * (ranges["observed"] - ranges["reference"])
+    if not {"rn", "di"} & set(range_methods):
+        ranges["nlos_flag"] = 0
+        ranges["nlos_estimate"] = 0.0
+    ranges = ranges[list(ranges_columns(range_methods))]
+    events = base.nlos_events[base.nlos_events["method"].isin(range_methods)]
+    estimates = base.nlos_estimates[base.nlos_estimates["method"].isin(range_methods)]
+    di = base.di if "di" in range_methods else base.di.iloc[:0]
+    keep = ("reference", "nav", *position_methods)
+    parts = [base.positions[base.positions["method"].isin(keep)]]
+    for k, method in enumerate(m for m in position_methods if m not in ("observed", "rn", "di")):
+        rows = base.positions[base.positions["method"] == "observed"].copy()
+        rows["method"] = method
+        rows["east"] += 0.05 * (k + 1)
+        rows["error_h"] *= 0.5 + 0.2 * k
+        parts.append(rows)
+    positions = pd.concat(parts, ignore_index=True)
+    info = dict(base.info)
+    if listed:
+        info["methods"] = {"ranges": list(range_methods), "positions": list(position_methods)}
+    events = events.reset_index(drop=True)
+    return RunTables(
+        ranges=ranges,
+        di=di.reset_index(drop=True),
+        nlos_events=events,
+        nlos_estimates=estimates.reset_index(drop=True),
+        positions=positions,
+        metrics=distance_metrics(ranges),
+        position_metrics=position_metrics(positions),
+        nlos_scores=nlos_scores(ranges, events, dict.fromkeys(PAIRS, SIGMA)),
+        nlos_event_scores=nlos_event_scores(ranges, events),
+        info=info,
     )
 
 

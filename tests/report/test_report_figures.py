@@ -117,6 +117,7 @@ def test_di_position_convergence_and_trajectory_plot_the_csv(
     np.testing.assert_allclose(x, est["step"])
     np.testing.assert_allclose(y, est["estimate"])
     _, bias = line(conv[0], "reference_bias")
+    assert loaded.nlos_event_scores is not None
     expected = loaded.nlos_event_scores.query("pair == 'A-B' and method == 'di'")
     assert bias[0] == pytest.approx(expected["reference_bias"].iloc[0], abs=1e-6)
 

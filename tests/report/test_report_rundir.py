@@ -41,7 +41,8 @@ def test_round_trip(tmp_path: Path) -> None:
     assert loaded.info == dict(run.info)
     assert loaded.positions["platform"].tolist() == run.positions["platform"].tolist()
     np.testing.assert_allclose(loaded.ranges["observed"], run.ranges["observed"], atol=1e-6)
-    assert loaded.nlos_scores is not None and len(loaded.nlos_scores) == len(run.nlos_scores)
+    assert loaded.nlos_scores is not None and run.nlos_scores is not None
+    assert len(loaded.nlos_scores) == len(run.nlos_scores)
 
 
 def test_metrics_csv_equals_recomputation_from_ranges_csv(tmp_path: Path) -> None:
