@@ -255,7 +255,8 @@ def run_pipeline(
         declared = session.config.uwb_sigma_m
         label_sigma = {} if declared is None else {p: float(declared) for p in sigma}
         events = _concat_or_empty([p.nlos_events for p in range_products], NLOS_EVENT_COLUMNS)
-        scores = nlos_scores(table, events, label_sigma)
+        nlos_methods = tuple(m for m in columns if any(m in p.nlos for p in range_products))
+        scores = nlos_scores(table, events, label_sigma, methods=nlos_methods)
         di = next((p.di for p in range_products if p.di is not None), None)
         result = Result(
             ranges=table,
@@ -265,8 +266,8 @@ def run_pipeline(
                 [p.nlos_estimates for p in range_products], NLOS_ESTIMATE_COLUMNS
             ),
             positions=positions,
-            metrics=distance_metrics(table),
-            position_metrics=position_metrics(positions),
+            metrics=distance_metrics(table, methods=("observed", *columns)),
+            position_metrics=position_metrics(positions, methods=tuple(products)),
         )
     cp_positions = cp_product or products.get("observed")
     return PipelineOutput(
@@ -284,8 +285,12 @@ def run_pipeline(
         ),
         notes=tuple(n for p in products.values() for n in p.notes),
         chain=steps,
-        methods={"ranges": ("observed", *columns), "positions": tuple(products)},
-        nlos_methods=tuple(m for m in columns if any(m in p.nlos for p in range_products)),
+        methods={
+            "ranges": ("observed", *columns),
+            "positions": tuple(products),
+            "nlos": nlos_methods,
+        },
+        nlos_methods=nlos_methods,
     )
 
 
