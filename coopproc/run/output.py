@@ -16,13 +16,11 @@ from pathlib import Path
 from typing import Any
 
 from coopproc import __version__
-from coopproc.io.injected import session_injected
 from coopproc.io.outdir import atomic_output_dir, write_csv
 from coopproc.model import Session
 from coopproc.report.figures import write_figures
 from coopproc.report.html import write_html
-from coopproc.report.injected import injected_scores
-from coopproc.report.rundir import RUN_EXTENSION_FILES, RUN_FILES, RunTables
+from coopproc.report.rundir import RUN_FILES, RunTables
 from coopproc.run.calibration_summary import calibration_facts
 from coopproc.run.config import RunConfig
 from coopproc.run.pipeline import PipelineOutput
@@ -50,11 +48,8 @@ def sha256_of(path: Path) -> str:
     return digest.hexdigest()
 
 
-def run_tables(
-    output: PipelineOutput, info: Mapping[str, Any], injected: Any = None
-) -> RunTables:
-    """The reporters' view of a run, from the in-memory result (``injected``: the
-    ``injected_scores.csv`` table of an injected session)."""
+def run_tables(output: PipelineOutput, info: Mapping[str, Any]) -> RunTables:
+    """The reporters' view of a run, from the in-memory result."""
     r = output.result
     return RunTables(
         ranges=r.ranges,
@@ -67,7 +62,6 @@ def run_tables(
         nlos_scores=output.nlos_scores,
         nlos_event_scores=output.nlos_event_scores,
         info=dict(info),
-        injected_scores=injected,
     )
 
 
@@ -112,23 +106,12 @@ def write_run(
         "timings_s": dict(output.timings_s),
         "start_time": started.isoformat(timespec="seconds"),
     }
-    # a session made by `coopproc inject`: the methods scored against its injected.csv
-    injected = session_injected(session.root)
-    scores = None
-    if injected is not None:
-        scores = injected_scores(injected[1], output.result.nlos_events, output.nlos_methods)
-        info["injected"] = {"file": injected[0].name, "sha256": sha256_of(injected[0])}
     with atomic_output_dir(out_dir, force=force, protect=[session.root, *session.inputs]) as tmp:
         # the same list of files and columns that `coopproc report` reads back
-        run = run_tables(output, info, scores)
+        run = run_tables(output, info)
         tables = [
             write_csv(getattr(run, attr), tmp / name, columns)
             for name, attr, columns, _required in RUN_FILES
-        ]
-        tables += [
-            write_csv(getattr(run, attr), tmp / name, columns)
-            for name, attr, columns, _required in RUN_EXTENSION_FILES
-            if getattr(run, attr) is not None
         ]
         figures: list[Path] = []
         html = None
@@ -141,7 +124,7 @@ def write_run(
         run_json = tmp / "run.json"
         run_json.write_text(json.dumps(info, indent=2, default=_json_default) + "\n")
         if config.run.figures:
-            html = write_html(tmp, run_tables(output, info, scores))
+            html = write_html(tmp, run_tables(output, info))
     final = Path(out_dir)
     return RunFiles(
         out_dir=final,
