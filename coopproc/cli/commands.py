@@ -41,6 +41,12 @@ COMMANDS: dict[str, Entry] = {
         "Show the tables of a finished run (OUT, written by `coopproc run`) and remake its "
         "figures and HTML page, without recomputing anything.",
     ),
+    "export": Entry(
+        "export",
+        "export",
+        "Write the trajectories of a finished run (OUT, written by `coopproc run`) as TUM, "
+        "KITTI, RTKLIB .pos, GeoJSON or KML files, one per platform and method.",
+    ),
     "validate": Entry(
         "validate",
         "validate",
