@@ -107,7 +107,9 @@ def run_frame(info: Mapping[str, Any], run_json: str | Path) -> RunFrame:
             week is None or isinstance(week, int)
         ):
             raise InputError(
-                run_json, f'key "session": time base {base!r}, GPS week {week!r} not understood'
+                run_json,
+                f'key "session": time_base {base!r}, gps_week {week!r}; expected "gps_tow", '
+                '"unix" or "relative", and a week number or null',
             )
         no_origin = (
             "the session has none (no [frame] origin in session.toml, no geodetic or ECEF "

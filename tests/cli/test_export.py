@@ -242,6 +242,22 @@ def test_output_inside_the_run_is_refused(run_dir: Path) -> None:
     assert tree_digest(run_dir) == before
 
 
+def test_output_paths_that_cannot_be_are_one_line_errors(run_dir: Path, tmp_path: Path) -> None:
+    (tmp_path / "afile").write_text("a file\n")
+    cases = {
+        tmp_path / "afile": "exists and is not a directory",
+        tmp_path / "afile" / "sub": f"cannot create the output: {tmp_path / 'afile'} is not a",
+        Path("/dev/null/out"): "cannot create the output: /dev/null is not a directory",
+    }
+    for target, problem in cases.items():
+        res = invoke("export", run_dir, "--format", "tum", "-o", target)
+        assert res.exit_code == 1
+        assert res.output.startswith(f"error: {target}: {problem}"), res.output
+        assert len(res.output.splitlines()) == 1
+    res = invoke("export", run_dir, "--format", "tum", "-o", tmp_path / "a" / "b" / "new")
+    assert res.exit_code == 0, res.output  # missing parents are created
+
+
 def test_not_a_run_is_a_one_line_error(tmp_path: Path) -> None:
     res = invoke("export", tmp_path / "nothing", "--format", "tum", "-o", tmp_path / "x")
     assert res.exit_code == 1

@@ -139,7 +139,7 @@ def test_run_frame_from_run_json() -> None:
     bad = {"session": {"time_base": "gps_tow", "gps_week": 2178, "origin_llh": [1, 2]}}
     with pytest.raises(InputError, match=r"^run.json: .*origin_llh: \[1, 2\]; expected"):
         run_frame(bad, "run.json")
-    with pytest.raises(InputError, match=r"^run.json: .*time base 'tow'"):
+    with pytest.raises(InputError, match=r"^run.json: .*time_base 'tow', gps_week None; expected"):
         run_frame({"session": {"time_base": "tow", "origin_llh": None}}, "run.json")
 
 
