@@ -71,6 +71,12 @@ COMMANDS: dict[str, Entry] = {
         "batch",
         "Process many sessions, in parallel on Dask, each exactly as `coopproc run` would.",
     ),
+    "inject": Entry(
+        "inject",
+        "inject",
+        "Copy SESSION to NEW with NLOS errors, gross errors or UWB outages injected (listed "
+        "in NEW/injected.csv), to score the methods on one's own recording.",
+    ),
     "config": Entry(
         "config_cmd",
         "config",
