@@ -6,11 +6,10 @@ at ``scheduler`` for a real cluster. ``<name>`` is the session directory's name 
 ``.mcap`` file's name without the suffix); two sessions of one name are refused.
 
 Checked before any work: the names, the scheduler (something answers at its address
-within a few seconds), ROOT (a directory that can be written), and each ``ROOT/<name>/``:
-an existing one is replaced only with ``force``; with ``resume`` a complete and current
-run there is kept and its session skipped, a stale one redone (coopproc.run.batch_root). A
-session that fails, a missing path included, is reported with its one-line error and does
-not stop the others.
+within a few seconds, :func:`check_scheduler`), ROOT and each ``ROOT/<name>/``
+(coopproc.run.batch_plan: replaced only with ``force``, kept by ``resume`` when complete
+and current). A session that fails, a missing path included, is reported with its
+one-line error and does not stop the others.
 
 ``ROOT/batch.json`` and the stacked tables always describe every session under ROOT, not
 just this call's (coopproc.run.batch_root.merge_listing).
@@ -20,24 +19,22 @@ from __future__ import annotations
 
 import asyncio
 import datetime as dt
-import os
 import socket
-import tempfile
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
-from coopproc.errors import CoopprocError, OutputError
-from coopproc.io.outdir import check_output_dir
-from coopproc.run.batch_root import (
-    BatchEntry,
-    merge_listing,
-    read_listing,
-    run_json,
-    stale_reason,
-    write_listing,
+from coopproc.errors import CoopprocError
+from coopproc.run.batch_plan import (
+    SessionOutcome,
+    failed_outcome,
+    make_root,
+    os_cause,
+    out_names,
+    plan_sessions,
 )
+from coopproc.run.batch_root import BatchEntry, merge_listing, read_listing, run_json, write_listing
 from coopproc.run.config import RunConfig
 
 __all__ = ["BatchEntry", "BatchResult", "SessionOutcome", "check_scheduler", "run_batch", "run_one"]
@@ -45,17 +42,6 @@ __all__ = ["BatchEntry", "BatchResult", "SessionOutcome", "check_scheduler", "ru
 #: Seconds to wait for the scheduler's port (connect), then for its handshake.
 CONNECT_TIMEOUT_S = 5.0
 HANDSHAKE_TIMEOUT_S = 10.0
-
-
-@dataclass(frozen=True)
-class SessionOutcome:
-    """What became of one session of this call (``skipped``: kept by ``resume``)."""
-
-    session: str
-    out_dir: str
-    ok: bool
-    error: str = ""
-    skipped: bool = False
 
 
 @dataclass(frozen=True)
@@ -104,18 +90,10 @@ def run_one(
             summary=summarize(output).facts,
         )
     except CoopprocError as err:
-        return _failed(session_path, out_dir, str(err))
+        return failed_outcome(session_path, out_dir, str(err))
     except OSError as err:  # a disk that fills, a file that vanishes under the run
-        return _failed(session_path, out_dir, f"{err.filename or out_dir}: {_cause(err)}")
+        return failed_outcome(session_path, out_dir, f"{err.filename or out_dir}: {os_cause(err)}")
     return SessionOutcome(session_path, out_dir, ok=True)
-
-
-def _failed(session: str, out_dir: str, error: str) -> SessionOutcome:
-    """A failure whose one-line error names the session."""
-    error = " ".join(error.splitlines())
-    if session not in error:
-        error = f"{session}: {error}"
-    return SessionOutcome(session, out_dir, ok=False, error=error)
 
 
 def run_batch(
@@ -144,12 +122,12 @@ def run_batch(
     for s in sessions:
         unique.setdefault(Path(s).resolve(), Path(s))
     paths = list(unique.values())
-    names = _out_names(paths, out_root)
+    names = out_names(paths, out_root)
     if scheduler is not None:
         check_scheduler(scheduler)
-    _make_root(out_root)
+    make_root(out_root)
     earlier = read_listing(out_root / "batch.json")
-    plans = _plan(paths, names, out_root, config, earlier, force=force, resume=resume)
+    plans = plan_sessions(paths, names, out_root, config, earlier, force=force, resume=resume)
     outcomes = {n: o for n, (o, _) in plans.items() if o is not None}
     for outcome in outcomes.values():
         if on_done is not None:
@@ -214,7 +192,7 @@ def _compute(
                     outcome = future.result()
                 except Exception as err:  # a worker died or the task raised
                     s, o = futures[future]
-                    outcome = _failed(s, o, f"{type(err).__name__}: {err}")
+                    outcome = failed_outcome(s, o, f"{type(err).__name__}: {err}")
                 outcomes.append(outcome)
                 if on_done is not None:
                     on_done(outcome)
@@ -261,7 +239,7 @@ def check_scheduler(address: str) -> None:
         ) from err
     except OSError as err:
         raise CoopprocError(
-            f"scheduler {address}: cannot connect ({_cause(err)}); "
+            f"scheduler {address}: cannot connect ({os_cause(err)}); "
             "is a Dask scheduler running there?"
         ) from err
     if scheme == "tcp":  # tls needs the cluster's certificates: the client checks it
@@ -298,111 +276,5 @@ async def _not_a_scheduler(address: str) -> str:
     return f"a Dask {kind} answers there, not the scheduler" if kind else "no Dask scheduler"
 
 
-def _cause(err: OSError) -> str:
-    return err.strerror or (os.strerror(err.errno) if err.errno else str(err)) or type(err).__name__
-
-
 def _now() -> str:
     return dt.datetime.now(dt.UTC).isoformat(timespec="seconds")
-
-
-def _out_names(sessions: Sequence[Path], out_root: Path) -> list[str]:
-    """One output directory name per session; two sessions of one name are an error."""
-    names: dict[str, Path] = {}
-    for s in sessions:
-        name = s.stem if s.is_file() else s.resolve().name
-        if name in names:
-            raise OutputError(
-                f"sessions {names[name]} and {s} would both write {out_root / name}/ "
-                "(outputs are named after the session directory or .mcap file); "
-                "rename one, or batch them into different ROOTs"
-            )
-        names[name] = s
-    return list(names)
-
-
-def _make_root(out_root: Path) -> None:
-    """Create ROOT and check that it can be written, before any work."""
-    if out_root.exists() and not out_root.is_dir():
-        raise OutputError(f"{out_root}: exists and is not a directory")
-    try:
-        out_root.mkdir(parents=True, exist_ok=True)
-        os.rmdir(tempfile.mkdtemp(prefix=".coopproc-probe.", dir=out_root))
-    except OSError as err:
-        base = next((p for p in out_root.absolute().parents if p.exists()), None)
-        if base is not None and not base.is_dir():
-            raise OutputError(f"{out_root}: cannot create the directory: {base} is a file") from err
-        raise OutputError(f"{out_root}: cannot write the outputs there ({_cause(err)})") from err
-
-
-def _plan(
-    sessions: Sequence[Path],
-    names: Sequence[str],
-    out_root: Path,
-    config: RunConfig,
-    earlier: dict[str, BatchEntry],
-    *,
-    force: bool,
-    resume: bool,
-) -> dict[str, tuple[SessionOutcome | None, bool]]:
-    """Per output name: the outcome known without running (missing path, skipped by
-    ``resume``) or None, and whether the run replaces ``ROOT/<name>/``.
-
-    Raises before any work for outputs that exist without ``force`` or ``resume`` (one
-    line for them all) and, with ``resume``, for a directory that is not a coopproc run
-    or holds the run of another session that still exists.
-    """
-    plans: dict[str, tuple[SessionOutcome | None, bool]] = {}
-    exist: list[str] = []
-    for session, name in zip(sessions, names, strict=True):
-        out_dir = out_root / name
-        if not session.exists():
-            error = f"{session}: no such file or directory; expected a session directory or .mcap"
-            plans[name] = (_failed(str(session), str(out_dir), error), False)
-            continue
-        check_output_dir(out_dir, force=True, protect=[session])
-        if not out_dir.is_dir() or not any(out_dir.iterdir()):
-            plans[name] = (None, False)
-        elif resume and run_json(out_dir) is not None:
-            if not force:
-                _check_same_session(session, out_dir, earlier.get(name))
-            if stale_reason(out_dir, session, config) is None:
-                plans[name] = (
-                    SessionOutcome(str(session), str(out_dir), ok=True, skipped=True),
-                    False,
-                )
-            else:
-                plans[name] = (None, True)
-        elif force:
-            plans[name] = (None, True)
-        elif resume:
-            raise OutputError(
-                f"{out_dir}: exists and holds no coopproc run (no run.json); "
-                "use --force to replace it"
-            )
-        else:
-            exist.append(name)
-    if exist:
-        shown = ", ".join(exist[:5]) + (", ..." if len(exist) > 5 else "")
-        raise OutputError(
-            f"{out_root}: {len(exist)} of these sessions have outputs there already ({shown}); "
-            "use --resume to skip the complete ones and redo the rest, or --force to replace them"
-        )
-    return plans
-
-
-def _check_same_session(session: Path, out_dir: Path, earlier: BatchEntry | None) -> None:
-    """Refuse to redo into ``out_dir`` the run of another session of the same name."""
-    recorded = Path(earlier.session) if earlier is not None and earlier.session else None
-    if recorded is None:
-        info = run_json(out_dir) or {}
-        path = (info.get("session") or {}).get("path")
-        recorded = Path(path) if isinstance(path, str) else None
-    if recorded is None or not recorded.is_absolute():
-        return  # unknown: the inputs' check decides
-    if recorded.resolve() != session.resolve() and recorded.exists():
-        raise OutputError(
-            f"{out_dir}: holds the run of {recorded}, not of {session} (outputs are named "
-            "after the session directory); batch it into another ROOT, or use --force to "
-            "replace it"
-        )
