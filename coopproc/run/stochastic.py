@@ -1,0 +1,142 @@
+"""``coopproc report OUT --stochastic``: the UWB range residual analysis of a finished run
+and the Allan deviation of its session's IMU files, computed and written into OUT.
+
+The glue between the readers (:mod:`coopproc.io.imu_csv`) and the reporters
+(:mod:`coopproc.report.stochastic`, :mod:`coopproc.report.allan`): the IMU files are
+the ``imu_<ID>.csv[.gz]`` of the session directory that run.json names
+(``info["session"]["path"]``, resolved against the current directory when relative, as
+``coopproc run`` recorded it), or the files given explicitly. Writes (each atomically)
+``OUT/stochastic.csv``, ``OUT/allan.csv`` (with IMU data) and, when asked,
+``OUT/figures/uwb_acf``, ``uwb_pdf``, ``allan``.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from coopproc.errors import InputError, OutputError
+from coopproc.io.imu_csv import find_imu_files, imu_platform, read_imu_csv
+from coopproc.io.outdir import FLOAT_FORMAT, check_output_file, write_text_atomic
+from coopproc.report.allan import ALLAN_COLUMNS, ImuAllan, allan_frame, imu_allan
+from coopproc.report.rundir import RunTables
+from coopproc.report.stochastic import (
+    MIN_EPOCHS,
+    STOCHASTIC_COLUMNS,
+    StochasticReport,
+    stochastic_frame,
+    uwb_stochastics,
+)
+from coopproc.report.stochastic_figures import render_stochastic_figures
+
+__all__ = ["imu_sources", "stochastic_report", "write_stochastic"]
+
+
+def imu_sources(info: Mapping[str, Any]) -> tuple[dict[str, Path], list[str]]:
+    """The session's IMU files by platform (from run.json's session path), and notes."""
+    session = info.get("session")
+    raw = session.get("path") if isinstance(session, Mapping) else None
+    if not raw:
+        return {}, ["run.json names no session path: no IMU files looked for (use --imu FILE)"]
+    path = Path(str(raw))
+    if path.is_file():
+        return {}, [
+            f"session {path} is one file (MCAP): its IMU messages are not read by this "
+            "version; give imu_<ID>.csv with --imu FILE"
+        ]
+    if not path.is_dir():
+        where = "" if path.is_absolute() else f" (relative to {Path.cwd()})"
+        return {}, [
+            f"session directory {path} of run.json not found{where}: no IMU files looked "
+            "for; run from where coopproc run ran, or give them with --imu FILE"
+        ]
+    found = find_imu_files(path)
+    if not found:
+        return {}, [f"no imu_<ID>.csv in the session {path}: no Allan deviation"]
+    return found, []
+
+
+def stochastic_report(
+    out_dir: str | Path, run: RunTables, imu_files: Sequence[str | Path] = ()
+) -> StochasticReport:
+    """The UWB analysis of ``run`` and the Allan deviation of the IMU files: ``imu_files``
+    when given, else the session's. InputError when there is nothing to analyse."""
+    pairs, notes = uwb_stochastics(run.ranges)
+    if imu_files:
+        files = {imu_platform(Path(f)): Path(f) for f in imu_files}
+    else:
+        files, more = imu_sources(run.info)
+        notes += more
+    results: list[ImuAllan] = []
+    for platform, path in files.items():
+        imu = read_imu_csv(path, platform)
+        res = imu_allan(
+            platform, str(path), imu.time_s, imu.gyro_radps, imu.accel_mps2, imu.static_fraction
+        )
+        notes += [*imu.notes, *res.notes]
+        results.append(res)
+    if not pairs and not results:
+        raise InputError(
+            Path(out_dir) / "ranges.csv",
+            f"no pair has {MIN_EPOCHS} line-of-sight epochs with a reference distance, and "
+            "no IMU file was found: nothing for the stochastic analysis (it needs the "
+            "reference, ref_<ID> files, or --imu FILE)",
+        )
+    return StochasticReport(tuple(pairs), tuple(results), tuple(notes))
+
+
+def _csv_text(frame: Any, columns: Sequence[str]) -> str:
+    return str(
+        frame[list(columns)].to_csv(index=False, float_format=FLOAT_FORMAT, lineterminator="\n")
+    )
+
+
+def _write_bytes_atomic(path: Path, data: bytes) -> Path:
+    """``data`` to ``path`` through a temporary file renamed into place."""
+    check_output_file(path)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        try:
+            with open(fd, "wb") as handle:
+                handle.write(data)
+            os.chmod(tmp, 0o644)
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+    except OSError as err:
+        left = "the existing file is unchanged" if path.exists() else "nothing was written"
+        raise OutputError(f"{path}: cannot write ({err.strerror or err}); {left}") from err
+    return path
+
+
+def write_stochastic(
+    out_dir: str | Path,
+    report: StochasticReport,
+    *,
+    formats: Sequence[str] = (),
+    dpi: int = 300,
+) -> list[Path]:
+    """Write ``stochastic.csv``, ``allan.csv`` and (``formats``) the figures into OUT."""
+    out = Path(out_dir)
+    written = []
+    if report.uwb:
+        text = _csv_text(stochastic_frame(report.uwb), STOCHASTIC_COLUMNS)
+        written.append(write_text_atomic(out / "stochastic.csv", text))
+    imu = [r for r in report.imu if isinstance(r, ImuAllan)]
+    if imu:
+        text = _csv_text(allan_frame(imu), ALLAN_COLUMNS)
+        written.append(write_text_atomic(out / "allan.csv", text))
+    if formats:
+        figures = render_stochastic_figures(report, formats=formats, dpi=dpi)
+        if figures:
+            try:
+                (out / "figures").mkdir(exist_ok=True)
+            except OSError as err:
+                raise OutputError(f"{out / 'figures'}: cannot create ({err.strerror})") from err
+        for name, data in figures.items():
+            written.append(_write_bytes_atomic(out / "figures" / name, data))
+    return written
