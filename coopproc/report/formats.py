@@ -13,6 +13,7 @@ import io
 from collections.abc import Sequence
 from typing import Literal
 
+from coopproc.report.injected import injected_tables
 from coopproc.report.rundir import RunTables
 from coopproc.report.tables import METRIC_SPECS, MetricSpec, Row, Table, build_tables, method_label
 
@@ -40,7 +41,7 @@ def _method(name: str) -> str:
 
 
 def _note(table: Table, best_mark: str) -> str:
-    what = "pair" if table.group_label == "Pair" else "platform"
+    what = table.group_label.lower()
     text = f"{best_mark} best of the column within each {what}"
     if table.has_change:
         text += "; (+x.x%) relative change against Observed"
@@ -212,7 +213,8 @@ def format_tables(
     pairs: Sequence[str] | None = None,
     platforms: Sequence[str] | None = None,
 ) -> str:
-    """Table 2, Table 3 and the NLOS scores of a run in one format, separated by a blank line.
+    """Table 2, Table 3, the NLOS scores (and, for an injected session, the injected-NLOS
+    table) of a run in one format, separated by a blank line.
 
     See :func:`coopproc.report.tables.build_tables` for the filters. CSV output holds one
     block per table, each headed by a ``# title`` line.
@@ -220,4 +222,5 @@ def format_tables(
     if fmt not in ("terminal", "csv", "md", "latex"):
         raise ValueError(f"unknown table format {fmt!r}")
     tables = build_tables(run, metrics=metrics, pairs=pairs, platforms=platforms)
+    tables += injected_tables(run, metrics=metrics, pairs=pairs)  # a run of `coopproc inject`
     return "\n".join(render_table(t, fmt) for t in tables)

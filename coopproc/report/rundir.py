@@ -37,6 +37,7 @@ __all__ = [
     "RANGES_LEADING_COLUMNS",
     "RANGES_REQUIRED_COLUMNS",
     "RANGES_TRAILING_COLUMNS",
+    "RUN_EXTENSION_FILES",
     "RUN_FILES",
     "RunTables",
     "load_run",
@@ -76,6 +77,11 @@ RUN_FILES: tuple[tuple[str, str, tuple[str, ...], bool], ...] = (
     ("nlos_scores.csv", "nlos_scores", NLOS_SCORE_COLUMNS[:2], False),
     ("nlos_event_scores.csv", "nlos_event_scores", NLOS_EVENT_SCORE_COLUMNS[:2], False),
 )
+#: Tables a run writes only when it has them (same layout as RUN_FILES; never required):
+#: ``injected_scores.csv`` for a session made by ``coopproc inject`` (report/injected.py).
+RUN_EXTENSION_FILES: tuple[tuple[str, str, tuple[str, ...], bool], ...] = (
+    ("injected_scores.csv", "injected_scores", ("pair", "method"), False),
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,6 +102,7 @@ class RunTables:
     nlos_scores: pd.DataFrame | None = None
     nlos_event_scores: pd.DataFrame | None = None
     info: Mapping[str, Any] = field(default_factory=dict)
+    injected_scores: pd.DataFrame | None = None
 
     @property
     def time_origin_s(self) -> float:
@@ -195,6 +202,9 @@ def load_run(out_dir: str | Path) -> RunTables:
             tables[attr] = pd.DataFrame(columns=list(columns)) if attr == "nlos_estimates" else None
             continue
         tables[attr] = _read_table(path, _REQUIRED.get(attr, columns))
+    for name, attr, columns, _required in RUN_EXTENSION_FILES:
+        path = root / name
+        tables[attr] = _read_table(path, columns) if path.is_file() else None
     info = _read_info(root / "run.json")
     ranges = tables["ranges"]
     if ranges is not None:  # the range methods are columns of numbers too

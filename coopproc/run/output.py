@@ -13,17 +13,22 @@ import platform
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from coopproc import __version__
+from coopproc.io.injected import session_injected
 from coopproc.io.outdir import atomic_output_dir, write_csv
 from coopproc.model import Session
 from coopproc.report.figures import write_figures
 from coopproc.report.html import write_html
-from coopproc.report.rundir import RUN_FILES, RunTables
+from coopproc.report.injected import injected_scores
+from coopproc.report.rundir import RUN_EXTENSION_FILES, RUN_FILES, RunTables
 from coopproc.run.calibration_summary import calibration_facts
 from coopproc.run.config import RunConfig
 from coopproc.run.pipeline import PipelineOutput
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["RunFiles", "run_tables", "sha256_of", "write_run"]
 
@@ -48,8 +53,11 @@ def sha256_of(path: Path) -> str:
     return digest.hexdigest()
 
 
-def run_tables(output: PipelineOutput, info: Mapping[str, Any]) -> RunTables:
-    """The reporters' view of a run, from the in-memory result."""
+def run_tables(
+    output: PipelineOutput, info: Mapping[str, Any], injected: pd.DataFrame | None = None
+) -> RunTables:
+    """The reporters' view of a run, from the in-memory result (``injected``: the
+    ``injected_scores.csv`` table of an injected session)."""
     r = output.result
     return RunTables(
         ranges=r.ranges,
@@ -62,6 +70,7 @@ def run_tables(output: PipelineOutput, info: Mapping[str, Any]) -> RunTables:
         nlos_scores=output.nlos_scores,
         nlos_event_scores=output.nlos_event_scores,
         info=dict(info),
+        injected_scores=injected,
     )
 
 
@@ -106,12 +115,23 @@ def write_run(
         "timings_s": dict(output.timings_s),
         "start_time": started.isoformat(timespec="seconds"),
     }
+    # a session made by `coopproc inject`: the methods scored against its injected.csv
+    injected = session_injected(session.root)
+    scores = None
+    if injected is not None:
+        scores = injected_scores(injected[1], output.result.nlos_events, output.nlos_methods)
+        info["injected"] = {"file": injected[0].name, "sha256": sha256_of(injected[0])}
     with atomic_output_dir(out_dir, force=force, protect=[session.root, *session.inputs]) as tmp:
         # the same list of files and columns that `coopproc report` reads back
-        run = run_tables(output, info)
+        run = run_tables(output, info, scores)
         tables = [
             write_csv(getattr(run, attr), tmp / name, columns)
             for name, attr, columns, _required in RUN_FILES
+        ]
+        tables += [
+            write_csv(getattr(run, attr), tmp / name, columns)
+            for name, attr, columns, _required in RUN_EXTENSION_FILES
+            if getattr(run, attr) is not None
         ]
         figures: list[Path] = []
         html = None
@@ -124,7 +144,7 @@ def write_run(
         run_json = tmp / "run.json"
         run_json.write_text(json.dumps(info, indent=2, default=_json_default) + "\n")
         if config.run.figures:
-            html = write_html(tmp, run_tables(output, info))
+            html = write_html(tmp, run_tables(output, info, scores))
     final = Path(out_dir)
     return RunFiles(
         out_dir=final,
