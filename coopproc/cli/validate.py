@@ -21,12 +21,13 @@ def validate(session: Path, quiet: bool) -> None:
     that reads cleanly is also checked for what would spoil a run without being an
     error, printed as warnings (exit status 0): gaps in a platform's navigation, and
     navigation that starts after or ends before the ranges, with the count of ranges it
-    does not cover; and notes: raw-sensor files this version does not use, and a
-    platform whose navigation seems to be in a frame of its own.
+    does not cover, and files left out (copies and backups such as nav_A_backup.csv);
+    and notes: raw-sensor files this version does not use, and a platform whose
+    navigation seems to be in a frame of its own.
     """
     from coopproc.checks.coverage import coverage_warnings, session_start_s
     from coopproc.checks.framecheck import frame_notes
-    from coopproc.io.registry import sensor_note
+    from coopproc.io.registry import find_files, sensor_note
     from coopproc.io.session import inspect_session
 
     data, problems = inspect_session(session)
@@ -42,6 +43,8 @@ def validate(session: Path, quiet: bool) -> None:
     if warnings:
         start = session_start_s(data)
         click.echo(f"note: times below are seconds from the session start, {start:.3f}")
+    if data.root.is_dir():  # copies and backups left out (io/file_names.py)
+        warnings += find_files(data.root, data.config).notes
     for line in warnings:
         click.echo(f"warning: {line}")
     for note in [*map(sensor_note, data.sensor_files), *frame_notes(data)]:

@@ -3,13 +3,15 @@
 One row per epoch, a header line, ``#`` comment lines allowed before it; positions in
 one of three forms (``east,north,up`` | ``lat,lon,height`` | ``x,y,z``); optional
 ``sigma_*``, ``vel_*``, ``heading`` and (an extension, written for references)
-``quality``. A column that is none of these is an error naming the nearest known column,
-so a misspelled optional column is not silently ignored.
+``quality``. Any other column is ignored with a note, except one that looks like a
+misspelling of a known column the file lacks (an error naming it), so a misspelled
+optional column is not silently lost. Encodings, delimiters, session.toml ``[columns]``
+names and units: :mod:`coopproc.io.csv_forms`.
 """
 
 from __future__ import annotations
 
-import gzip
+import difflib
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -19,17 +21,14 @@ import pandas as pd
 from coopproc.configtools import nearest
 from coopproc.errors import InputError
 from coopproc.io._common import (
-    PARSE_ERRORS,
     InputProblems,
     Locator,
     RawTrajectory,
     check_trajectory_times,
-    file_lines,
     missing_column,
     numeric_column,
-    one_line,
-    parser_error,
 )
+from coopproc.io.csv_forms import CsvForm, read_table
 from coopproc.io.outdir import write_csv
 from coopproc.model import Trajectory
 
@@ -63,102 +62,40 @@ TRAJECTORY_COLUMNS: tuple[str, ...] = (
     "quality",
 )
 
+#: An extra column this close (difflib ratio) to a known column the file lacks is taken
+#: for a misspelling of it (an error); any other extra column is ignored with a note.
+_MISSPELLED = 0.8
+
 #: The header a nav/ref table starts with, for messages.
 NAV_HEADER = "time,east,north,up (or lat,lon,height or x,y,z for the position)"
 
 
-def _header_line(path: Path) -> tuple[int, str]:
-    """1-based line number and text of the header (after ``#`` comments and blank lines)."""
-    opener = gzip.open if path.name.endswith(".gz") else open
-    with opener(path, "rt", encoding="utf-8") as fh:
-        for number, text in enumerate(fh, start=1):
-            stripped = text.strip()
-            if stripped and not stripped.startswith("#"):
-                return number, stripped
-    raise InputError(path, "empty file; expected a header line and data rows")
-
-
-_SEPARATORS = ((";", "';'"), ("\t", "tab"), ("|", "'|'"), (" ", "space"))
-
-
-def _check_header(path: Path, number: int, text: str, known: Sequence[str], expected: str) -> None:
-    """One clear error for a header that is not comma separated, or not a header at all."""
-    if "," not in text:
-        for sep, name in _SEPARATORS:
-            if len([f for f in text.split(sep) if f.strip()]) >= 2:
-                shown = text if len(text) <= 40 else text[:37] + "..."
-                raise InputError(
-                    path,
-                    f"uses {name} as separator (header {shown!r}); coopproc expects ','",
-                    line=number,
-                )
-    fields = [f.strip().strip('"') for f in text.split(",")]
-    if not known or any(f in known for f in fields):
-        return
-    if any(_is_number(f) for f in fields):
-        values = [one_line(f, 20) for f in fields if f]
-        like = ", ".join(values[:3]) + (", ..." if len(values) > 3 else "")
-        which = "first line" if number == 1 else "first line after the comments"
-        raise InputError(
-            path,
-            f"{which} is not a header (found values like {like}); expected the header {expected}",
-            line=number,
-        )
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
 def read_csv_table(
-    path: Path, known: Sequence[str] = (), expected: str = ""
+    path: Path, known: Sequence[str] = (), expected: str = "", form: CsvForm | None = None
 ) -> tuple[pd.DataFrame, Locator]:
-    """A comma-separated table with ``#`` comments before its header, and its row lines.
+    """A table with ``#`` comments before its header, and its row lines.
 
-    ``known``: column names the header should hold (for the message of a file without a
-    header, which names ``expected``, e.g. ``time,from,to,range``).
+    Encoding, delimiter and session.toml ``[columns]`` as :func:`csv_forms.read_table`
+    reads them (its notes are dropped here; the readers below keep them).
     """
-    try:
-        header, text = _header_line(path)
-        _check_header(path, header, text, known, expected)
-        frame = pd.read_csv(
-            path,
-            skiprows=header - 1,
-            skipinitialspace=True,
-            dtype={"from": str, "to": str},
-            compression="infer",
-            encoding="utf-8",
-            engine="c",
-            low_memory=False,
-        )
-    except InputError:
-        raise
-    except pd.errors.ParserError as err:
-        raise parser_error(path, err, "the header's columns") from err
-    except PARSE_ERRORS as err:
-        raise InputError(
-            path, f"cannot read as CSV ({type(err).__name__}: {one_line(err)})"
-        ) from err
-    frame.columns = [str(c).strip() for c in frame.columns]
-    unnamed = [c for c in frame.columns if c.startswith("Unnamed:")]
-    if unnamed:
-        raise InputError(path, "a column has no name in the header", line=header)
-    return frame, Locator(str(path), lines=file_lines(path, header + 1))
+    table = read_table(path, known, expected, form, text_columns=("from", "to"))
+    return table.frame, table.where
 
 
 def trajectory_from_frame(frame: pd.DataFrame, platform: str, where: Locator) -> RawTrajectory:
     """Validate a nav/ref table and return its raw trajectory (all problems at once)."""
     columns = [str(c) for c in frame.columns]
     problems: list[InputError] = []
+    ignored = []
     for name in columns:
-        if name not in TRAJECTORY_COLUMNS:
-            problems.append(
-                where.error(f"unknown column '{name}'{nearest(name, TRAJECTORY_COLUMNS)}")
-            )
+        if name in TRAJECTORY_COLUMNS:
+            continue
+        absent = [c for c in TRAJECTORY_COLUMNS if c not in columns]
+        if difflib.get_close_matches(name, absent, n=1, cutoff=_MISSPELLED):
+            # A misspelled column would be lost silently: an error, not an ignored column.
+            problems.append(where.error(f"unknown column '{name}'{nearest(name, absent)}"))
+        else:
+            ignored.append(name)
     if "time" not in columns:
         problems.append(missing_column("time", columns, where))
     form = next((f for f, cols in POSITION_FORMS.items() if set(cols) <= set(columns)), None)
@@ -225,14 +162,21 @@ def trajectory_from_frame(frame: pd.DataFrame, platform: str, where: Locator) ->
         heading_deg=heading,
         quality=quality,
     )
+    if ignored:
+        shown = ", ".join(f"'{c}'" for c in ignored[:8]) + (", ..." if len(ignored) > 8 else "")
+        raw.notes.append(f"{where.path}: column(s) {shown} ignored (not nav/ref columns)")
     return check_trajectory_times(raw, where)
 
 
-def read_traj_csv(path: str | Path, platform: str) -> RawTrajectory:
-    """Read a nav/ref CSV (or .csv.gz) of ``platform``; raises InputError."""
-    p = Path(path)
-    frame, where = read_csv_table(p, TRAJECTORY_COLUMNS, NAV_HEADER)
-    return trajectory_from_frame(frame, platform, where)
+def read_traj_csv(path: str | Path, platform: str, form: CsvForm | None = None) -> RawTrajectory:
+    """Read a nav/ref CSV (or .csv.gz) of ``platform``; raises InputError.
+
+    ``form``: encoding, column names and units other than the defaults (session.toml).
+    """
+    table = read_table(Path(path), TRAJECTORY_COLUMNS, NAV_HEADER, form, required=("time",))
+    raw = trajectory_from_frame(table.frame, platform, table.where)
+    raw.notes[:0] = table.notes
+    return raw
 
 
 def write_traj_csv(traj: Trajectory, path: str | Path) -> Path:

@@ -22,7 +22,7 @@ from coopproc.io._common import (
     missing_column,
     numeric_column,
 )
-from coopproc.io.csv_traj import read_csv_table
+from coopproc.io.csv_forms import CsvForm, read_table
 from coopproc.io.outdir import write_csv
 from coopproc.model import RANGE_COLUMNS, RangeTable
 
@@ -136,7 +136,8 @@ def range_table_from_frame(frame: pd.DataFrame, where: Locator) -> RangesRead:
             where.error(
                 f"ranges look like millimetres (median {float(np.median(finite)):,.0f}; "
                 f"{idx.size} of {finite.size} rows above {MAX_RANGE_M:g}); expected metres: "
-                f"divide the {both} by 1000",
+                f"divide the {both} by 1000, or declare session.toml [columns.units] "
+                'range = "mm"',
                 int(idx[0]),
             )
         )
@@ -200,12 +201,22 @@ def range_table_from_frame(frame: pd.DataFrame, where: Locator) -> RangesRead:
     return RangesRead(RangeTable(out, source=where.path), notes, where, order)
 
 
-def read_ranges_csv(path: str | Path) -> RangesRead:
-    """Read ranges.csv (or .csv.gz); raises InputError."""
-    frame, where = read_csv_table(
-        Path(path), RANGE_COLUMNS, "time,from,to,range (then optional sigma and extra columns)"
+def read_ranges_csv(path: str | Path, form: CsvForm | None = None) -> RangesRead:
+    """Read ranges.csv (or .csv.gz); raises InputError.
+
+    ``form``: encoding, column names and units other than the defaults (session.toml).
+    """
+    table = read_table(
+        Path(path),
+        RANGE_COLUMNS,
+        "time,from,to,range (then optional sigma and extra columns)",
+        form,
+        required=_REQUIRED,
+        text_columns=("from", "to"),
     )
-    return range_table_from_frame(frame, where)
+    out = range_table_from_frame(table.frame, table.where)
+    out.notes[:0] = table.notes
+    return out
 
 
 def write_ranges_csv(table: RangeTable, path: str | Path) -> Path:

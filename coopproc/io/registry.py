@@ -16,7 +16,9 @@ from pathlib import Path
 
 from coopproc.errors import ConfigError, CoopprocError, InputError
 from coopproc.io._common import RawTrajectory
+from coopproc.io.csv_forms import CsvForm
 from coopproc.io.csv_traj import read_traj_csv
+from coopproc.io.file_names import copy_id_note, default_ranges, unrecognised_note
 from coopproc.io.rtklib_pos import read_pos
 from coopproc.io.tum import read_tum
 from coopproc.model import SensorFile, SessionConfig
@@ -42,7 +44,8 @@ TRAJECTORY_READERS: dict[str, TrajectoryReader] = {
 }
 
 _NAME = re.compile(
-    r"^(?P<kind>nav|ref)_(?P<id>[A-Za-z0-9_-]+?)(?P<ext>\.csv\.gz|\.csv|\.tum|\.pos)$"
+    r"^(?P<kind>nav|ref)_(?P<id>[A-Za-z0-9_-]+?)(?P<ext>\.csv\.gz|\.csv|\.tum|\.pos)$",
+    re.IGNORECASE,  # NAV_A.CSV too; the id keeps its case (file_names.py)
 )
 
 
@@ -90,8 +93,8 @@ def suffix_of(path: Path) -> str:
     return ""
 
 
-def read_trajectory(path: Path, platform: str) -> RawTrajectory:
-    """Read a nav/ref file with the reader its suffix names."""
+def read_trajectory(path: Path, platform: str, form: CsvForm | None = None) -> RawTrajectory:
+    """Read a nav/ref file with the reader its suffix names (``form``: CSV readers)."""
     suffix = suffix_of(path)
     if not suffix:
         raise InputError(
@@ -99,7 +102,10 @@ def read_trajectory(path: Path, platform: str) -> RawTrajectory:
         )
     if not path.is_file():
         raise InputError(path, "no such file")
-    return TRAJECTORY_READERS[suffix](path, platform)
+    reader = TRAJECTORY_READERS[suffix]
+    if form is not None and reader is read_traj_csv:
+        return read_traj_csv(path, platform, form)
+    return reader(path, platform)
 
 
 @dataclass
@@ -113,25 +119,38 @@ class SessionFiles:
     #: Raw-sensor files (listed, not read).
     sensors: list[SensorFile] = field(default_factory=list)
     problems: list[CoopprocError] = field(default_factory=list)
+    #: Files left out (copies, backups, names [files] replaces), one note each.
+    notes: list[str] = field(default_factory=list)
 
 
 def find_files(root: Path, config: SessionConfig) -> SessionFiles:
     """Find the nav, ref, ranges and MCAP files of session directory ``root``."""
     out = SessionFiles()
     mapped = {root / name for name in config.files.values()}
+    unrecognised: list[Path] = []
     for path in sorted(root.iterdir()):
         m = _NAME.match(path.name)
         if not m and path not in mapped and path.is_file():
             sensor = _sensor_file(path)
             if sensor is not None:
                 out.sensors.append(sensor)
+            else:
+                unrecognised.append(path)
         if not m or path in mapped or not path.is_file():
             continue
-        target = out.nav if m["kind"] == "nav" else out.ref
+        kind = m["kind"].lower()
+        target = out.nav if kind == "nav" else out.ref
         pid = m["id"]
+        note = copy_id_note(path, pid, sorted(config.platforms))
+        replaced = config.files.get(f"{kind}.{pid}")
+        if replaced is not None:
+            note = f"{path}: ignored: session.toml [files] {kind}.{pid} names {replaced}"
+        if note is not None:
+            out.notes.append(note)
+            continue
         if pid in target:
             out.problems.append(
-                InputError(path, f"second {m['kind']} file for {pid} (first: {target[pid].name})")
+                InputError(path, f"second {kind} file for {pid} (first: {target[pid].name})")
             )
             continue
         target[pid] = path
@@ -148,10 +167,16 @@ def find_files(root: Path, config: SessionConfig) -> SessionFiles:
             kind, pid = key.split(".", 1)
             (out.nav if kind == "nav" else out.ref)[pid] = path
     if out.ranges is None and "ranges" not in config.files:
-        for name in ("ranges.csv", "ranges.csv.gz"):
-            if (root / name).is_file():
-                out.ranges = root / name
-                break
+        out.ranges, problem = default_ranges(root)
+        out.problems.extend([problem] if problem else [])
+    known = [p.name for p in (*out.nav.values(), *out.ref.values(), out.ranges) if p]
+    for path in unrecognised:
+        if path.name.lower() in ("ranges.csv", "ranges.csv.gz") and path != out.ranges:
+            what = config.files.get("ranges", out.ranges.name if out.ranges else "")
+            out.notes.append(f"{path}: ignored: the ranges are read from {what}")
+            continue
+        note = None if path == out.ranges else unrecognised_note(path, known)
+        out.notes.extend([note] if note else [])
     if out.mcap is None and "mcap" not in config.files:
         found = sorted(p for p in root.glob("*.mcap") if p.is_file())
         if len(found) > 1:

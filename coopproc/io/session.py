@@ -16,6 +16,7 @@ import numpy as np
 from coopproc.errors import CoopprocError, InputError
 from coopproc.io import assemble
 from coopproc.io._common import InputProblems, RawTrajectory, expand, flat
+from coopproc.io.csv_mapping import CsvForms
 from coopproc.io.mcap_read import McapContent, decode_mcap, read_mcap_raw
 from coopproc.io.ranges_csv import RangesRead, read_ranges_csv
 from coopproc.io.registry import find_files, read_trajectory, sensor_note
@@ -60,14 +61,16 @@ class _Loader:
                     self.failed.add("<toml>")
             config = toml.config if toml else SessionConfig()
             files = find_files(root, config)
+            forms = toml.forms if toml else CsvForms()
             self.problems.extend(files.problems)
+            self.notes.extend(files.notes)
             self.sensors = files.sensors
             self.notes.extend(sensor_note(f) for f in files.sensors)
             for kind, group, target in (("nav", files.nav, nav_raw), ("ref", files.ref, ref_raw)):
                 for pid, fpath in sorted(group.items()):
                     self.inputs.append(fpath)
                     try:
-                        target[pid] = read_trajectory(fpath, pid)
+                        target[pid] = read_trajectory(fpath, pid, forms.form(f"{kind}.{pid}"))
                     except CoopprocError as err:
                         self.add(err)
                         if kind == "nav":
@@ -75,7 +78,7 @@ class _Loader:
             if files.ranges is not None:
                 self.inputs.append(files.ranges)
                 try:
-                    ranges = read_ranges_csv(files.ranges)
+                    ranges = read_ranges_csv(files.ranges, forms.form("ranges"))
                 except CoopprocError as err:
                     self.add(err)
                     self.failed.add("<ranges>")

@@ -24,6 +24,7 @@ import tomli_w
 from coopproc.configtools import check_keys, from_table
 from coopproc.errors import ConfigError, InputError
 from coopproc.io._common import ID_PATTERN, one_line
+from coopproc.io.csv_mapping import ENCODING_KEYS, CsvForms, parse_columns, parse_encodings
 from coopproc.io.session_platforms import (
     IMU_GRADES,
     ImuTable,
@@ -107,8 +108,8 @@ _TABLES: dict[str, type] = {
     "reference": _ReferenceTable,
     "mcap": McapMapping,
 }
-_TOP = (*_TABLES, "platforms", "files")
-_FILE_KEYS = ("ranges", "mcap", "nav", "ref")
+_TOP = (*_TABLES, "platforms", "files", "columns")
+_FILE_KEYS = ("ranges", "mcap", "nav", "ref", *ENCODING_KEYS)
 
 
 def mcap_mapping(config: SessionConfig) -> McapMapping:
@@ -124,6 +125,8 @@ class TomlRead:
     base_given: bool
     #: Where it was read from (a path, or an MCAP file's attachment), for messages.
     source: str = "session.toml"
+    #: Encodings, column names and units of the CSV files ([files] encoding, [columns]).
+    forms: CsvForms = field(default_factory=CsvForms)
 
 
 def parse_session_toml(text: str, where: str = "session.toml") -> TomlRead:
@@ -150,6 +153,9 @@ def parse_session_toml(text: str, where: str = "session.toml") -> TomlRead:
         raise ConfigError(f"{where} [reference] quality: empty; expected e.g. [1] or [1, 2]")
     platforms = parse_platforms(doc.get("platforms", {}), where)
     files = _files(doc.get("files", {}), where)
+    encoding, encodings = parse_encodings(doc.get("files", {}), where)
+    columns, units = parse_columns(doc.get("columns", {}), where)
+    forms = CsvForms(encoding, encodings, columns, units)
     config = SessionConfig(
         name=tables["session"].name,
         time_base=time_t.base or "gps_tow",
@@ -161,7 +167,7 @@ def parse_session_toml(text: str, where: str = "session.toml") -> TomlRead:
         files=files,
         mcap=dict(doc.get("mcap", {})),
     )
-    return TomlRead(config, base_given=time_t.base is not None, source=where)
+    return TomlRead(config, base_given=time_t.base is not None, source=where, forms=forms)
 
 
 def _files(table: Any, where: str) -> dict[str, str]:
@@ -170,6 +176,8 @@ def _files(table: Any, where: str) -> dict[str, str]:
     check_keys(table, _FILE_KEYS, f"{where} [files]")
     out: dict[str, str] = {}
     for key, value in table.items():
+        if key in ENCODING_KEYS:
+            continue  # csv_mapping.parse_encodings
         if key in ("nav", "ref"):
             if not isinstance(value, Mapping):
                 raise ConfigError(f'{where} [files] {key}: expected a table {key}.<ID> = "file"')

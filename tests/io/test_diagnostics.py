@@ -175,11 +175,12 @@ def test_millimetre_ranges(sample_dir: Path) -> None:
     frame.to_csv(path, index=False)
     assert _problems(sample_dir) == [
         "ranges.csv:2: ranges look like millimetres (median 14,345; 20 of 20 rows above "
-        "2000); expected metres: divide the ranges by 1000"
+        "2000); expected metres: divide the ranges by 1000, or declare session.toml "
+        '[columns.units] range = "mm"'
     ]
     frame["sigma"] = 100.0
     frame.to_csv(path, index=False)
-    assert _problems(sample_dir)[0].endswith("divide the ranges and sigmas by 1000")
+    assert "divide the ranges and sigmas by 1000, or declare" in _problems(sample_dir)[0]
 
 
 def test_a_few_absurd_ranges_are_outliers_not_millimetres(sample_dir: Path) -> None:
@@ -227,26 +228,20 @@ def test_headerless_csv_after_comments(sample_dir: Path) -> None:
 
 
 @pytest.mark.parametrize(
-    ("name", "sep", "expected"),
-    [
-        (
-            "ranges.csv",
-            ";",
-            "ranges.csv:1: uses ';' as separator (header 'time;from;to;range;sigma;rssi'); "
-            "coopproc expects ','",
-        ),
-        (
-            "nav_B.csv",
-            "\t",
-            "nav_B.csv:1: uses tab as separator (header "
-            "'time\\teast\\tnorth\\tup\\tsigma_east\\tsigma_n...'); coopproc expects ','",
-        ),
-    ],
+    ("name", "sep", "said"), [("ranges.csv", ";", "';'-delimited"), ("nav_B.csv", "\t", "tab")]
 )
-def test_other_separator_is_one_line(sample_dir: Path, name: str, sep: str, expected: str) -> None:
+def test_other_separator_is_read_with_a_note(
+    sample_dir: Path, name: str, sep: str, said: str
+) -> None:
+    """Issue 14: ';' and tab files are read (they were one error), and a note says so."""
+    from coopproc.io import read_session
+
+    plain = read_session(sample_dir)
     path = sample_dir / name
     path.write_text(path.read_text().replace(",", sep))
-    assert _problems(sample_dir) == [expected]
+    other = read_session(sample_dir)
+    assert f"{path}: read as {said}" in " ".join(other.notes)
+    assert other.ranges.frame.equals(plain.ranges.frame)
 
 
 @pytest.mark.parametrize(
