@@ -48,6 +48,22 @@ def _names(value: str | None) -> list[str] | None:
     help="Resolution of PNG figures.",
 )
 @click.option("--html", "make_html", is_flag=True, help="Write OUT/report.html.")
+@click.option(
+    "--stochastic",
+    is_flag=True,
+    help="Print the stochastic analysis instead of Table 2/3: UWB range residuals on "
+    "line-of-sight epochs per pair (bias, sigma, ACF, normality; paper 002 sec. 5.1) and the "
+    "Allan deviation of the session's imu_<ID>.csv; writes OUT/stochastic.csv, OUT/allan.csv "
+    "(figures with --plots, a report.html section with --html).",
+)
+@click.option(
+    "--imu",
+    "imu_files",
+    multiple=True,
+    type=click.Path(path_type=Path, dir_okay=False),
+    help="IMU file (imu_<ID>.csv) for the Allan deviation instead of the session's; "
+    "repeatable; implies --stochastic.",
+)
 def report(
     out: Path,
     show_table: bool,
@@ -61,6 +77,8 @@ def report(
     svg: bool,
     dpi: int,
     make_html: bool,
+    stochastic: bool,
+    imu_files: tuple[Path, ...],
 ) -> None:
     """Show the tables of a finished run (OUT, written by `coopproc run`) and remake its
     figures and HTML page, without recomputing anything.
@@ -70,6 +88,7 @@ def report(
     coopproc report out --format latex -o t.tex LaTeX (booktabs) to a file
     coopproc report out --metrics max,rmse --pairs A-B
     coopproc report out --plots --pdf --html    figures (PNG + PDF) and report.html
+    coopproc report out --stochastic --plots    UWB noise model, IMU Allan deviation
     """
     from coopproc.io.outdir import (
         check_output_file,
@@ -89,21 +108,41 @@ def report(
 
     run = load_run(out)
     plots = plots or pdf or svg
-    if plots or make_html:
+    stochastic = stochastic or bool(imu_files)
+    if plots or make_html or stochastic:
         check_writable_dir(out, out)
-    if show_table or fmt is not None or output is not None or not (plots or make_html):
-        text = format_tables(
-            run,
-            fmt or "terminal",  # type: ignore[arg-type]
-            metrics=_names(metrics),
-            pairs=_names(pairs),
-            platforms=_names(platforms),
-        )
+    stoch = None
+    if stochastic:  # UWB range residuals and IMU Allan deviation (coopproc/run/stochastic.py)
+        from coopproc.run.stochastic import stochastic_report
+
+        stoch = stochastic_report(out, run, imu_files=imu_files)
+    asked = stochastic or show_table or fmt is not None or output is not None
+    if asked or not (plots or make_html):
+        if stoch is not None:  # the stochastic tables instead of Table 2 / Table 3
+            from coopproc.report.stochastic_format import format_stochastic
+
+            text = format_stochastic(stoch, fmt or "terminal")
+        else:
+            text = format_tables(
+                run,
+                fmt or "terminal",  # type: ignore[arg-type]
+                metrics=_names(metrics),
+                pairs=_names(pairs),
+                platforms=_names(platforms),
+            )
         if output is not None:
             write_text_atomic(output, text)
             click.echo(f"wrote {output}")
         else:
             click.echo(text, nl=False)
+    if stoch is not None:  # files and notes on stderr: stdout may be a CSV being piped
+        from coopproc.run.stochastic import write_stochastic
+
+        kinds = ["png", *(["pdf"] if pdf else []), *(["svg"] if svg else [])] if plots else []
+        for path in write_stochastic(out, stoch, formats=kinds, dpi=dpi):
+            click.echo(f"wrote {path}", err=True)
+        for note in stoch.notes:
+            click.echo(f"note: {note}", err=True)
     if plots:
         from coopproc.report.figures import write_figures
 
@@ -116,5 +155,5 @@ def report(
         from coopproc.report.html import write_html
 
         with output_errors(out):
-            html = write_html(out, run)
+            html = write_html(out, run, stoch)
         click.echo(f"wrote {html}")

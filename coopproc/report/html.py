@@ -21,6 +21,8 @@ from coopproc.report.figures import FIGURE_NAMES, make_figures
 from coopproc.report.formats import render_table
 from coopproc.report.rundir import RunTables
 from coopproc.report.scores import NLOS_EVENT_SCORE_COLUMNS, nlos_event_scores
+from coopproc.report.stochastic import StochasticReport
+from coopproc.report.stochastic_figures import stochastic_section
 from coopproc.report.style import RC
 from coopproc.report.tables import (
     POSITION_ALL,
@@ -143,7 +145,7 @@ def _event_table(run: RunTables) -> str:
     return "\n".join(out)
 
 
-def render_html(out_dir: Path, run: RunTables) -> str:
+def render_html(out_dir: Path, run: RunTables, stochastic: StochasticReport | None = None) -> str:
     """The page as a string (see :func:`write_html`)."""
     session = run.info.get("session")
     name = session.get("name", "") if isinstance(session, Mapping) else ""
@@ -173,12 +175,15 @@ def render_html(out_dir: Path, run: RunTables) -> str:
             f'<figure id="fig-{fig_name}"><img alt="{fig_name}" '
             f'src="data:image/png;base64,{data}"><figcaption>{caption}</figcaption></figure>'
         )
+    if stochastic is not None:  # coopproc report OUT --stochastic --html
+        parts.append(stochastic_section(stochastic))
     parts.append("</body></html>")
     return "\n".join(p for p in parts if p) + "\n"
 
 
-def write_html(out_dir: Path, run: RunTables) -> Path:
-    """Write ``out_dir/report.html`` and return its path."""
+def write_html(out_dir: Path, run: RunTables, stochastic: StochasticReport | None = None) -> Path:
+    """Write ``out_dir/report.html`` and return its path; ``stochastic`` adds the
+    stochastic-analysis section (:mod:`coopproc.report.stochastic`)."""
     path = Path(out_dir) / "report.html"
-    path.write_text(render_html(Path(out_dir), run), encoding="utf-8")
+    path.write_text(render_html(Path(out_dir), run, stochastic), encoding="utf-8")
     return path
