@@ -52,19 +52,21 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, fields, replace
 
 import numpy as np
 import pandas as pd
 from scipy import stats
 
 from coopproc.model import FloatArray
+from coopproc.report.allan import ImuAllan
 
 __all__ = [
     "MAD_SCALE",
     "STOCHASTIC_COLUMNS",
     "PairStochastics",
     "StochasticReport",
+    "UwbNoise",
     "los_mask",
     "pair_stochastics",
     "slotted_acf",
@@ -81,35 +83,56 @@ MIN_EPOCHS = 10
 _MAX_LAG_BINS = 200
 _RHO_CAP = 0.999
 
+
+@dataclass(frozen=True)
+class UwbNoise:
+    """The statistics of one pair's (or ``all``) LOS range residuals: one row of
+    ``stochastic.csv`` (the fields in order are its columns; see the module text)."""
+
+    pair: str
+    #: epochs with a reference, flagged NLOS by the run, robust outliers, LOS (used)
+    epochs: int
+    nlos_flagged: int
+    outliers: int
+    n: int
+    #: the median range interval, s (the lag-bin width)
+    interval_s: float
+    #: m: bias, sample std (n - 1), root mean square, 1.4826 MAD
+    mean: float
+    std: float
+    rms: float
+    robust_sigma: float
+    #: bias-corrected skewness and excess kurtosis (0 for a Gaussian)
+    skewness: float
+    kurtosis: float
+    #: D'Agostino-Pearson K^2 and its p-value (NaN below 20 epochs)
+    normal_stat: float
+    normal_p: float
+    #: lag-1 ACF, first 1/e crossing (s), Gauss-Markov time constant (s)
+    rho1: float
+    corr_time_s: float
+    gm_tau_s: float
+    #: rho1 above 1.96 / sqrt(n)
+    correlated: bool
+    #: m, m^2, m: [uwb] sigma, its square, the AR(1) long-run sigma
+    sigma_suggested: float
+    variance_suggested: float
+    sigma_inflated: float
+
+    def record(self) -> dict[str, str | int | float]:
+        """The row as column -> value (``correlated`` as 0/1)."""
+        out: dict[str, str | int | float] = dict(asdict(self))
+        out["correlated"] = int(self.correlated)
+        return out
+
+
 #: Columns of ``stochastic.csv``, one row per pair and ``all``.
-STOCHASTIC_COLUMNS: tuple[str, ...] = (
-    "pair",
-    "epochs",
-    "nlos_flagged",
-    "outliers",
-    "n",
-    "interval_s",
-    "mean",
-    "std",
-    "rms",
-    "robust_sigma",
-    "skewness",
-    "kurtosis",
-    "normal_stat",
-    "normal_p",
-    "rho1",
-    "corr_time_s",
-    "gm_tau_s",
-    "correlated",
-    "sigma_suggested",
-    "variance_suggested",
-    "sigma_inflated",
-)
+STOCHASTIC_COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(UwbNoise))
 
 
 @dataclass(frozen=True, eq=False)
 class PairStochastics:
-    """One pair's (or ``all``) LOS residuals, their ACF and the ``stochastic.csv`` row.
+    """One pair's (or ``all``) LOS residuals, their ACF and their statistics.
 
     For ``all``, ``residual_m`` holds every pair's residuals about the pair's own mean
     (what its ``std`` describes)."""
@@ -119,19 +142,18 @@ class PairStochastics:
     residual_m: FloatArray
     acf_lag_s: FloatArray
     acf: FloatArray
-    row: dict[str, float | int | str]
+    stats: UwbNoise
 
 
 @dataclass(frozen=True, eq=False)
 class StochasticReport:
     """What ``coopproc report OUT --stochastic`` found: UWB pairs, IMU results, notes.
 
-    ``imu`` holds :class:`coopproc.report.allan.ImuAllan` results (typed loosely here
-    to keep this module free of the IMU side).
+    ``imu``: one Allan deviation result per IMU record.
     """
 
     uwb: tuple[PairStochastics, ...]
-    imu: tuple[object, ...] = ()
+    imu: tuple[ImuAllan, ...] = ()
     notes: tuple[str, ...] = field(default_factory=tuple)
 
 
@@ -188,9 +210,10 @@ def _crossing(lags: FloatArray, acf: FloatArray) -> float:
     return float("nan")
 
 
-def _row(
+def _noise(
     pair: str, r: FloatArray, acf: FloatArray, lags: FloatArray, interval: float
-) -> dict[str, float | int | str]:
+) -> UwbNoise:
+    """Statistics of the residuals ``r`` (counts set to ``n``; callers replace them)."""
     n = r.size
     std = float(np.std(r, ddof=1))
     med = float(np.median(r))
@@ -203,28 +226,31 @@ def _row(
     correlated = bool(np.isfinite(rho1) and rho1 > _Z95 / math.sqrt(n))
     rho = min(rho1, _RHO_CAP) if correlated else 0.0
     gm = -interval / math.log(min(rho1, _RHO_CAP)) if np.isfinite(rho1) and rho1 > 0 else 0.0
-    return {
-        "pair": pair,
-        "n": n,
-        "interval_s": interval,
-        "mean": float(np.mean(r)),
-        "std": std,
-        "rms": float(np.sqrt(np.mean(r * r))),
-        "robust_sigma": MAD_SCALE * float(np.median(np.abs(r - med))),
-        "skewness": float(stats.skew(r, bias=False)),
-        "kurtosis": float(stats.kurtosis(r, fisher=True, bias=False)),
-        "normal_stat": normal[0],
-        "normal_p": normal[1],
-        "rho1": rho1,
+    return UwbNoise(
+        pair=pair,
+        epochs=n,
+        nlos_flagged=0,
+        outliers=0,
+        n=n,
+        interval_s=interval,
+        mean=float(np.mean(r)),
+        std=std,
+        rms=float(np.sqrt(np.mean(r * r))),
+        robust_sigma=MAD_SCALE * float(np.median(np.abs(r - med))),
+        skewness=float(stats.skew(r, bias=False)),
+        kurtosis=float(stats.kurtosis(r, fisher=True, bias=False)),
+        normal_stat=normal[0],
+        normal_p=normal[1],
+        rho1=rho1,
         # below 1/e already at the first lag: within one interval, where only the
         # Gauss-Markov fit says where
-        "corr_time_s": gm if np.isfinite(rho1) and rho1 < math.exp(-1.0) else _crossing(lags, acf),
-        "gm_tau_s": gm,
-        "correlated": int(correlated),
-        "sigma_suggested": std,
-        "variance_suggested": std * std,
-        "sigma_inflated": std * math.sqrt((1.0 + rho) / (1.0 - rho)),
-    }
+        corr_time_s=gm if np.isfinite(rho1) and rho1 < math.exp(-1.0) else _crossing(lags, acf),
+        gm_tau_s=gm,
+        correlated=correlated,
+        sigma_suggested=std,
+        variance_suggested=std * std,
+        sigma_inflated=std * math.sqrt((1.0 + rho) / (1.0 - rho)),
+    )
 
 
 def _bins(time_s: FloatArray, interval: float) -> int:
@@ -250,14 +276,18 @@ def pair_stochastics(
     sums, counts = slotted_acf(t, r - r.mean(), interval, bins)
     acf = _acf_from(sums, counts)
     lags = np.arange(bins + 1, dtype=np.float64) * interval
-    row = _row(pair, r, acf, lags, interval)
-    row |= {"epochs": int(r_all.size), "nlos_flagged": int(flagged.sum()), "outliers": outliers}
-    return PairStochastics(pair, t, r, lags, acf, row)
+    noise = replace(
+        _noise(pair, r, acf, lags, interval),
+        epochs=int(r_all.size),
+        nlos_flagged=int(flagged.sum()),
+        outliers=outliers,
+    )
+    return PairStochastics(pair, t, r, lags, acf, noise)
 
 
 def _pooled(pairs: Sequence[PairStochastics]) -> PairStochastics:
     """The ``all`` row: every pair's LOS residuals about its own mean (see the module)."""
-    interval = float(np.median([float(p.row["interval_s"]) for p in pairs]))
+    interval = float(np.median([p.stats.interval_s for p in pairs]))
     raw = np.concatenate([p.residual_m for p in pairs])
     centred = [p.residual_m - p.residual_m.mean() for p in pairs]
     t = np.concatenate([p.time_s for p in pairs])
@@ -271,21 +301,22 @@ def _pooled(pairs: Sequence[PairStochastics]) -> PairStochastics:
     acf = _acf_from(sums, counts)
     lags = np.arange(bins + 1, dtype=np.float64) * interval
     r = np.concatenate(centred)
-    row = _row("all", r, acf, lags, interval)
+    pooled = _noise("all", r, acf, lags, interval)
     # within-pair std: each pair's n - 1 degrees of freedom
     std = math.sqrt(float(np.sum(r * r)) / (r.size - len(pairs)))
-    row |= {
-        "epochs": sum(int(p.row["epochs"]) for p in pairs),
-        "nlos_flagged": sum(int(p.row["nlos_flagged"]) for p in pairs),
-        "outliers": sum(int(p.row["outliers"]) for p in pairs),
-        "mean": float(raw.mean()),
-        "rms": float(np.sqrt(np.mean(raw * raw))),
-        "std": std,
-        "sigma_suggested": std,
-        "variance_suggested": std * std,
-        "sigma_inflated": std * float(row["sigma_inflated"]) / float(row["std"]),
-    }
-    return PairStochastics("all", t, r, lags, acf, row)
+    noise = replace(
+        pooled,
+        epochs=sum(p.stats.epochs for p in pairs),
+        nlos_flagged=sum(p.stats.nlos_flagged for p in pairs),
+        outliers=sum(p.stats.outliers for p in pairs),
+        mean=float(raw.mean()),
+        rms=float(np.sqrt(np.mean(raw * raw))),
+        std=std,
+        sigma_suggested=std,
+        variance_suggested=std * std,
+        sigma_inflated=std * pooled.sigma_inflated / pooled.std,
+    )
+    return PairStochastics("all", t, r, lags, acf, noise)
 
 
 def uwb_stochastics(ranges: pd.DataFrame) -> tuple[list[PairStochastics], list[str]]:
@@ -309,7 +340,7 @@ def uwb_stochastics(ranges: pd.DataFrame) -> tuple[list[PairStochastics], list[s
 
 def stochastic_frame(pairs: Sequence[PairStochastics]) -> pd.DataFrame:
     """The ``stochastic.csv`` table (:data:`STOCHASTIC_COLUMNS`)."""
-    frame = pd.DataFrame([p.row for p in pairs], columns=list(STOCHASTIC_COLUMNS))
+    frame = pd.DataFrame([p.stats.record() for p in pairs], columns=list(STOCHASTIC_COLUMNS))
     for col in ("epochs", "nlos_flagged", "outliers", "n", "correlated"):
         frame[col] = frame[col].astype(np.int64)
     return frame

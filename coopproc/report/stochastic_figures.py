@@ -52,7 +52,7 @@ _FIT = "#d62728"
 def plot_acf(ax: Axes, pair: PairStochastics) -> Axes:
     """The slotted ACF of one pair's LOS residuals against the lag (s)."""
     ok = np.isfinite(pair.acf)
-    n = int(pair.row["n"])
+    n = pair.stats.n
     ax.plot(
         pair.acf_lag_s[ok],
         pair.acf[ok],
@@ -68,8 +68,8 @@ def plot_acf(ax: Axes, pair: PairStochastics) -> Axes:
     ax.axhline(0.0, color="0.3", linewidth=0.5, zorder=0)
     ax.set_ylim(min(-0.3, float(np.nanmin(pair.acf)) - 0.05), 1.05)
     # the decay, not 200 lags of noise: 20 intervals or 4 correlation times
-    tau = max(float(pair.row["gm_tau_s"]), float(np.nan_to_num(pair.row["corr_time_s"])))
-    shown = max(20.0 * float(pair.row["interval_s"]), 4.0 * tau)
+    tau = max(pair.stats.gm_tau_s, float(np.nan_to_num(pair.stats.corr_time_s)))
+    shown = max(20.0 * pair.stats.interval_s, 4.0 * tau)
     ax.set_xlim(-0.02 * shown, min(shown, float(pair.acf_lag_s[-1])) * 1.02)
     ax.set_ylabel("ACF")
     return ax
@@ -80,11 +80,11 @@ def plot_residual_pdf(ax: Axes, pair: PairStochastics) -> Axes:
     r = pair.residual_m
     bins = int(min(60, max(10, round(math.sqrt(r.size)))))
     ax.hist(r, bins=bins, density=True, color=_DATA, alpha=0.55, gid="histogram", label="residuals")
-    mean, std = float(np.mean(r)), float(pair.row["std"])
+    mean, std = float(np.mean(r)), pair.stats.std
     x = np.linspace(float(r.min()), float(r.max()), 200)
     pdf = np.exp(-0.5 * ((x - mean) / std) ** 2) / (std * math.sqrt(2.0 * math.pi))
     ax.plot(x, pdf, color=_FIT, gid="gaussian", label="Gaussian fit")
-    p = float(pair.row["normal_p"])
+    p = pair.stats.normal_p
     text = f"std {std:.3f} m" + (f"\np = {p:.2g}" if np.isfinite(p) else "")
     ax.text(0.98, 0.95, text, transform=ax.transAxes, ha="right", va="top", fontsize=6.5)
     ax.set_ylabel("Density (1/m)")
@@ -99,7 +99,7 @@ def _uwb_figure(pairs: Sequence[PairStochastics], kind: str) -> Figure | None:
     for i, (ax, pair) in enumerate(zip(axes, pairs, strict=True)):
         if kind == "acf":
             plot_acf(ax, pair)
-            title = f"{pair.pair}: rho1 {float(pair.row['rho1']):.2f}"
+            title = f"{pair.pair}: rho1 {pair.stats.rho1:.2f}"
         else:
             plot_residual_pdf(ax, pair)
             title = pair.pair + (" (about each pair's mean)" if pair.pair == "all" else "")
@@ -165,7 +165,7 @@ def plot_allan(ax: Axes, res: ImuAllan, sensor: str) -> Axes:
 
 def allan_figure(report: StochasticReport) -> Figure | None:
     """Per platform: gyro and accelerometer Allan deviation, side by side."""
-    results = [r for r in report.imu if isinstance(r, ImuAllan)]
+    results = report.imu
     if not results:
         return None
     fig = Figure(figsize=(WIDE_WIDTH_IN * 0.8, 0.5 + 2.1 * len(results)), layout="constrained")

@@ -19,7 +19,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from coopproc.report.allan import ImuAllan, allan_frame, imu_toml
+from coopproc.report.allan import allan_frame, imu_toml
 from coopproc.report.stochastic import PairStochastics, StochasticReport
 
 __all__ = ["STOCHASTIC_CAPTIONS", "format_stochastic", "stochastic_html", "uwb_toml"]
@@ -96,12 +96,11 @@ def _tables(report: StochasticReport) -> list[_Table]:
                 "stochastic",
                 "UWB range residuals on line-of-sight epochs (paper 002 sec. 5.1)",
                 _UWB_COLS,
-                tuple(p.row for p in report.uwb),
+                tuple(p.stats.record() for p in report.uwb),
             )
         )
-    imu = [r for r in report.imu if isinstance(r, ImuAllan)]
-    if imu:
-        frame = allan_frame(imu)
+    if report.imu:
+        frame = allan_frame(report.imu)
         for sensor, name in (("gyro", "Gyro"), ("accel", "Accelerometer")):
             rows = [
                 {str(k): v for k, v in rec.items()}
@@ -202,38 +201,34 @@ def uwb_toml(pairs: Sequence[PairStochastics]) -> str:
     on correlation and biases."""
     if not pairs:
         return ""
-    row = pairs[-1].row
-    what = "all pairs, about each pair's mean" if row["pair"] == "all" else f"pair {row['pair']}"
-    std = float(row["std"])
+    row = pairs[-1].stats
+    what = "all pairs, about each pair's mean" if row.pair == "all" else f"pair {row.pair}"
     lines = [
         "[uwb]",
-        f"sigma = {std:.4f}   # m, std of the line-of-sight range residuals ({what}; "
-        f"variance {std * std:.5f} m^2, {row['n']} epochs)",
+        f"sigma = {row.std:.4f}   # m, std of the line-of-sight range residuals ({what}; "
+        f"variance {row.variance_suggested:.5f} m^2, {row.n} epochs)",
     ]
-    rho1, interval = float(row["rho1"]), float(row["interval_s"])
-    if int(row["correlated"]):
-        tau = float(row["corr_time_s"])
-        after = f"{tau:.3g} s" if math.isfinite(tau) else "more than the lags analysed"
+    if row.correlated:
+        after = f"{row.corr_time_s:.3g} s" if math.isfinite(row.corr_time_s) else "the lags shown"
         lines += [
-            f"# correlated: lag-1 autocorrelation {rho1:.3f} at {interval:.3g} s (below 1/e "
-            f"after {after}; Gauss-Markov tau {float(row['gm_tau_s']):.3g} s):",
+            f"# correlated: lag-1 autocorrelation {row.rho1:.3f} at {row.interval_s:.3g} s "
+            f"(below 1/e after {after}; Gauss-Markov tau {row.gm_tau_s:.3g} s):",
             f"# a white-noise filter that uses every range needs sigma = "
-            f"{float(row['sigma_inflated']):.4f} (AR(1) long-run sigma)",
+            f"{row.sigma_inflated:.4f} (AR(1) long-run sigma)",
         ]
     else:
-        lines.append(f"# white: lag-1 autocorrelation {rho1:.3f} at {interval:.3g} s")
-    means = [float(p.row["mean"]) for p in pairs if p.row["pair"] != "all"]
+        lines.append(f"# white: lag-1 autocorrelation {row.rho1:.3f} at {row.interval_s:.3g} s")
+    means = [p.stats.mean for p in pairs if p.pair != "all"]
     lines.append(
         f"# range bias (mean residual) {min(means):+.3f} .. {max(means):+.3f} m over the pairs; "
-        f"with the biases (RMS) {float(row['rms']):.4f} m, for a filter that does not "
-        "estimate them"
+        f"with the biases (RMS) {row.rms:.4f} m, for a filter that does not estimate them"
     )
     return "\n".join(lines) + "\n"
 
 
 def _toml(report: StochasticReport) -> str:
     parts = [uwb_toml(report.uwb)]
-    parts += [imu_toml(r) for r in report.imu if isinstance(r, ImuAllan)]
+    parts += [imu_toml(r) for r in report.imu]
     return "\n".join(p for p in parts if p)
 
 

@@ -126,9 +126,8 @@ def write_stochastic(
     if report.uwb:
         text = _csv_text(stochastic_frame(report.uwb), STOCHASTIC_COLUMNS)
         written.append(write_text_atomic(out / "stochastic.csv", text))
-    imu = [r for r in report.imu if isinstance(r, ImuAllan)]
-    if imu:
-        text = _csv_text(allan_frame(imu), ALLAN_COLUMNS)
+    if report.imu:
+        text = _csv_text(allan_frame(report.imu), ALLAN_COLUMNS)
         written.append(write_text_atomic(out / "allan.csv", text))
     if formats:
         figures = render_stochastic_figures(report, formats=formats, dpi=dpi)

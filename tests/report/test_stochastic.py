@@ -70,19 +70,19 @@ def test_white_noise_nlos_and_outliers() -> None:
     err[[50, 900, 2000]] += 2.0  # gross errors the run did not flag
     res = pair_stochastics("A-B", ranges_frame(t, err, flag))
     assert res is not None
-    row = res.row
-    assert row["epochs"] == n and row["nlos_flagged"] == 200
-    assert 3 <= int(row["outliers"]) <= 25  # the three + the Gaussian tail beyond 3 sigma
+    row = res.stats
+    assert row.epochs == n and row.nlos_flagged == 200
+    assert 3 <= int(row.outliers) <= 25  # the three + the Gaussian tail beyond 3 sigma
     assert res.residual_m.max() < 0.5  # the gross errors are out
-    assert row["n"] == n - 200 - row["outliers"]
-    assert float(row["mean"]) == pytest.approx(0.05, abs=0.006)
-    assert float(row["std"]) == pytest.approx(0.1, rel=0.04)
-    assert float(row["robust_sigma"]) == pytest.approx(0.1, rel=0.06)
-    assert abs(float(row["rho1"])) < 0.05 and row["correlated"] == 0
-    assert float(row["gm_tau_s"]) == 0.0 or float(row["gm_tau_s"]) < 0.35
-    assert row["sigma_inflated"] == row["std"] == row["sigma_suggested"]
-    assert float(row["variance_suggested"]) == pytest.approx(float(row["std"]) ** 2)
-    assert float(row["normal_p"]) > 0.01 and abs(float(row["kurtosis"])) < 0.3
+    assert row.n == n - 200 - row.outliers
+    assert row.mean == pytest.approx(0.05, abs=0.006)
+    assert row.std == pytest.approx(0.1, rel=0.04)
+    assert row.robust_sigma == pytest.approx(0.1, rel=0.06)
+    assert abs(row.rho1) < 0.05 and not row.correlated
+    assert row.gm_tau_s == 0.0 or row.gm_tau_s < 0.35
+    assert row.sigma_inflated == row.std == row.sigma_suggested
+    assert row.variance_suggested == pytest.approx(row.std**2)
+    assert row.normal_p > 0.01 and abs(row.kurtosis) < 0.3
 
 
 def test_ar1_correlation_time_on_irregular_epochs() -> None:
@@ -100,17 +100,17 @@ def test_ar1_correlation_time_on_irregular_epochs() -> None:
     flag = (t > 1000.0) & (t < 1060.0)
     res = pair_stochastics("A-B", ranges_frame(t[keep], err[keep], flag[keep]))
     assert res is not None
-    row = res.row
+    row = res.stats
     tau = -dt / math.log(rho)
-    assert float(row["interval_s"]) == pytest.approx(0.5)
-    assert float(row["rho1"]) == pytest.approx(rho, abs=0.02)
-    assert float(row["gm_tau_s"]) == pytest.approx(tau, rel=0.15)
-    assert float(row["corr_time_s"]) == pytest.approx(tau, rel=0.15)
-    assert float(row["std"]) == pytest.approx(sigma, rel=0.1)
-    assert row["correlated"] == 1
-    expected = float(row["std"]) * math.sqrt((1 + float(row["rho1"])) / (1 - float(row["rho1"])))
-    assert float(row["sigma_inflated"]) == pytest.approx(expected)
-    assert float(row["sigma_inflated"]) == pytest.approx(sigma * math.sqrt(19.0), rel=0.2)
+    assert row.interval_s == pytest.approx(0.5)
+    assert row.rho1 == pytest.approx(rho, abs=0.02)
+    assert row.gm_tau_s == pytest.approx(tau, rel=0.15)
+    assert row.corr_time_s == pytest.approx(tau, rel=0.15)
+    assert row.std == pytest.approx(sigma, rel=0.1)
+    assert row.correlated
+    expected = row.std * math.sqrt((1 + row.rho1) / (1 - row.rho1))
+    assert row.sigma_inflated == pytest.approx(expected)
+    assert row.sigma_inflated == pytest.approx(sigma * math.sqrt(19.0), rel=0.2)
     # the ACF itself follows rho^k
     k = np.array([2, 4, 8])
     np.testing.assert_allclose(res.acf[k], rho**k, atol=0.06)
@@ -147,7 +147,7 @@ def test_formats_and_the_toml_to_paste() -> None:
     report = StochasticReport(tuple(pairs))
     text = format_stochastic(report, "terminal")
     snippet = text[text.index("[uwb]") :]
-    assert tomllib.loads(snippet)["uwb"]["sigma"] == round(float(pairs[0].row["std"]), 4)
+    assert tomllib.loads(snippet)["uwb"]["sigma"] == round(pairs[0].stats.std, 4)
     assert "# white: lag-1 autocorrelation" in snippet
     csv = format_stochastic(report, "csv")
     assert csv.startswith("# UWB range residuals on line-of-sight epochs (paper 002 sec. 5.1)\n")
