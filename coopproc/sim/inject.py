@@ -72,7 +72,8 @@ class InjectionResult:
         ):
             if count:
                 n = int(np.count_nonzero(kinds == kind))
-                parts.append(f"{count} {word}{'s' if count > 1 else ''} ({n} ranges{verb})")
+                ranges = "range" if n == 1 else "ranges"
+                parts.append(f"{count} {word}{'s' if count > 1 else ''} ({n} {ranges}{verb})")
         return (
             f"{self.out_dir}: {', '.join(parts)}, seed {inj.seed}; each range in "
             f"{self.out_dir / INJECTED_FILE}"

@@ -37,7 +37,8 @@ Time = float | str
 
 
 def _text(value: Time) -> str:
-    return value if isinstance(value, str) else f"{value:g}"
+    """A time as written: ``+S`` as given, a number without trailing zeros."""
+    return value if isinstance(value, str) else f"{value:.6f}".rstrip("0").rstrip(".")
 
 
 @dataclass(frozen=True)
@@ -170,6 +171,29 @@ def resolve_injection(injection: Injection, session: Session) -> Injection:
     pair_times = {
         p: g["time"].to_numpy(dtype=np.float64) for p, g in frame.groupby("pair", sort=False)
     }
+    outages: list[OutageInjection] = []
+    removals: list[tuple[str, OutageInjection]] = []  # (the option as given, resolved)
+    for o in injection.outages:
+        option = o.option()
+        chosen = tuple(dict.fromkeys(_pair(p, pairs, option) for p in o.pairs))
+        start, end = span.time(o.start, option), span.time(o.end, option)
+        if not end > start:
+            raise ConfigError(f"{option}: END must be after START")
+        span.check_window(start, end, option)
+        if not sum(_count(pair_times[p], start, end) for p in chosen or pairs):
+            raise ConfigError(f"{option}: no range in the window")
+        outages.append(replace(o, start=start, end=end, pairs=chosen))
+        removals.append((option, outages[-1]))
+
+    def removed_by(pair: str, times: np.ndarray) -> list[str | None]:
+        """Per time, the first outage (as given) that removes the range there, else None."""
+        out: list[str | None] = [None] * len(times)
+        for option, o in reversed(removals):
+            if not o.pairs or pair in o.pairs:
+                for i in np.flatnonzero((times >= float(o.start)) & (times <= float(o.end))):
+                    out[i] = option
+        return out
+
     nlos: list[NlosInjection] = []
     for ev in injection.nlos:
         option = ev.option()
@@ -182,8 +206,13 @@ def resolve_injection(injection: Injection, session: Session) -> Injection:
         if not (math.isfinite(ev.sd) and ev.sd >= 0):
             raise ConfigError(f"{option}: SD {ev.sd:g}; expected metres >= 0")
         span.check_window(start, end, option)
-        if not _count(pair_times[pair], start, end):
+        times = pair_times[pair]
+        inside = times[(times >= start) & (times <= end)]
+        if not inside.size:
             raise ConfigError(f"{option}: no range of {pair} in the window")
+        gone = removed_by(pair, inside)
+        if all(gone):
+            raise ConfigError(f"{option}: every range in the window is removed by {gone[0]}")
         for other in nlos:
             if other.pair == pair and start <= float(other.end) and end >= float(other.start):
                 raise ConfigError(f"{option}: overlaps an earlier --nlos window on {pair}")
@@ -196,16 +225,10 @@ def resolve_injection(injection: Injection, session: Session) -> Injection:
         if not (math.isfinite(g.size) and g.size != 0):
             raise ConfigError(f"{option}: SIZE {g.size:g}; expected metres, not 0")
         span.check_window(time, time, option)
+        gap = np.abs(pair_times[pair] - time)
+        nearest_s = pair_times[pair][gap == gap.min()]
+        for t, by in zip(nearest_s, removed_by(pair, nearest_s), strict=True):
+            if by is not None:
+                raise ConfigError(f"{option}: its nearest range (at {t:.3f}) is removed by {by}")
         gross.append(replace(g, pair=pair, time=time))
-    outages: list[OutageInjection] = []
-    for o in injection.outages:
-        option = o.option()
-        chosen = tuple(dict.fromkeys(_pair(p, pairs, option) for p in o.pairs))
-        start, end = span.time(o.start, option), span.time(o.end, option)
-        if not end > start:
-            raise ConfigError(f"{option}: END must be after START")
-        span.check_window(start, end, option)
-        if not sum(_count(pair_times[p], start, end) for p in chosen or pairs):
-            raise ConfigError(f"{option}: no range in the window")
-        outages.append(replace(o, start=start, end=end, pairs=chosen))
     return Injection(tuple(nlos), tuple(gross), tuple(outages), injection.seed)
