@@ -122,6 +122,9 @@ def report(
             from coopproc.report.stochastic_format import format_stochastic
 
             text = format_stochastic(stoch, fmt or "terminal")
+            if show_table:  # both when asked: Table 2/3 first
+                tables = format_tables(run, fmt or "terminal")  # type: ignore[arg-type]
+                text = f"{tables}\n{text}"
         else:
             text = format_tables(
                 run,

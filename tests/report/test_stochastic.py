@@ -276,6 +276,8 @@ def test_cli_figures_html_and_errors(tmp_path: Path) -> None:
     assert '<h2 id="stochastic">Stochastic analysis</h2>' in page
     images = re.findall(r'<img alt="(\w+)"', page)
     assert images[-2:] == ["uwb_acf", "uwb_pdf"]
+    code, text = _cli("report", str(out), "--stochastic", "--table")  # both, Table 2 first
+    assert code == 0 and 0 < text.index("UWB range residuals") and text.startswith("Table 2.")
     bad = tmp_path / "imu_A.csv"
     bad.write_text("time,gyro_x,gyro_y,gyro_z,accel_x,accel_y\n0,0,0,0,0,1\n")
     code, text = _cli("report", str(out), "--imu", str(bad))
