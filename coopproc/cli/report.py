@@ -9,6 +9,44 @@ import click
 __all__ = ["report"]
 
 
+def _lengths(value: str) -> list[float]:
+    """``--rpe``: positive segment lengths in metres (``none``: no RPE table)."""
+    if value.strip().lower() == "none":
+        return []
+    out = []
+    for item in value.split(","):
+        try:
+            length = float(item)
+        except ValueError:
+            length = float("nan")
+        if not (length > 0 and length != float("inf")):
+            raise click.BadParameter(
+                f"{item.strip()!r} is not a segment length; expected positive metres, e.g. "
+                "10,50,100",
+                param_hint="'--rpe'",
+            )
+        out.append(length)
+    return out
+
+
+def _alignments(value: str | None) -> list[str]:
+    """``--align``: known alignment names (default ``none``)."""
+    import difflib
+
+    from coopproc.report.alignment import ALIGNMENTS
+
+    names = _names(value) or ["none"]
+    for name in names:
+        if name not in ALIGNMENTS:
+            near = difflib.get_close_matches(name, ALIGNMENTS, n=1)
+            hint = f" (did you mean {near[0]!r}?)" if near else ""
+            raise click.BadParameter(
+                f"unknown alignment {name!r}{hint}; expected {', '.join(ALIGNMENTS)}",
+                param_hint="'--align'",
+            )
+    return names
+
+
 def _names(value: str | None) -> list[str] | None:
     if value is None:
         return None
@@ -49,6 +87,23 @@ def _names(value: str | None) -> list[str] | None:
 )
 @click.option("--html", "make_html", is_flag=True, help="Write OUT/report.html.")
 @click.option(
+    "--evaluate",
+    is_flag=True,
+    help="Print the trajectory evaluation instead of Table 2/3: 3-D, horizontal and "
+    "vertical errors and the relative error per travelled distance (from positions.csv).",
+)
+@click.option(
+    "--align",
+    help="Alignment(s) before the evaluation statistics, comma separated: none (default), "
+    "se2, yaw, se3, sim3 (docs/report.md; implies --evaluate).",
+)
+@click.option(
+    "--rpe",
+    "rpe_lengths",
+    help="RPE segment lengths in metres, comma separated (default 10,50,100; none: no RPE "
+    "table; implies --evaluate).",
+)
+@click.option(
     "--stochastic",
     is_flag=True,
     help="Print the stochastic analysis instead of Table 2/3: UWB range residuals on "
@@ -77,6 +132,9 @@ def report(
     svg: bool,
     dpi: int,
     make_html: bool,
+    evaluate: bool,
+    align: str | None,
+    rpe_lengths: str | None,
     stochastic: bool,
     imu_files: tuple[Path, ...],
 ) -> None:
@@ -88,6 +146,7 @@ def report(
     coopproc report out --format latex -o t.tex LaTeX (booktabs) to a file
     coopproc report out --metrics max,rmse --pairs A-B
     coopproc report out --plots --pdf --html    figures (PNG + PDF) and report.html
+    coopproc report out --evaluate --align se3  3-D / vertical errors and RPE, evo-style
     coopproc report out --stochastic --plots    UWB noise model, IMU Allan deviation
     """
     from coopproc.io.outdir import (
@@ -99,6 +158,9 @@ def report(
 
     if output is not None:
         check_output_file(output)  # a mistyped directory fails before the work
+    evaluate = evaluate or align is not None or rpe_lengths is not None
+    alignments = _alignments(align)
+    lengths = _lengths(rpe_lengths or "10,50,100")
 
     import matplotlib
 
@@ -116,7 +178,7 @@ def report(
         from coopproc.run.stochastic import stochastic_report
 
         stoch = stochastic_report(out, run, imu_files=imu_files)
-    asked = stochastic or show_table or fmt is not None or output is not None
+    asked = stochastic or evaluate or show_table or fmt is not None or output is not None
     if asked or not (plots or make_html):
         if stoch is not None:  # the stochastic tables instead of Table 2 / Table 3
             from coopproc.report.stochastic_format import format_stochastic
@@ -125,6 +187,17 @@ def report(
             if show_table:  # both when asked: Table 2/3 first
                 tables = format_tables(run, fmt or "terminal")  # type: ignore[arg-type]
                 text = f"{tables}\n{text}"
+        elif evaluate:  # the evaluation tables instead of Table 2 / Table 3
+            from coopproc.report.evaluation_tables import format_evaluation
+
+            text = format_evaluation(
+                run,
+                fmt or "terminal",  # type: ignore[arg-type]
+                align=alignments,
+                segments_m=lengths,
+                metrics=_names(metrics),
+                platforms=_names(platforms),
+            )
         else:
             text = format_tables(
                 run,

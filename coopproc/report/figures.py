@@ -15,6 +15,8 @@ one whose NLOS events are shaded and that gets one convergence panel per event.
 | ``position_errors`` | horizontal position error per method | fig. 12 |
 | ``nlos_convergence`` | NLOS estimate after each step of eq. (11) per event | fig. 10 |
 | ``trajectories`` | tracks in the east-north plane with the reference | fig. 7 |
+| ``error_cdf`` | CDF of the horizontal error per platform, methods overlaid | |
+| ``error_track`` | the primary method's track coloured by horizontal error | |
 """
 
 from __future__ import annotations
@@ -32,6 +34,12 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from coopproc.errors import ConfigError
+from coopproc.report.evaluation_plots import (
+    error_norm,
+    plot_error_cdf,
+    plot_error_track,
+    track_method,
+)
 from coopproc.report.methods import (
     nlos_methods,
     position_methods,
@@ -255,12 +263,59 @@ def trajectories_figure(run: RunTables) -> Figure | None:
     return fig
 
 
+def error_cdf_figure(run: RunTables) -> Figure | None:
+    """CDF of the horizontal error, one panel per platform with one (methods overlaid)."""
+    methods = ("nav", *position_methods(run))
+    pos = run.positions[_has(run.positions, "error_h") & run.positions["method"].isin(methods)]
+    platforms = sorted(pos["platform"].unique())
+    if not platforms:
+        return None
+    fig, axes = _grid(len(platforms), 2.0)
+    for i, (ax, platform) in enumerate(zip(axes, platforms, strict=True)):
+        plot_error_cdf(ax, pos[pos["platform"] == platform], methods=methods)
+        ax.set_title(_label(i, f"Platform {platform}"), loc="left")
+    _legend(fig, axes)
+    return fig
+
+
+def error_track_figure(run: RunTables) -> Figure | None:
+    """The primary method's track coloured by its horizontal error over the reference, one
+    panel per platform; one colour scale (0 to the 95th percentile) for all panels."""
+    method = track_method(run)
+    pos = run.positions
+    own = pos[(pos["method"] == method) & _has(pos, "error_h")]
+    platforms = sorted(own["platform"].unique())
+    if method is None or not platforms:
+        return None
+    norm = error_norm(own["error_h"].to_numpy(dtype=np.float64))
+    fig, axes = _grid(len(platforms), 2.3)
+    dots = None
+    for i, (ax, platform) in enumerate(zip(axes, platforms, strict=True)):
+        drawn = plot_error_track(ax, pos[pos["platform"] == platform], method, norm=norm)
+        dots = drawn if drawn is not None else dots
+        ax.set_title(_label(i, f"Platform {platform}"), loc="left")
+    if dots is not None:
+        fig.colorbar(
+            dots,
+            ax=axes,
+            location="bottom",
+            shrink=0.5,
+            aspect=40,
+            extend="max",
+            label="Horizontal error (m)",
+        )
+    _legend(fig, axes)
+    return fig
+
+
 _BUILDERS: dict[str, Callable[[RunTables], Figure | None]] = {
     "distance_errors": distance_errors_figure,
     "di_errors": di_errors_figure,
     "position_errors": position_errors_figure,
     "nlos_convergence": nlos_convergence_figure,
     "trajectories": trajectories_figure,
+    "error_cdf": error_cdf_figure,
+    "error_track": error_track_figure,
 }
 FIGURE_NAMES: tuple[str, ...] = tuple(_BUILDERS)
 

@@ -17,6 +17,7 @@ from typing import Any
 
 import matplotlib as mpl
 
+from coopproc.report.evaluation_tables import evaluation_html
 from coopproc.report.figures import FIGURE_NAMES, make_figures
 from coopproc.report.formats import render_table
 from coopproc.report.rundir import RunTables
@@ -42,6 +43,10 @@ FIGURE_CAPTIONS: dict[str, str] = {
     "position_errors": "Horizontal position error per platform and method (paper 000 fig. 12).",
     "nlos_convergence": "NLOS estimate after each step of eq. (11) per event (paper 000 fig. 10).",
     "trajectories": "Tracks in the east-north plane with the reference.",
+    "error_cdf": "Cumulative distribution of the horizontal error per platform, methods "
+    "overlaid (dotted: 50 % and 95 %, i.e. CEP50 and CEP95).",
+    "error_track": "Track of the primary method coloured by its horizontal error (scale 0 to "
+    "the 95th percentile), over the reference (thin black).",
 }
 
 _CSS = """
@@ -167,6 +172,7 @@ def render_html(out_dir: Path, run: RunTables, stochastic: StochasticReport | No
     if run.nlos_scores is not None and len(run.nlos_scores):
         parts.append(render_table(nlos_table(run.nlos_scores, order=order["nlos"]), "html"))
     parts.append(_event_table(run))
+    parts.append(evaluation_html(run))  # 3-D / vertical errors and RPE (evaluation.csv, rpe.csv)
     parts.append("<h2>Figures</h2>")
     for fig_name, png in _png_bytes(Path(out_dir), run).items():
         data = base64.b64encode(png).decode("ascii")

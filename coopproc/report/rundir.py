@@ -44,8 +44,9 @@ __all__ = [
     "ranges_columns",
 ]
 
-#: Columns read as text (ids); every other contract column is numeric.
-_TEXT_COLUMNS = ("pair", "platform", "method")
+#: Columns read as text (ids; ``alignment`` of evaluation.csv / rpe.csv); every other
+#: contract column is numeric.
+_TEXT_COLUMNS = ("pair", "platform", "method", "alignment")
 
 #: ``ranges.csv`` columns before the range methods (``observed`` is always one) and after.
 RANGES_LEADING_COLUMNS: tuple[str, ...] = ("time", "pair", "observed")
@@ -78,9 +79,13 @@ RUN_FILES: tuple[tuple[str, str, tuple[str, ...], bool], ...] = (
     ("nlos_event_scores.csv", "nlos_event_scores", NLOS_EVENT_SCORE_COLUMNS[:2], False),
 )
 #: Tables a run writes only when it has them (same layout as RUN_FILES; never required):
-#: ``injected_scores.csv`` for a session made by ``coopproc inject`` (report/injected.py).
+#: ``injected_scores.csv`` for a session made by ``coopproc inject`` (report/injected.py);
+#: ``evaluation.csv`` and ``rpe.csv`` (report/evaluation.py, report/rpe.py), which older
+#: run directories lack.
 RUN_EXTENSION_FILES: tuple[tuple[str, str, tuple[str, ...], bool], ...] = (
     ("injected_scores.csv", "injected_scores", ("pair", "method"), False),
+    ("evaluation.csv", "evaluation", ("platform", "method", "alignment"), False),
+    ("rpe.csv", "rpe", ("platform", "method", "alignment", "segment_m"), False),
 )
 
 
@@ -103,6 +108,8 @@ class RunTables:
     nlos_event_scores: pd.DataFrame | None = None
     info: Mapping[str, Any] = field(default_factory=dict)
     injected_scores: pd.DataFrame | None = None
+    evaluation: pd.DataFrame | None = None
+    rpe: pd.DataFrame | None = None
 
     @property
     def time_origin_s(self) -> float:

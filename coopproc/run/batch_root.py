@@ -1,6 +1,6 @@
 """The ROOT of ``coopproc batch``: which runs in it are complete and current, and the
 files that describe them all (``batch.json``, ``batch_metrics.csv``,
-``batch_position_metrics.csv``).
+``batch_position_metrics.csv``, ``pooled_position_metrics.csv``).
 
 A run directory ``ROOT/<name>/`` is *complete* when it holds ``run.json`` and every table
 ``coopproc run`` writes (and every figure run.json lists); it is *current* for a session
@@ -30,10 +30,13 @@ import pandas as pd
 
 from coopproc.errors import CoopprocError, OutputError
 from coopproc.io.outdir import write_csv
+from coopproc.model import POSITIONS_COLUMNS
+from coopproc.report.pooled import pooled_position_metrics
 from coopproc.report.rundir import RUN_FILES
 from coopproc.run.config import RunConfig
 
 __all__ = [
+    "POOLED",
     "STACKED",
     "BatchEntry",
     "complete_run",
@@ -49,6 +52,8 @@ STACKED = (
     ("batch_metrics.csv", "metrics.csv"),
     ("batch_position_metrics.csv", "position_metrics.csv"),
 )
+#: The position statistics pooled over the ok sessions' errors (report/pooled.py).
+POOLED = "pooled_position_metrics.csv"
 
 
 @dataclass(frozen=True)
@@ -229,7 +234,28 @@ def write_listing(out_root: Path, entries: Sequence[BatchEntry]) -> tuple[Path |
         else:
             path.unlink(missing_ok=True)
             paths.append(None)
+    _write_pooled(out_root, [e.output for e in entries if e.ok])
     return tuple(paths)
+
+
+def _write_pooled(out_root: Path, names: Sequence[str]) -> None:
+    """``POOLED`` from the ok runs' ``positions.csv`` (removed when there is none)."""
+    path = out_root / POOLED
+    if not names:
+        path.unlink(missing_ok=True)
+        return
+    positions = {}
+    for name in names:
+        table = out_root / name / "positions.csv"
+        try:
+            frame = pd.read_csv(table, dtype={"platform": str, "method": str})
+        except (OSError, ValueError, pd.errors.ParserError) as err:
+            raise OutputError(f"{table}: cannot read it to pool ({err})") from err
+        missing = [c for c in POSITIONS_COLUMNS if c not in frame.columns]
+        if missing:
+            raise OutputError(f"{table}: cannot pool it: missing columns {missing}")
+        positions[name] = frame
+    _write_atomic(path, _csv_writer(pooled_position_metrics(positions)))
 
 
 def _csv_writer(frame: pd.DataFrame) -> Callable[[Path], Any]:

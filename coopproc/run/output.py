@@ -19,9 +19,11 @@ from coopproc import __version__
 from coopproc.io.injected import session_injected
 from coopproc.io.outdir import atomic_output_dir, write_csv
 from coopproc.model import Session
+from coopproc.report.evaluation import evaluation
 from coopproc.report.figures import write_figures
 from coopproc.report.html import write_html
 from coopproc.report.injected import injected_scores
+from coopproc.report.rpe import rpe
 from coopproc.report.rundir import RUN_EXTENSION_FILES, RUN_FILES, RunTables
 from coopproc.run.calibration_summary import calibration_facts
 from coopproc.run.config import RunConfig
@@ -59,6 +61,7 @@ def run_tables(
     """The reporters' view of a run, from the in-memory result (``injected``: the
     ``injected_scores.csv`` table of an injected session)."""
     r = output.result
+    methods = (output.methods or {}).get("positions")  # evaluation.csv / rpe.csv row order
     return RunTables(
         ranges=r.ranges,
         di=r.di,
@@ -71,6 +74,8 @@ def run_tables(
         nlos_event_scores=output.nlos_event_scores,
         info=dict(info),
         injected_scores=injected,
+        evaluation=evaluation(r.positions, methods=methods),
+        rpe=rpe(r.positions, methods=methods),
     )
 
 

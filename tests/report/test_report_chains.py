@@ -269,12 +269,14 @@ FIGURES = {
     "fusion": {"distance_errors", "position_errors"},
     "extra": {"distance_errors", "di_errors", "position_errors", "nlos_convergence"},
 }
+#: Figures of every run with positions and a reference, whatever its chain.
+ALWAYS = {"trajectories", "error_cdf", "error_track"}
 
 
 def test_figures_draw_the_run_methods(chain: str, loaded: RunTables) -> None:
     ranges, positions, _, primary = EXPECTED[chain]
     figures = make_figures(loaded)
-    assert set(figures) == FIGURES[chain] | {"trajectories"}
+    assert set(figures) == FIGURES[chain] | ALWAYS
     for ax in figures["distance_errors"].axes:
         gids = [ln.get_gid() for ln in ax.get_lines() if ln.get_gid() != "nlos_span"]
         assert tuple(g for g in gids if g in ranges) == ranges
@@ -331,7 +333,7 @@ def test_without_di_the_last_processed_method_is_primary() -> None:
 
 def test_write_figures_and_html(chain: str, loaded: RunTables, tmp_path: Path) -> None:
     written = write_figures(loaded, tmp_path / "figures", dpi=30)
-    assert {p.stem for p in written} == FIGURES[chain] | {"trajectories"}
+    assert {p.stem for p in written} == FIGURES[chain] | ALWAYS
     page = render_html(tmp_path, loaded)
     assert page.count("data:image/png;base64,") == len(written)
     assert "<caption>Table 2. Distance errors per pair and method</caption>" in page
@@ -352,6 +354,8 @@ def test_cli_report_on_a_fusion_only_run(tmp_path: Path) -> None:
     assert plots.exit_code == 0, plots.output
     assert sorted(p.name for p in (out / "figures").iterdir()) == [
         "distance_errors.png",
+        "error_cdf.png",
+        "error_track.png",
         "position_errors.png",
         "trajectories.png",
     ]
