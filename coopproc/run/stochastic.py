@@ -66,7 +66,13 @@ def stochastic_report(
     when given, else the session's. InputError when there is nothing to analyse."""
     pairs, notes = uwb_stochastics(run.ranges)
     if imu_files:
-        files = {imu_platform(Path(f)): Path(f) for f in imu_files}
+        files: dict[str, Path] = {}
+        for f in map(Path, imu_files):
+            first = files.setdefault(imu_platform(f), f)
+            if first != f:
+                raise InputError(
+                    f, f"second IMU file for platform {imu_platform(f)} (first: {first}); give one"
+                )
     else:
         files, more = imu_sources(run.info)
         notes += more

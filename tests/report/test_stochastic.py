@@ -277,7 +277,13 @@ def test_cli_figures_html_and_errors(tmp_path: Path) -> None:
     images = re.findall(r'<img alt="(\w+)"', page)
     assert images[-2:] == ["uwb_acf", "uwb_pdf"]
     code, text = _cli("report", str(out), "--stochastic", "--table")  # both, Table 2 first
-    assert code == 0 and 0 < text.index("UWB range residuals") and text.startswith("Table 2.")
+    assert code == 0 and text.index("UWB range residuals") > 0 and text.startswith("Table 2.")
+    twice = ("--imu", str(tmp_path / "imu_A.csv"), "--imu", str(tmp_path / "x" / "imu_A.csv"))
+    code, text = _cli("report", str(out), *twice)
+    assert code == 1 and text == (
+        f"error: {tmp_path / 'x' / 'imu_A.csv'}: second IMU file for platform A (first: "
+        f"{tmp_path / 'imu_A.csv'}); give one\n"
+    )
     bad = tmp_path / "imu_A.csv"
     bad.write_text("time,gyro_x,gyro_y,gyro_z,accel_x,accel_y\n0,0,0,0,0,1\n")
     code, text = _cli("report", str(out), "--imu", str(bad))
