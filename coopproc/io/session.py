@@ -1,4 +1,4 @@
-"""read_session / validate_session: a session directory or one .mcap file -> Session.
+"""read_session / validate_session: a session directory, one .mcap file or a ROS bag -> Session.
 
 Both run the same loader; it reads every file even after a problem (skipping only the
 checks that a failed file makes meaningless), so ``validate_session`` lists every problem
@@ -20,6 +20,8 @@ from coopproc.io.csv_mapping import CsvForms
 from coopproc.io.mcap_read import McapContent, decode_mcap, read_mcap_raw
 from coopproc.io.ranges_csv import RangesRead, read_ranges_csv
 from coopproc.io.registry import find_files, read_trajectory, sensor_note
+from coopproc.io.rosbag_read import session_bag
+from coopproc.io.rosbag_scan import bag_files, is_bag
 from coopproc.io.session_toml import TomlRead, mcap_mapping, parse_session_toml, read_session_toml
 from coopproc.io.timebase import TimedFile, WeekSource, check_times, infer_time_base
 from coopproc.model import SensorFile, Session, SessionConfig, Trajectory
@@ -85,13 +87,28 @@ class _Loader:
             mcap_path = files.mcap
         elif root.name.lower().endswith(".mcap"):
             mcap_path = root
-        else:
-            raise InputError(root, "not a session; expected a session directory or an .mcap file")
+        elif not is_bag(root):
+            raise InputError(
+                root, "not a session; expected a session directory or an .mcap file (or a ROS bag)"
+            )
+        if mcap_path is not None and (mcap_path.parent / "metadata.yaml").is_file():
+            mcap_path = None  # the storage of a ROS 2 bag folder: read as the bag
         if mcap_path is not None:
             self.inputs.append(mcap_path)
             toml, content = self._mcap(mcap_path, toml)
             if content is not None:
                 ranges = self._merge(content, nav_raw, ref_raw, ranges, mcap_path)
+        if "<toml>" not in self.failed:  # a ROS bag: rosbag_read.py, [topics]
+            try:
+                found = session_bag(root, toml.topics if toml else None)
+            except CoopprocError as err:
+                self.add(err)
+                self.failed.add("<ranges>")
+                found = None
+            if found is not None:
+                self.inputs.extend(bag_files(found[0]))
+                self.sensors.extend(found[1].sensors)
+                ranges = self._merge(found[1], nav_raw, ref_raw, ranges, found[0])
         config = toml.config if toml else SessionConfig()
         if toml is None:
             self.notes.append("no session.toml: every figure takes its default")

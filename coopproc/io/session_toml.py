@@ -32,6 +32,7 @@ from coopproc.io.session_platforms import (
     parse_platforms,
     platform_entry,
 )
+from coopproc.io.topics_toml import TopicsMapping, parse_topics
 from coopproc.model import SessionConfig
 
 __all__ = [
@@ -108,7 +109,7 @@ _TABLES: dict[str, type] = {
     "reference": _ReferenceTable,
     "mcap": McapMapping,
 }
-_TOP = (*_TABLES, "platforms", "files", "columns")
+_TOP = (*_TABLES, "platforms", "files", "columns", "topics")
 _FILE_KEYS = ("ranges", "mcap", "nav", "ref", *ENCODING_KEYS)
 
 
@@ -127,6 +128,8 @@ class TomlRead:
     source: str = "session.toml"
     #: Encodings, column names and units of the CSV files ([files] encoding, [columns]).
     forms: CsvForms = field(default_factory=CsvForms)
+    #: The ``[topics]`` mapping of a ROS bag session (None: absent), topics_toml.py.
+    topics: TopicsMapping | None = None
 
 
 def parse_session_toml(text: str, where: str = "session.toml") -> TomlRead:
@@ -167,7 +170,10 @@ def parse_session_toml(text: str, where: str = "session.toml") -> TomlRead:
         files=files,
         mcap=dict(doc.get("mcap", {})),
     )
-    return TomlRead(config, base_given=time_t.base is not None, source=where, forms=forms)
+    topics = parse_topics(doc.get("topics"), where)
+    return TomlRead(
+        config, base_given=time_t.base is not None, source=where, forms=forms, topics=topics
+    )
 
 
 def _files(table: Any, where: str) -> dict[str, str]:
