@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import codecs
 import gzip
-import io
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -100,8 +99,8 @@ class CsvTable:
     notes: list[str]
 
 
-def decode_bytes(data: bytes, path: Path, form: CsvForm) -> tuple[str, str]:
-    """The text of ``data`` and what it was read as ('' for plain UTF-8).
+def decode_bytes(data: bytes, path: Path, form: CsvForm) -> tuple[str, str, str]:
+    """The text of ``data``, what it was read as ('' for plain UTF-8) and the codec.
 
     A byte order mark (UTF-8, UTF-16, UTF-32) wins over a declared encoding. Bytes
     that do not decode are one InputError naming the line, column and byte.
@@ -126,7 +125,7 @@ def decode_bytes(data: bytes, path: Path, form: CsvForm) -> tuple[str, str]:
                 line=1,
             )
     try:
-        return data.decode(encoding), label
+        return data.decode(encoding), label, encoding
     except UnicodeDecodeError as err:
         head = data[: err.start].decode(encoding, errors="replace")
         line = head.count("\n") + 1
@@ -269,8 +268,8 @@ def read_table(
         raise InputError(
             path, f"cannot read as CSV ({type(err).__name__}: {one_line(err)})"
         ) from err
-    text, encoding = decode_bytes(data, path, form)
-    lines = text.split("\n")
+    text, encoding, codec = decode_bytes(data, path, form)
+    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     index = _header(lines, path)
     header = lines[index].strip()
     sep, sep_name = sniff_delimiter(header)
@@ -284,7 +283,9 @@ def read_table(
     as_text = {form.columns.get(c, c): str for c in text_columns}
     try:
         frame = pd.read_csv(
-            io.StringIO(text),
+            path,  # the C engine reads a path several times faster than a StringIO
+            encoding=codec,
+            compression="gzip" if path.name.lower().endswith(".gz") else None,
             sep=sep,
             decimal=decimal,
             skiprows=index,
