@@ -191,3 +191,18 @@ def custom_recording(m: _Msgs) -> list[Message]:
         msg = uwb(src=src, dst=dst, dist=float(r), std=0.1, header=m.header(t))
         out.append(("/uwb", "vendor_msgs/msg/Uwb", t + 0.01, msg))
     return sorted(out, key=lambda x: x[2])
+
+
+def pose_recording(m: _Msgs) -> list[Message]:
+    """The test recording plus B's pose (PoseStamped, yaw 30 deg ENU) on ``/B/pose``."""
+    out = recording(m)
+    t_pose = T0 + np.arange(N_NAV) * 0.1
+    t_ = m.t
+    for t, enu in zip(t_pose, nav_enu("B", t_pose) + np.array([0.0, 0.01, 0.0]), strict=True):
+        pose = t_["geometry_msgs/msg/Pose"](
+            position=t_["geometry_msgs/msg/Point"](x=enu[0], y=enu[1], z=enu[2]),
+            orientation=m.quat(30.0),
+        )
+        msg = t_["geometry_msgs/msg/PoseStamped"](header=m.header(t), pose=pose)
+        out.append(("/B/pose", "geometry_msgs/msg/PoseStamped", t + 0.01, msg))
+    return sorted(out, key=lambda x: x[2])

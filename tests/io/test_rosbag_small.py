@@ -23,6 +23,7 @@ from tests.io.rosbag_writers import (
     custom_recording,
     custom_store,
     nav_enu,
+    pose_recording,
     recording,
     true_range,
     write_ros1,
@@ -107,6 +108,19 @@ def test_imu_samples_are_read_into_arrays(bags: dict[str, Path]) -> None:
     assert imu.topic == "/A/imu" and imu.time_s.size == 50
     np.testing.assert_allclose(imu.gyro_radps, [[0.0, 0.0, 0.1]] * 50)
     np.testing.assert_allclose(imu.accel_mps2, [[0.0, 0.0, 9.81]] * 50)
+
+
+@pytest.mark.parametrize("form", ["db3", "ros1"])
+def test_pose_stamped_is_east_north_up_with_a_heading(tmp_path: Path, form: str) -> None:
+    toml = TOPICS.replace('reference = { A = "/A/fix" }', 'reference = "/{id}/pose"')
+    s = read_session(_session(tmp_path, form, toml, messages=pose_recording))
+    ref = s.reference["B"]
+    t = T0 + np.arange(50) * 0.1
+    np.testing.assert_allclose(ref.time_s, t, atol=1e-6)
+    np.testing.assert_allclose(ref.enu_m, nav_enu("B", t) + np.array([0.0, 0.01, 0.0]), atol=1e-9)
+    np.testing.assert_allclose(ref.heading_deg, 60.0)  # ENU yaw 30 deg = 60 deg from north
+    assert ref.sigma_enu_m is None and sorted(s.reference) == ["B"]
+    assert s.origin_llh == (0.0, 0.0, 0.0)  # all ENU: the files' own frame
 
 
 def test_zero_header_stamp_falls_back_to_the_log_time(tmp_path: Path) -> None:
