@@ -342,3 +342,24 @@ def test_info_lists_topics_and_suggests_a_mapping(bags: dict[str, Path]) -> None
     parsed = parse_session_toml(suggested)  # what info prints is valid session.toml
     assert parsed.topics is not None and parsed.topics.nav == "/{id}/odom"
     assert "\nsession rec" in out and "pairs (10 ranges)" in out
+
+
+def test_info_on_a_session_directory_shows_the_mapping_then_the_session(
+    bags: dict[str, Path],
+) -> None:
+    result = CliRunner().invoke(main, ["info", str(bags["db3"])])
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    assert lines[0].startswith(f"bag {bags['db3'] / 'rec'}  (ROS 2 sqlite3, 6 topics, 185 ")
+    assert lines[1].split() == ["topic", "type", "messages", "rate_hz", "mapped"]
+    roles = {line.split()[0]: " ".join(line.split()[4:]) for line in lines[2:8]}
+    assert roles == {
+        "/A/fix": "reference A",
+        "/A/imu": "imu A",
+        "/A/odom": "nav A",
+        "/B/odom": "nav B",
+        "/uwb/A/B/range": "ranges A-B",
+        "/uwb/B/A/range": "ranges B-A",
+    }
+    assert "not a complete session" not in result.output
+    assert "pairs (10 ranges)" in result.output
