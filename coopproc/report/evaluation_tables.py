@@ -145,7 +145,8 @@ def evaluation_tables(
 
     ``align``: alignments (a block of tables each); ``segments_m``: RPE segment lengths
     (none: no RPE table); ``metrics``: the columns of every table (names a table does not
-    have are skipped there); ``platforms``: rows to keep. Unknown alignments, lengths,
+    have are skipped there; the ``align_*`` ones go to the transform table only);
+    ``platforms``: rows to keep. Unknown alignments, lengths,
     metrics or platforms raise ConfigError. Tables without rows or columns are left out.
     """
     try:
@@ -163,13 +164,15 @@ def evaluation_tables(
     for kind in align:
         rows = ev[ev["alignment"] == kind]
         title = f"Trajectory errors per platform and method, alignment {kind}"
-        cols = metrics or evaluation_columns
+        cols = [m for m in metrics if m not in TRANSFORM_METRICS] if metrics else evaluation_columns
         tables.append(_table(rows, cols, platforms, order, key=f"evaluation_{kind}", title=title))
         if kind != "none":
             tables.append(
                 _table(
                     rows,
-                    metrics or TRANSFORM_METRICS,
+                    [m for m in metrics if m in TRANSFORM_METRICS]
+                    if metrics
+                    else TRANSFORM_METRICS,
                     platforms,
                     order,
                     key=f"transform_{kind}",

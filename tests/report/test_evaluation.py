@@ -271,6 +271,10 @@ def test_report_evaluate_align_se3(sample_run: Path) -> None:
         "C",
     )
     assert code == 0 and csv.count("# ") == 4 and "\nC,di," in csv and "\nA," not in csv
+    code, md = _cli("report", str(sample_run), "--align", "se3", "--rpe", "none", "--format",
+                    "md", "--metrics", "rmse_3d,align_yaw_deg")  # fmt: skip
+    assert code == 0 and md.count("**Trajectory errors") == md.count("**Fitted transform") == 1
+    assert "| Platform | Method | Yaw (deg) |" in md and "Relative error" not in md
 
 
 def test_report_evaluate_bad_options_are_one_line(sample_run: Path) -> None:
