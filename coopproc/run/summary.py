@@ -33,6 +33,10 @@ def _lookup(table: pd.DataFrame, key: str, value: str, method: str, column: str)
     return float(rows[column].iloc[0]) if len(rows) else math.nan
 
 
+#: A platform's fused mean error this much (m) above its own navigation's, and 10 % more,
+#: is reported as worse than its navigation.
+WORSE_MIN_M = 0.02
+
 #: Short names of the known methods in the summary lines; others print as they are.
 _SHORT = {"observed": "observed", "rn": "RN", "di": "DI"}
 #: Long names of the NLOS-detecting methods in the header line.
@@ -81,6 +85,7 @@ def summarize(output: PipelineOutput) -> RunSummary:
             lines.append(f"  {pair}: {n_events} events (no reference: no error statistics)")
     pm = result.position_metrics
     primary = _primary(tuple(methods["positions"]))
+    worse: list[str] = []
     for platform in sorted(pm["platform"].unique()):
         nav = _lookup(pm, "platform", platform, "nav", "mean")
         obs = _lookup(pm, "platform", platform, "observed", "mean")
@@ -97,4 +102,15 @@ def summarize(output: PipelineOutput) -> RunSummary:
         # platforms without a reference have no error statistics: no line
         if math.isfinite(obs) or ("observed" not in methods["positions"] and math.isfinite(value)):
             lines.append(text)
+        fused = [v for v in (obs, value) if math.isfinite(v)]
+        if fused and math.isfinite(nav) and min(fused) > nav + max(0.1 * nav, WORSE_MIN_M):
+            worse.append(platform)
+    if worse:
+        facts["worse_than_nav"] = worse
+        lines.append(
+            f"warning: the fused positions of {', '.join(worse)} are worse than their own "
+            "navigation: the ranges may be biased (`coopproc report OUT --stochastic` gives "
+            "each pair's bias against the reference) or the navigation better than its "
+            "declared drift_sigma"
+        )
     return RunSummary(lines=tuple(lines), facts=facts)
