@@ -20,6 +20,7 @@ import matplotlib as mpl
 from coopproc.report.evaluation_tables import evaluation_html
 from coopproc.report.figures import FIGURE_NAMES, make_figures
 from coopproc.report.formats import render_table
+from coopproc.report.injected import injected_tables
 from coopproc.report.rundir import RunTables
 from coopproc.report.scores import NLOS_EVENT_SCORE_COLUMNS, nlos_event_scores
 from coopproc.report.stochastic import StochasticReport
@@ -172,6 +173,8 @@ def render_html(out_dir: Path, run: RunTables, stochastic: StochasticReport | No
     if run.nlos_scores is not None and len(run.nlos_scores):
         parts.append(render_table(nlos_table(run.nlos_scores, order=order["nlos"]), "html"))
     parts.append(_event_table(run))
+    # a run of a `coopproc inject` session: the injected NLOS against each method's estimate
+    parts.extend(render_table(t, "html") for t in injected_tables(run))
     parts.append(evaluation_html(run))  # 3-D / vertical errors and RPE (evaluation.csv, rpe.csv)
     parts.append("<h2>Figures</h2>")
     for fig_name, png in _png_bytes(Path(out_dir), run).items():

@@ -14,6 +14,7 @@ from coopproc.io.injected import INJECTED_COLUMNS
 from coopproc.io.outdir import write_csv
 from coopproc.model import NLOS_EVENT_COLUMNS
 from coopproc.report.formats import format_tables
+from coopproc.report.html import render_html
 from coopproc.report.injected import INJECTED_SCORE_COLUMNS, injected_scores, injected_table
 from coopproc.report.rundir import RUN_EXTENSION_FILES, RUN_FILES, load_run
 from tests.report.report_synth import make_run
@@ -102,7 +103,14 @@ def test_run_directory_round_trip_and_report(tmp_path: Path) -> None:
     assert "nlos1 A-B" in text and "best of the column within each event" in text
     assert "nlos2" not in format_tables(back, "md", pairs=["A-B"])
     assert "Injected" not in format_tables(back, "csv", metrics=["rmse"])
+    page = render_html(out, back)
+    assert "Injected NLOS: estimates against the injected mean" in page
+    assert (
+        page.count("<table")
+        == render_html(out, dataclasses.replace(back, injected_scores=None)).count("<table") + 1
+    )
     (out / "injected_scores.csv").unlink()
     plain = load_run(out)
     assert plain.injected_scores is None
     assert "Injected" not in format_tables(plain, "latex")
+    assert "Injected" not in render_html(out, plain)
