@@ -128,10 +128,29 @@ def stale_reason(out_dir: Path, session: Path, config: RunConfig) -> str | None:
             with path.open("rb") as handle:
                 if hashlib.file_digest(handle, "sha256").hexdigest() != digest:
                     return f"input {path.name} changed"
+        reason = _injected_reason(info.get("injected"), session)
+        if reason is not None:
+            return reason
     except (KeyError, TypeError) as err:
         return f"run.json inputs unreadable ({err})"
     except (CoopprocError, OSError) as err:
         return f"session unreadable ({err})"
+    return None
+
+
+def _injected_reason(recorded: Any, session: Path) -> str | None:
+    """The scores of a `coopproc inject` session follow its injected.csv (run.json
+    ``injected``): one added, removed or changed since the run makes it not current."""
+    path = session / "injected.csv"
+    if not session.is_dir() or (recorded is None and not path.is_file()):
+        return None
+    if recorded is None:
+        return "new input injected.csv"
+    if not path.is_file():
+        return "input injected.csv gone"
+    with path.open("rb") as handle:
+        if hashlib.file_digest(handle, "sha256").hexdigest() != recorded["sha256"]:
+            return "input injected.csv changed"
     return None
 
 

@@ -175,6 +175,11 @@ def test_stale_reason_names_what_makes_a_run_not_current(sessions: Path, tmp_pat
     config = RunConfig()
     config = dataclasses.replace(config, run=dataclasses.replace(config.run, figures=False))
     assert stale_reason(out, s1, config) is None
+    # the scores of an injected session follow its injected.csv
+    (s1 / "injected.csv").write_text("time,pair,kind,error,event,start,end,mean,sd\n")
+    assert stale_reason(out, s1, config) == "new input injected.csv"
+    (s1 / "injected.csv").unlink()
+    assert stale_reason(out, s1, config) is None
     assert stale_reason(out, s1, RunConfig()) == "another configuration"
     (s1 / "nav_A.csv").write_text((s1 / "nav_A.csv").read_text() + "\n")
     assert stale_reason(out, s1, config) == "input nav_A.csv changed"
