@@ -6,20 +6,13 @@ from pathlib import Path
 
 import click
 
+from coopproc.cli.options import comma_names
+
 __all__ = ["export"]
 
 #: The formats (kept here so that ``--help`` needs no numpy; a test keeps it equal to
 #: coopproc.io.export.FORMATS).
 FORMAT_NAMES = ("tum", "kitti", "pos", "geojson", "kml")
-
-
-def _names(value: str | None) -> list[str] | None:
-    if value is None:
-        return None
-    names = [v.strip() for v in value.split(",") if v.strip()]
-    if not names:
-        raise click.BadParameter("expected a comma-separated list of names")
-    return names
 
 
 @click.command("export")
@@ -70,7 +63,7 @@ def export(
     run = load_run(out)
     frame = run_frame(run.info, out / "run.json")
     tracks, notes = select_tracks(
-        run.positions, methods=_names(methods), platforms=_names(platforms)
+        run.positions, methods=comma_names(methods), platforms=comma_names(platforms)
     )
     for note in notes:
         click.echo(f"note: {note}", err=True)

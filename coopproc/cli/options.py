@@ -8,7 +8,7 @@ from typing import Any, TypeVar
 
 import click
 
-__all__ = ["config_option", "output_option", "session_argument"]
+__all__ = ["comma_names", "config_option", "output_option", "session_argument"]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -34,3 +34,13 @@ def config_option(help: str) -> Callable[[F], F]:
         type=click.Path(exists=True, dir_okay=False, path_type=Path),
         help=help,
     )
+
+
+def comma_names(value: str | None) -> list[str] | None:
+    """``--methods a,b`` style option values as a list (None: the option was not given)."""
+    if value is None:
+        return None
+    names = [v.strip() for v in value.split(",") if v.strip()]
+    if not names:
+        raise click.BadParameter("expected a comma-separated list of names")
+    return names

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import click
 
+from coopproc.cli.options import comma_names
+
 __all__ = ["report"]
 
 
@@ -35,7 +37,7 @@ def _alignments(value: str | None) -> list[str]:
 
     from coopproc.report.alignment import ALIGNMENTS
 
-    names = _names(value) or ["none"]
+    names = comma_names(value) or ["none"]
     for name in names:
         if name not in ALIGNMENTS:
             near = difflib.get_close_matches(name, ALIGNMENTS, n=1)
@@ -44,15 +46,6 @@ def _alignments(value: str | None) -> list[str]:
                 f"unknown alignment {name!r}{hint}; expected {', '.join(ALIGNMENTS)}",
                 param_hint="'--align'",
             )
-    return names
-
-
-def _names(value: str | None) -> list[str] | None:
-    if value is None:
-        return None
-    names = [v.strip() for v in value.split(",") if v.strip()]
-    if not names:
-        raise click.BadParameter("expected a comma-separated list of names")
     return names
 
 
@@ -195,16 +188,16 @@ def report(
                 fmt or "terminal",  # type: ignore[arg-type]
                 align=alignments,
                 segments_m=lengths,
-                metrics=_names(metrics),
-                platforms=_names(platforms),
+                metrics=comma_names(metrics),
+                platforms=comma_names(platforms),
             )
         else:
             text = format_tables(
                 run,
                 fmt or "terminal",  # type: ignore[arg-type]
-                metrics=_names(metrics),
-                pairs=_names(pairs),
-                platforms=_names(platforms),
+                metrics=comma_names(metrics),
+                pairs=comma_names(pairs),
+                platforms=comma_names(platforms),
             )
         if output is not None:
             write_text_atomic(output, text)
