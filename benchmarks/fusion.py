@@ -1,118 +1,182 @@
-"""Benchmark the cooperative EKF and RTS smoother: N platforms, H hours at 1 Hz.
+"""Benchmark the cooperative fusion as ``coopproc run`` runs it, on the simulator's session.
 
-Default: 10 platforms (1 leader, 9 followers), 24 h at 1 Hz = 86,400 epochs with all
-45 pair ranges each, state 2 x 10. Prints epochs/s of the forward filter and of the RTS
-smoother (compiled kernels alone, and ``fuse`` end to end including data preparation).
+The session is the ``large`` scenario (seed 0) written by the simulator's writer and read
+back like ``coopproc run`` reads it: nav 10 Hz, every pair ranging at 1 Hz with staggered
+polling, so each of the 45 pairs of 10 platforms has its own range times and the filter
+runs at every distinct time: about 45 epochs per second, 3.8 M epochs per day (not 86,400).
 
-    /work/venv/bin/python benchmarks/fusion.py [--hours 24] [--platforms 10] [--dims 2]
+Timed, each the median of ``--repeat`` runs after a warm-up (numba compiled or loaded):
+
+- the fusion stage as the chain calls it on the observed ranges (the self-calibrated
+  fusion, ``want_cp``: what ``fusion (observed)`` in run.json times), and the peak RSS
+  of its first run above the RSS before it (psutil, sampled every 5 ms);
+- ``fuse()`` end to end, forward only and forward + RTS, with the compiled forward and
+  RTS kernels timed inside it;
+- the peer: filterpy's RTS smoother (``KalmanFilter.rts_smoother``, numpy, F = I) on
+  ``--filterpy-epochs`` epochs of the same state size, matrices built once outside the
+  timing, one warm-up call; reported per epoch.
+
+Targets (issue 11): a day of 10 platforms runs in <= 120 s and <= 4 GB end to end, and a
+run fuses three times (observed, rn, di); the fusion's lines project this session
+linearly to 24 h (the real day: ``benchmarks/scale.py --day``).
+
+    python benchmarks/fusion.py                    # 10 platforms x 0.25 h
+    python benchmarks/fusion.py --hours 1 --platforms 10 --cache ~/.cache/coopproc-bench
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import threading
 import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
-import pandas as pd
+import psutil
+from _common import load, median_seconds, session_dir, spread, target
 
 import coopproc.stages.fusion.fuse as fusion_mod
-from coopproc.model import Platform, RangeTable, Session, SessionConfig, Trajectory
+from coopproc.checks.coverage import prepare_run
+from coopproc.io import read_session
+from coopproc.run.config import RunConfig
+from coopproc.stages.base import PositionInput
+from coopproc.stages.registry import POSITION_STAGES
+
+KERNELS = ("ekf_forward", "rts_backward")
 
 
-def build(hours: float, n_platforms: int, seed: int = 0) -> tuple[Session, pd.DataFrame]:
-    """A formation on a large loop; nav and ranges at 1 Hz, vectorized."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(0.0, hours * 3600.0, 1.0)
-    radius = 500.0
-    omega = 0.5 / radius
-    ids = [f"P{i:02d}" for i in range(n_platforms)]
-    truth = {}
-    nav = {}
-    platforms = {}
-    for i, pid in enumerate(ids):
-        r = radius + 6.0 * (i % 5) + 0.5 * np.sin(t / (70 + i))
-        phase = omega * t - 0.02 * (i // 5)
-        pos = np.stack([r * np.sin(phase), r * (1 - np.cos(phase)), np.zeros_like(t)], 1)
-        truth[pid] = pos
-        role: Literal["leader", "follower"] = "leader" if i == 0 else "follower"
-        noise = 0.02 if i == 0 else 0.0
-        err = rng.normal(0, noise, pos.shape)
-        if i > 0:
-            err = err + np.cumsum(rng.normal(0, 0.01, pos.shape), axis=0)
-        nav[pid] = Trajectory(pid, t, pos + err)
-        platforms[pid] = Platform(pid, role=role, drift_sigma_mps=0.02)
-    frames = []
-    for i, a in enumerate(ids):
-        for b in ids[i + 1 :]:
-            dist = np.linalg.norm(truth[a] - truth[b], axis=1)
-            frames.append(
-                pd.DataFrame(
-                    {
-                        "time": t,
-                        "from": a,
-                        "to": b,
-                        "range": dist + rng.normal(0, 0.08, t.size),
-                        "sigma": 0.15,
-                    }
-                )
-            )
-    ranges = pd.concat(frames).sort_values("time", kind="stable").reset_index(drop=True)
-    session = Session(
-        config=SessionConfig(platforms=platforms),
-        platforms=platforms,
-        nav=nav,
-        reference={},
-        ranges=RangeTable(ranges),
-        origin_llh=(0.0, 0.0, 0.0),
-        root=Path("bench"),
-    )
-    return session, ranges
+@contextmanager
+def peak_rss() -> Iterator[list[int]]:
+    """Yields [peak RSS above the start, in bytes], filled in at exit (5 ms sampling)."""
+    proc = psutil.Process()
+    base = proc.memory_info().rss
+    peak = [base]
+    done = threading.Event()
+
+    def sample() -> None:
+        while not done.wait(0.005):
+            peak[0] = max(peak[0], proc.memory_info().rss)
+
+    thread = threading.Thread(target=sample, daemon=True)
+    thread.start()
+    out = [0]
+    try:
+        yield out
+    finally:
+        done.set()
+        thread.join()
+        out[0] = max(peak[0], proc.memory_info().rss) - base
+
+
+def instrument(timings: dict[str, list[float]]) -> None:
+    """Time the compiled kernels that ``fuse`` calls (where the module still has them)."""
+    for name in KERNELS:
+        func = getattr(fusion_mod, name, None)
+        if func is None:
+            continue
+
+        def wrapper(*a: Any, _f: Callable[..., Any] = func, _n: str = name, **k: Any) -> Any:
+            start = time.perf_counter()
+            result = _f(*a, **k)
+            timings.setdefault(_n, []).append(time.perf_counter() - start)
+            return result
+
+        setattr(fusion_mod, name, wrapper)
+
+
+def filterpy_rts(n: int, epochs: int, repeat: int) -> float:
+    """Median seconds of filterpy's RTS smoother over ``epochs`` epochs of state size n."""
+    from filterpy.kalman import KalmanFilter
+
+    rng = np.random.default_rng(0)
+    kf = KalmanFilter(dim_x=n, dim_z=1)
+    xs = rng.normal(size=(epochs, n))
+    a = rng.normal(size=(n, n)) * 0.1
+    ps = np.repeat((a @ a.T + np.eye(n))[None], epochs, axis=0)
+    fs = np.repeat(np.eye(n)[None], epochs, axis=0)
+    qs = np.repeat((1e-4 * np.eye(n))[None], epochs, axis=0)
+    seconds, _ = median_seconds(lambda: kf.rts_smoother(xs, ps, fs, qs), repeat)
+    return seconds
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--hours", type=float, default=24.0)
+    parser.add_argument("--hours", type=float, default=0.25)
     parser.add_argument("--platforms", type=int, default=10)
-    parser.add_argument("--dims", type=int, default=2)
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--cache", type=Path, help="keep the simulated sessions here")
+    parser.add_argument("--filterpy-epochs", type=int, default=5000)
     args = parser.parse_args()
-    session, ranges = build(args.hours, args.platforms)
-    timings: dict[str, float] = {}
 
-    def timed(name: str, func: Any) -> Any:
-        def wrapper(*a: Any, **k: Any) -> Any:
-            start = time.perf_counter()
-            result = func(*a, **k)
-            timings[name] = time.perf_counter() - start
-            return result
-
-        return wrapper
-
-    fusion_mod.ekf_forward = timed("forward", fusion_mod.ekf_forward)  # type: ignore[assignment]
-    fusion_mod.rts_backward = timed("rts", fusion_mod.rts_backward)  # type: ignore[assignment]
-    # warm-up (compile or load the numba cache) on a short slice
-    short = ranges[ranges["time"] < 60.0]
-    fusion_mod.fuse(session, short, fusion_mod.FusionParams(dims=args.dims))
+    session, _ = prepare_run(read_session(session_dir(args.hours, args.platforms, args.cache)))
+    ranges = session.ranges.frame[["time", "from", "to", "range", "sigma"]]
+    config = RunConfig()
+    stage = POSITION_STAGES["fusion"]
+    params = config.params_for(stage.section)
+    moving = list(session.moving_platforms())
+    n_state = len(moving) * params.dims
     n_epochs = int(ranges["time"].nunique())
     print(
-        f"{args.platforms} platforms, {n_epochs} epochs, {len(ranges)} ranges "
-        f"({len(ranges) / n_epochs:.0f} per epoch), dims {args.dims}"
+        f"large: {args.platforms} platforms x {args.hours:g} h, {len(ranges):,} ranges, "
+        f"{n_epochs:,} epochs ({n_epochs / (args.hours * 3600):.1f}/s), state {n_state}"
     )
+
+    def run_stage() -> object:
+        inp = PositionInput(session, "observed", ranges, config.run.positions_at, want_cp=True)
+        return stage.run(inp, params)
+
+    with peak_rss() as peak:  # also the warm-up: numba compiles or loads its cache
+        run_stage()
+    seconds, times = median_seconds(run_stage, args.repeat, warmup=0)
+    print(
+        f"fusion stage (observed, as run):  {seconds:7.2f} s  {n_epochs / seconds:10,.0f} "
+        f"epochs/s  ({spread(times)}; {load()})"
+    )
+    print(f"  peak RSS above its start:       {peak[0] / 1e6:7.0f} MB (first run)")
+
+    kernels: dict[str, list[float]] = {}
+    instrument(kernels)
     for smoother in (False, True):
-        params = fusion_mod.FusionParams(dims=args.dims, smoother=smoother)
-        start = time.perf_counter()
-        fusion_mod.fuse(session, ranges, params)
-        total = time.perf_counter() - start
+        p = dataclasses.replace(params, smoother=smoother)
+        kernels.clear()
+        fused, times = median_seconds(lambda p=p: fusion_mod.fuse(session, ranges, p), args.repeat)
         label = "forward + RTS" if smoother else "forward only"
-        print(f"fuse() {label:14s}: {total:7.2f} s  {n_epochs / total:10.0f} epochs/s end to end")
         print(
-            f"  forward kernel  : {timings['forward']:7.2f} s  "
-            f"{n_epochs / timings['forward']:10.0f} epochs/s"
+            f"fuse() {label:<14} end to end: {fused:7.2f} s  {n_epochs / fused:10,.0f} "
+            f"epochs/s  ({spread(times)}; {load()})"
         )
-        if smoother:
-            rate = n_epochs / timings["rts"]
-            print(f"  RTS kernel      : {timings['rts']:7.2f} s  {rate:10.0f} epochs/s")
+        for name in KERNELS if smoother else KERNELS[:1]:
+            if name in kernels:
+                k = float(np.median(kernels[name][1:] or kernels[name]))
+                print(f"  {name + ' kernel':<30} {k:7.2f} s  {n_epochs / k:10,.0f} epochs/s")
+    rts = kernels.get("rts_backward")
+    n_fp = min(args.filterpy_epochs, n_epochs)
+    fp = filterpy_rts(n_state, n_fp, args.repeat)
+    fp_rate = n_fp / fp
+    print(f"filterpy rts_smoother (n = {n_state}):  {fp_rate:10,.0f} epochs/s on {n_fp:,} epochs")
+    if rts:
+        ours = n_epochs / float(np.median(rts[1:] or rts))
+        print(f"  RTS kernel / filterpy: {ours / fp_rate:.1f}x")
+
+    day = 24.0 / args.hours
+    print(f"projected to {args.platforms} x 24 h (x {day:g}, linear in duration):")
+    print(
+        target(
+            "3 fusion stages of a day <= 120 s (whole run)", 3 * seconds * day, 120.0, at_most=True
+        )
+    )
+    print(
+        target(
+            "fusion stage peak memory of a day <= 4 GB (whole run)",
+            peak[0] * day / 1e9,
+            4.0,
+            at_most=True,
+        )
+    )
 
 
 if __name__ == "__main__":

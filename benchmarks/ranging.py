@@ -1,141 +1,186 @@
-"""Benchmark of the ranging hot loops: DI smoothing (paper 000 eq. (4)-(7)) + distance
-filter with NLOS detection/estimation (eq. (8)-(12)), against a per-epoch filterpy loop.
+"""Benchmark the ranging stage (paper 000: DI smoothing, distance filter, NLOS; DI and RN
+methods) as ``coopproc run`` runs it, and its compiled kernels, against a filterpy loop.
 
-    /work/venv/bin/python benchmarks/ranging.py            # 45 pairs x 86,400 epochs
-    /work/venv/bin/python benchmarks/ranging.py --quick    # 45 pairs x 8,640 epochs
+The session is the simulator's ``large`` scenario (seed 0, written and read back like
+``coopproc run`` reads it: staggered pair polling, 5 Hz reference); the cooperative
+solution it needs comes from the fusion stage on the observed ranges, as in the chain.
+Timed, each the median of ``--repeat`` runs after a warm-up (numba compiled or loaded):
 
-The coopproc figure covers every pair and epoch; the filterpy loop (the same two filters:
-a KalmanFilter with control input for the DI smoothing and one for the distance filter
-with the eq. (9) threshold test) is timed on ``--filterpy-epochs`` epochs of one pair and
-reported per pair-epoch (it is ~10^5 times slower; running it on 3.9 M pair-epochs would
-take an hour). Targets: >= 2,000,000 pair-epochs/s and >= 50x filterpy.
+- the whole stage as the chain calls it (``ranging (rn, di)`` in run.json): per pair the
+  inputs (``prepare_pair``: rows, DR / CP / RN increments, reference), the DI smoothing,
+  the self-calibration, the forward + backward distance filters of both methods, the
+  second pass with the NLOS-masked CP DI, and the output tables;
+- inside it, the compiled kernels (``smooth_di``, ``filter_distance``,
+  ``filter_distance_two_way``) and ``prepare_pair``, summed over pairs;
+- the peer: the same two filters as filterpy ``KalmanFilter`` objects, epoch by epoch,
+  on one pair's series of the session (``--filterpy-epochs`` epochs; matrices built once
+  outside the timed loop, one warm-up run). It runs neither the calibration nor the
+  backward pass, so the comparison flatters filterpy.
+
+Targets: >= 2,000,000 pair-epochs/s (issue 10) and >= 50x the filterpy loop, for the
+whole stage and for the kernels.
+
+    python benchmarks/ranging.py                   # 10 platforms x 0.5 h (45 pairs)
+    python benchmarks/ranging.py --hours 4 --cache ~/.cache/coopproc-bench
 """
 
 from __future__ import annotations
 
 import argparse
 import time
-from dataclasses import replace
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
 
 import numpy as np
+from _common import load, median_seconds, session_dir, spread, target
 
-from coopproc.stages.ranging.calibration import pair_noise, robust_sigma
-from coopproc.stages.ranging.di import DISmoothingParams, di_variance, smooth_di
-from coopproc.stages.ranging.nlos import filter_distance
-from coopproc.stages.ranging.stage import RangingConfig, kernel_params
-from coopproc.stages.ranging.twoway import filter_distance_two_way
+import coopproc.stages.ranging.stage as stage_mod
+from coopproc.checks.coverage import prepare_run
+from coopproc.io import read_session
+from coopproc.run.config import RunConfig
+from coopproc.stages.base import PositionInput, RangeInput
+from coopproc.stages.ranging.table import observed_table
+from coopproc.stages.registry import POSITION_STAGES, RANGE_STAGES
 
-#: The stage's defaults (paper 000: gamma = 3 sigma, M = 3 s), sigma 0.15 m, 60 s window.
-PARAMS = kernel_params(RangingConfig(), 0.15, 0.15, 60, rn=False)
-
-
-def make_pair(n: int, seed: int) -> dict[str, np.ndarray]:
-    """One pair's synthetic series at 1 Hz: DR / CP DI, ranges with NLOS blocks."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(n, dtype=np.float64)
-    true = 20.0 + 3.0 * np.sin(t / 60.0 + seed)
-    di_true = np.r_[np.nan, np.diff(true)]
-    di_dr = di_true + 0.004 + rng.normal(0.0, 0.003, n)
-    di_cp = di_true + rng.normal(0.0, 0.01, n)
-    jumps = rng.random(n) < 0.01
-    di_cp[jumps] += rng.normal(0.0, 0.3, jumps.sum())
-    rng_m = true + rng.normal(0.0, 0.08, n)
-    for start in rng.integers(0, max(n - 30, 1), size=max(n // 3600, 1)):
-        rng_m[start : start + 20] += rng.normal(0.5, 0.1, min(20, n - start))
-    return {"t": t, "di_dr": di_dr, "di_cp": di_cp, "range": rng_m}
+KERNELS = ("smooth_di", "filter_distance", "filter_distance_two_way")
+PARTS = (*KERNELS, "prepare_pair", "pair_noise")
 
 
-def run_coopproc(pairs: list[dict[str, np.ndarray]]) -> float:
-    """Seconds for DI smoothing + distance filter + NLOS over every pair."""
-    params = DISmoothingParams()
-    start = time.perf_counter()
-    for p in pairs:
-        var = di_variance(p["t"], 0.005, 0.005, "sqrt")
-        smoothed = smooth_di(p["t"], p["di_dr"], p["di_cp"], var, params)
-        filter_distance(p["t"], p["range"], smoothed.di_m, smoothed.var_m2, PARAMS)
-    return time.perf_counter() - start
+def instrument(spent: dict[str, float]) -> None:
+    """Add the seconds of each of PARTS that the stage module calls into ``spent``."""
+    for name in PARTS:
+        func = getattr(stage_mod, name, None)
+        if func is None:
+            continue
+
+        def wrapper(*a: Any, _f: Callable[..., Any] = func, _n: str = name, **k: Any) -> Any:
+            start = time.perf_counter()
+            try:
+                return _f(*a, **k)
+            finally:
+                spent[_n] = spent.get(_n, 0.0) + time.perf_counter() - start
+
+        setattr(stage_mod, name, wrapper)
 
 
-def run_calibrated(pairs: list[dict[str, np.ndarray]]) -> float:
-    """Seconds for what ``coopproc run`` does per pair since issue 10: DI smoothing, the
-    structure-function calibration, a probe run for the innovation spread, and the
-    forward + backward distance filter with the range-step test."""
-    params = DISmoothingParams()
-    start = time.perf_counter()
-    for p in pairs:
-        var = di_variance(p["t"], 0.005, 0.005, "sqrt")
-        smoothed = smooth_di(p["t"], p["di_dr"], p["di_cp"], var, params)
-        noise = pair_noise(p["t"], p["range"], smoothed.di_m)
-        r_i = np.fmax(smoothed.var_m2, noise.growth_m2ps)
-        probe = replace(PARAMS, sigma_m=noise.white_sigma_m, gamma_sigma=1e9, suspect_epochs=0)
-        spread = robust_sigma(
-            filter_distance(p["t"], p["range"], smoothed.di_m, r_i, probe).residual_m
-        )
-        tuned = replace(PARAMS, sigma_m=noise.white_sigma_m, detect_sigma_m=spread)
-        filter_distance_two_way(p["t"], p["range"], smoothed.di_m, r_i, tuned)
-    return time.perf_counter() - start
-
-
-def run_filterpy(p: dict[str, np.ndarray], n: int) -> float:
-    """Seconds for the same two filters as filterpy KalmanFilter objects, epoch by epoch."""
+def filterpy_loop(p: Any, n: int) -> Callable[[], None]:
+    """The DI smoothing + distance filter with NLOS test as filterpy KalmanFilters, over
+    the first ``n`` epochs of one pair (``PairInputs``); every matrix built once here."""
     from filterpy.kalman import KalmanFilter
 
-    smooth = KalmanFilter(dim_x=2, dim_z=1, dim_u=1)
-    smooth.F = np.array([[0.0, 1.0], [0.0, 1.0]])  # I^- = u + s (eq. (4) with u_k)
-    smooth.B = np.array([[1.0], [0.0]])
-    smooth.H = np.array([[1.0, 0.0]])
-    smooth.P = np.diag([1e-4, 1e-4])
-    smooth.R = np.array([[1e-4]])
-    dist = KalmanFilter(dim_x=2, dim_z=2)
-    dist.F = np.array([[1.0, 1.0], [0.0, 1.0]])
-    dist.H = np.eye(2)
-    dist.x = np.array([[p["range"][0]], [0.0]])
-    dist.P = np.diag([0.0225, 1.0])
-    gamma = 3.0 * 0.15
-    start = time.perf_counter()
-    for k in range(1, n):
-        var = 2.0 * 0.005**2
-        smooth.Q = np.array([[var, 0.0], [0.0, 1e-10]])
-        smooth.predict(u=np.array([[p["di_dr"][k]]]))
-        y = p["di_cp"][k] - smooth.x[0, 0]
-        if abs(y) <= 3.0 * np.sqrt(smooth.P[0, 0] + smooth.R[0, 0]):
-            smooth.update(np.array([[p["di_cp"][k]]]))
-        dist.Q = 0.25 * np.ones((2, 2))
-        dist.predict()
-        dist.R = np.diag([0.0225, max(smooth.P[0, 0], 1e-8)])
-        residual = p["range"][k] - dist.x[0, 0]  # eq. (9)
-        if abs(residual) > gamma:  # NLOS: the DI observation only
-            dist.update(np.array([[smooth.x[0, 0]]]), R=dist.R[1:, 1:], H=np.array([[0.0, 1.0]]))
-        else:
-            dist.update(np.array([[p["range"][k]], [smooth.x[0, 0]]]))
-    return time.perf_counter() - start
+    di_dr = np.nan_to_num(p.di_dr_m[:n])
+    di_cp = np.nan_to_num(p.di_cp_m[:n])
+    rng_m = p.observed_m[:n]
+    sigma = 0.15
+    gamma = 3.0 * sigma
+    q_smooth = np.array([[2.0 * 0.005**2, 0.0], [0.0, 1e-10]])
+    q_dist = 0.25 * np.ones((2, 2))
+    h_di = np.array([[0.0, 1.0]])
+    u = di_dr.reshape(-1, 1, 1)
+    z_cp = di_cp.reshape(-1, 1, 1)
+    z_both = np.zeros((n, 2, 1))
+    z_both[:, 0, 0] = rng_m
+    r_di = np.empty((n, 1, 1))
+    r_both = np.zeros((n, 2, 2))
+    r_both[:, 0, 0] = sigma**2
+
+    def run() -> None:
+        smooth = KalmanFilter(dim_x=2, dim_z=1, dim_u=1)
+        smooth.F = np.array([[0.0, 1.0], [0.0, 1.0]])  # I^- = u + s (eq. (4) with u_k)
+        smooth.B = np.array([[1.0], [0.0]])
+        smooth.H = np.array([[1.0, 0.0]])
+        smooth.P = np.diag([1e-4, 1e-4])
+        smooth.R = np.array([[1e-4]])
+        smooth.Q = q_smooth
+        dist = KalmanFilter(dim_x=2, dim_z=2)
+        dist.F = np.array([[1.0, 1.0], [0.0, 1.0]])
+        dist.H = np.eye(2)
+        dist.x = np.array([[rng_m[0]], [0.0]])
+        dist.P = np.diag([sigma**2, 1.0])
+        dist.Q = q_dist
+        for k in range(1, n):
+            smooth.predict(u=u[k])
+            y = di_cp[k] - smooth.x[0, 0]
+            if abs(y) <= 3.0 * np.sqrt(smooth.P[0, 0] + smooth.R[0, 0]):
+                smooth.update(z_cp[k])
+            dist.predict()
+            var = max(smooth.P[0, 0], 1e-8)
+            if abs(rng_m[k] - dist.x[0, 0]) > gamma:  # eq. (9): NLOS, the DI alone
+                r_di[k, 0, 0] = var
+                dist.update(smooth.x[:1], R=r_di[k], H=h_di)
+            else:
+                r_both[k, 1, 1] = var
+                z_both[k, 1, 0] = smooth.x[0, 0]
+                dist.update(z_both[k], R=r_both[k])
+
+    return run
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--pairs", type=int, default=45)
-    parser.add_argument("--epochs", type=int, default=86_400)
-    parser.add_argument("--filterpy-epochs", type=int, default=20_000)
-    parser.add_argument("--quick", action="store_true", help="epochs / 10")
+    parser.add_argument("--hours", type=float, default=0.5)
+    parser.add_argument("--platforms", type=int, default=10)
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--cache", type=Path, help="keep the simulated sessions here")
+    parser.add_argument("--filterpy-epochs", type=int, default=5000)
     args = parser.parse_args()
-    epochs = args.epochs // 10 if args.quick else args.epochs
-    pairs = [make_pair(epochs, seed) for seed in range(args.pairs)]
-    run_coopproc([make_pair(100, 0)])  # compile (numba, cache=True)
-    run_calibrated([make_pair(100, 0)])
-    seconds = min(run_coopproc(pairs) for _ in range(3))
-    calibrated = min(run_calibrated(pairs) for _ in range(3))
-    total = args.pairs * epochs
-    ours = total / seconds
-    n_fp = min(args.filterpy_epochs, epochs)
-    fp_seconds = run_filterpy(pairs[0], n_fp)
+
+    session, _ = prepare_run(read_session(session_dir(args.hours, args.platforms, args.cache)))
+    config = RunConfig()
+    fusion = POSITION_STAGES["fusion"]
+    observed = session.ranges.frame[["time", "from", "to", "range", "sigma"]]
+    product = fusion.run(
+        PositionInput(session, "observed", observed, config.run.positions_at, want_cp=True),
+        config.params_for(fusion.section),
+    )
+    assert product.cp is not None
+    cp = product.cp[0] if config.run.cp_solution == "forward" else product.cp[1]
+    stage = RANGE_STAGES["ranging"]
+    params = config.params_for(stage.section)
+    methods = tuple(m for m in config.pipeline.ranges if m in stage.methods)
+    base = observed_table(session)
+    total = len(base)
+    pairs = len(session.ranges.pairs)
+    print(
+        f"large: {args.platforms} platforms x {args.hours:g} h, {pairs} pairs, "
+        f"{total:,} pair-epochs"
+    )
+
+    def run_stage() -> object:
+        return stage.run(RangeInput(session, base, cp), params, methods)
+
+    seconds, times = median_seconds(run_stage, args.repeat)
+    spent: dict[str, float] = {}
+    instrument(spent)
+    run_stage()  # once more, instrumented, for the breakdown
+    kernels = sum(spent.get(k, 0.0) for k in KERNELS)
+    rate = total / seconds
+    print(
+        f"ranging stage ({', '.join(methods)}), as run: {seconds:7.3f} s {rate:12,.0f} "
+        f"pair-epochs/s  ({spread(times)}; {load()})"
+    )
+    for name in PARTS:
+        if name in spent:
+            print(f"  {name:<30} {spent[name]:7.3f} s  ({100 * spent[name] / seconds:4.1f} %)")
+    print(
+        f"  {'compiled kernels together':<30} {kernels:7.3f} s "
+        f"{total / kernels:12,.0f} pair-epochs/s"
+    )
+
+    first = stage_mod.prepare_pair(session, cp, params, session.ranges.pairs[0])
+    n_fp = min(args.filterpy_epochs, first.time_s.shape[0])
+    loop = filterpy_loop(first, n_fp)
+    fp_seconds, fp_times = median_seconds(loop, args.repeat)
     theirs = (n_fp - 1) / fp_seconds
-    print(f"workload: {args.pairs} pairs x {epochs} epochs = {total:,} pair-epochs")
-    print(f"{'method':<34}{'seconds':>10}{'pair-epochs/s':>18}")
-    print(f"{'coopproc (numba, all pairs)':<34}{seconds:>10.3f}{ours:>18,.0f}")
-    label = "  + calibration, two-way, step test"
-    print(f"{label:<34}{calibrated:>10.3f}{total / calibrated:>18,.0f}")
-    print(f"{'filterpy KalmanFilter (1 pair)':<34}{fp_seconds:>10.3f}{theirs:>18,.0f}")
-    print(f"speed-up: {ours / theirs:,.0f}x  (targets: >= 2,000,000 pair-epochs/s, >= 50x)")
+    print(
+        f"filterpy KalmanFilter loop (1 pair, {n_fp:,} epochs): {fp_seconds:7.3f} s "
+        f"{theirs:10,.0f} pair-epochs/s  ({spread(fp_times)}; {load()})"
+    )
+    print(target("whole stage >= 2,000,000 pair-epochs/s", rate, 2e6, at_most=False))
+    print(target("kernels >= 2,000,000 pair-epochs/s", total / kernels, 2e6, at_most=False))
+    print(target("whole stage >= 50x filterpy", rate / theirs, 50.0, at_most=False))
+    print(target("kernels >= 50x filterpy", total / kernels / theirs, 50.0, at_most=False))
 
 
 if __name__ == "__main__":
