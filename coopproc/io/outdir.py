@@ -31,6 +31,7 @@ __all__ = [
     "check_output_dir",
     "check_output_file",
     "check_writable_dir",
+    "csv_text",
     "output_errors",
     "write_csv",
     "write_text_atomic",
@@ -214,7 +215,9 @@ def write_csv(frame: pd.DataFrame, path: Path, columns: Sequence[str] | None = N
     """Write ``frame`` as CSV with the project's fixed float format; empty cells for NaN.
 
     A name ending in ``.gz`` is gzip-compressed (with a zero timestamp: same bytes for the
-    same table).
+    same table). The bytes are those of pandas' ``to_csv(index=False,
+    float_format=FLOAT_FORMAT, lineterminator="\\n")``, made by the compiled writer of
+    :mod:`coopproc.io.csv_fast` (pandas itself for a table that writer does not take).
     """
     if columns is not None:
         missing = [c for c in columns if c not in frame.columns]
@@ -222,11 +225,34 @@ def write_csv(frame: pd.DataFrame, path: Path, columns: Sequence[str] | None = N
             raise OutputError(f"{path.name}: missing columns {missing}")
         extra = [c for c in frame.columns if c not in columns]
         frame = frame[[*columns, *extra]]
-    frame.to_csv(
-        path,
-        index=False,
-        float_format=FLOAT_FORMAT,
-        lineterminator="\n",
-        compression={"method": "gzip", "mtime": 0} if path.name.endswith(".gz") else None,
-    )
+    from coopproc.io.csv_fast import csv_chunks  # numba: imported late
+    from coopproc.io.csv_gzip import write_csv_gzip
+
+    if path.name.endswith(".gz"):
+        if not write_csv_gzip(frame, path):
+            frame.to_csv(
+                path,
+                index=False,
+                float_format=FLOAT_FORMAT,
+                lineterminator="\n",
+                compression={"method": "gzip", "mtime": 0},
+            )
+        return path
+    pieces = csv_chunks(frame)
+    if pieces is None:
+        frame.to_csv(path, index=False, float_format=FLOAT_FORMAT, lineterminator="\n")
+        return path
+    with open(path, "wb") as out:
+        for piece in pieces:
+            out.write(piece)
     return path
+
+
+def csv_text(frame: pd.DataFrame) -> str:
+    """The CSV text :func:`write_csv` writes for ``frame`` (all its columns, in order)."""
+    from coopproc.io.csv_fast import csv_bytes
+
+    data = csv_bytes(frame)
+    if data is None:
+        return str(frame.to_csv(index=False, float_format=FLOAT_FORMAT, lineterminator="\n"))
+    return data.decode("utf-8")

@@ -20,7 +20,7 @@ from typing import Any
 
 from coopproc.errors import InputError, OutputError
 from coopproc.io.imu_csv import find_imu_files, imu_platform, read_imu_csv
-from coopproc.io.outdir import FLOAT_FORMAT, check_output_file, write_text_atomic
+from coopproc.io.outdir import check_output_file, csv_text, write_text_atomic
 from coopproc.report.allan import ALLAN_COLUMNS, ImuAllan, allan_frame, imu_allan
 from coopproc.report.rundir import RunTables
 from coopproc.report.stochastic import (
@@ -95,9 +95,7 @@ def stochastic_report(
 
 
 def _csv_text(frame: Any, columns: Sequence[str]) -> str:
-    return str(
-        frame[list(columns)].to_csv(index=False, float_format=FLOAT_FORMAT, lineterminator="\n")
-    )
+    return csv_text(frame[list(columns)])
 
 
 def _write_bytes_atomic(path: Path, data: bytes) -> Path:
