@@ -8,6 +8,14 @@ as one batch EKF update (eq. (14)-(17)), carried out as scalar updates whose inn
 are corrected for the state change of the earlier ones (exactly the batch update for a
 diagonal R), so no matrix is inverted and the cost is O(m n^2) per epoch.
 
+Memory is bounded by design (issue 11): the dead-reckoning increments and process noise
+are formed inside the loop from the navigation at the epochs (no (K, n) arrays), the
+states are written only at the *recorded* (epoch, platform) slots the caller asks for
+(``rec_ptr``/``rec_plat``, CSR by epoch), and for the smoother only a checkpoint (x, C)
+every ``block`` epochs is kept; :mod:`coopproc.stages.fusion.smoother` re-runs each block
+from its checkpoint (bit for bit the same arithmetic, with the forward pass's robust
+factors) instead of storing K covariances.
+
 Observation kinds (``obs_kind``):
 
 - ``OBS_RANGE`` (0): range between moving platforms ``a`` and ``b``, |X_a - X_b - o| with
@@ -29,9 +37,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from coopproc.model import FloatArray
-from coopproc.stages.filters import cholesky_solve_nb, igg3_scalar, mad_sigma_nb
+from coopproc.stages.filters import igg3_scalar, mad_sigma_nb
 
-__all__ = ["OBS_ANCHOR", "OBS_POSITION", "OBS_RANGE", "ekf_forward", "rts_backward"]
+__all__ = [
+    "OBS_ANCHOR",
+    "OBS_POSITION",
+    "OBS_RANGE",
+    "block_size",
+    "ekf_forward",
+    "epoch_innovations",
+    "epoch_update",
+    "time_update",
+]
 
 #: Epochs with this many observations or more take eq. (20)'s MAD over their own
 #: innovations; fewer are pooled with the last ``mad_window`` ones.
@@ -84,12 +101,152 @@ def _observe(
     return rho, count
 
 
+def block_size(n_epochs: int) -> int:
+    """Epochs between smoother checkpoints: about sqrt(K), so that the checkpoints and one
+    block's re-run hold about the same memory (2 sqrt(K) covariances in all)."""
+    return max(16, int(np.ceil(np.sqrt(max(n_epochs, 1)))))
+
+
+@numba.njit(cache=True)
+def time_update(
+    x: FloatArray,
+    c: FloatArray,
+    nav: FloatArray,
+    k: int,
+    dim: int,
+    q_coef: FloatArray,
+    q_squared: bool,
+    dt: FloatArray,
+) -> None:
+    """Paper 002 eq. (12)-(13) with F = I: X += u_k, C += Q_k (diagonal), in place.
+
+    u_k is each platform's dead-reckoning increment nav[p, k] - nav[p, k - 1]; the process
+    noise per axis is ``q_coef[p] * dt[k]`` (``q_squared``: ``(q_coef[p] * dt[k]) ** 2``).
+    """
+    for p in range(nav.shape[0]):
+        if q_squared:
+            t = q_coef[p] * dt[k]
+            qp = t * t
+        else:
+            qp = q_coef[p] * dt[k]
+        for ax in range(dim):
+            i = p * dim + ax
+            x[i] += nav[p, k, ax] - nav[p, k - 1, ax]
+            c[i, i] += qp
+
+
+@numba.njit(cache=True)
+def epoch_innovations(
+    x: FloatArray,
+    c: FloatArray,
+    lo: int,
+    m: int,
+    obs_kind: IntArray,
+    obs_a: IntArray,
+    obs_b: IntArray,
+    obs_anchor: FloatArray,
+    obs_dz2: FloatArray,
+    z: FloatArray,
+    r_var: FloatArray,
+    dim: int,
+    h_idx: IntArray,
+    h_val: FloatArray,
+    h_cnt: IntArray,
+    v: FloatArray,
+    d: FloatArray,
+) -> None:
+    """Innovations at the prior and their variances d = H C H^T + R, eq. (14), (19)."""
+    for j in range(m):
+        o = lo + j
+        pred, cnt = _observe(
+            x, obs_kind[o], obs_a[o], obs_b[o], obs_anchor[o], obs_dz2[o], dim,
+            h_idx[j], h_val[j],
+        )  # fmt: skip
+        h_cnt[j] = cnt
+        v[j] = z[o] - pred
+        hch = 0.0
+        for p in range(cnt):
+            for s in range(cnt):
+                hch += h_val[j, p] * c[h_idx[j, p], h_idx[j, s]] * h_val[j, s]
+        d[j] = hch + r_var[o]
+
+
+@numba.njit(cache=True)
+def epoch_update(
+    x: FloatArray,
+    c: FloatArray,
+    lo: int,
+    m: int,
+    h_idx: IntArray,
+    h_val: FloatArray,
+    h_cnt: IntArray,
+    v: FloatArray,
+    gamma: FloatArray,
+    r_var: FloatArray,
+    x_prior: FloatArray,
+    ph: FloatArray,
+    keep: bool,
+    gains: FloatArray,
+    y: FloatArray,
+    s_out: FloatArray,
+) -> None:
+    """Batch update eq. (15)-(17) of one epoch as corrected scalar updates, in place.
+
+    With ``keep``, scalar update j's gain C h / s (row j of ``gains``), its corrected
+    innovation (``y[j]``) and variance s (``s_out[j]``) are kept for the smoother.
+    """
+    n = x.shape[0]
+    for i in range(n):
+        x_prior[i] = x[i]
+    for j in range(m):
+        o = lo + j
+        cnt = h_cnt[j]
+        vj = v[j]
+        for p in range(cnt):
+            vj -= h_val[j, p] * (x[h_idx[j, p]] - x_prior[h_idx[j, p]])
+        for i in range(n):
+            acc = 0.0
+            for p in range(cnt):
+                acc += c[i, h_idx[j, p]] * h_val[j, p]
+            ph[i] = acc
+        s_var = r_var[o] / gamma[o]  # R / gamma, eq. (16)
+        for p in range(cnt):
+            s_var += h_val[j, p] * ph[h_idx[j, p]]
+        for i in range(n):
+            x[i] += ph[i] / s_var * vj
+        for i in range(n):
+            gi = ph[i] / s_var
+            for jj in range(n):
+                c[i, jj] -= gi * ph[jj]
+        if keep:
+            for i in range(n):
+                gains[j, i] = ph[i] / s_var
+            y[j] = vj
+            s_out[j] = s_var
+    for i in range(n):
+        for jj in range(i + 1, n):
+            sym = 0.5 * (c[i, jj] + c[jj, i])
+            c[i, jj] = sym
+            c[jj, i] = sym
+
+
+@numba.njit(cache=True)
+def max_epoch_obs(obs_ptr: IntArray) -> int:
+    """The most observations of any epoch (at least 1, for buffer sizes)."""
+    max_m = 1
+    for k in range(obs_ptr.shape[0] - 1):
+        max_m = max(max_m, obs_ptr[k + 1] - obs_ptr[k])
+    return max_m
+
+
 @numba.njit(cache=True)
 def ekf_forward(
     x0: FloatArray,
     c0: FloatArray,
-    u: FloatArray,
-    q: FloatArray,
+    nav: FloatArray,
+    q_coef: FloatArray,
+    q_squared: bool,
+    dt: FloatArray,
     obs_ptr: IntArray,
     obs_kind: IntArray,
     obs_a: IntArray,
@@ -103,10 +260,12 @@ def ekf_forward(
     k0: float,
     k1: float,
     sigma_floor: float,
-    keep_cov: bool,
-    mad_window: int = 0,
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Forward EKF over K epochs.
+    mad_window: int,
+    rec_ptr: IntArray,
+    rec_plat: IntArray,
+    block: int,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Forward EKF over K epochs (K = ``dt.shape[0]``, ``nav`` (P, K, >= dim)).
 
     ``mad_window``: the MAD unit-weight sigma of eq. (20) of an epoch with fewer than
     :data:`MAD_EPOCH_MIN` observations is taken over its innovations together with the last
@@ -115,60 +274,57 @@ def ekf_forward(
     With one range per epoch (staggered UWB polling) the epoch-only MAD is |v| / sqrt(d)
     itself, every standardized innovation is 1 and the robust factor never acts.
 
-    Returns the filtered states (K, n), their variances (K, n), the filtered covariances
-    (K, n, n) when ``keep_cov`` (else (1, n, n)), the robust factor of every observation
-    (M,), its innovation at the prior (M,) and that innovation's variance H C H^T + R (M,).
+    Returns the filtered states and variances at the recorded slots (R, dim) (slot r is
+    platform ``rec_plat[r]`` at the epoch whose ``rec_ptr`` range holds r), the robust
+    factor of every observation (M,), its innovation at the prior (M,) and that
+    innovation's variance H C H^T + R (M,), and the smoother checkpoints: state (B, n) and
+    covariance (B, n, n) before epoch ``b * block`` (``block <= 0``: none kept).
     """
-    n_epochs = u.shape[0]
+    n_epochs = dt.shape[0]
     n = x0.shape[0]
     n_obs = z.shape[0]
-    xs = np.empty((n_epochs, n))
-    var = np.empty((n_epochs, n))
-    covs = np.empty((n_epochs if keep_cov else 1, n, n))
+    n_rec = rec_plat.shape[0]
+    xs = np.empty((n_rec, dim))
+    var = np.empty((n_rec, dim))
+    n_blocks = (n_epochs + block - 1) // block if block > 0 else 0
+    cp_x = np.empty((n_blocks, n))
+    cp_c = np.empty((n_blocks, n, n))
     gamma = np.ones(n_obs)
     innov = np.zeros(n_obs)
     innov_var = np.zeros(n_obs)
     x = x0.copy()
     c = c0.copy()
     width = 2 * dim
-    max_m = 0
-    for k in range(n_epochs):
-        max_m = max(max_m, obs_ptr[k + 1] - obs_ptr[k])
-    h_idx = np.zeros((max(max_m, 1), width), dtype=np.int64)
-    h_val = np.zeros((max(max_m, 1), width))
-    h_cnt = np.zeros(max(max_m, 1), dtype=np.int64)
-    v = np.zeros(max(max_m, 1))
-    d = np.zeros(max(max_m, 1))
+    max_m = max_epoch_obs(obs_ptr)
+    h_idx = np.zeros((max_m, width), dtype=np.int64)
+    h_val = np.zeros((max_m, width))
+    h_cnt = np.zeros(max_m, dtype=np.int64)
+    v = np.zeros(max_m)
+    d = np.zeros(max_m)
     ph = np.zeros(n)
     x_prior = np.zeros(n)
+    unused = np.zeros((1, 1))
+    unused_v = np.zeros(1)
     ring = np.zeros(max(mad_window, 1))
     ring_n = 0
     ring_at = 0
-    pool = np.zeros(max(mad_window, 1) + max(max_m, 1))
-    ones = np.ones(max(mad_window, 1) + max(max_m, 1))
+    pool = np.zeros(max(mad_window, 1) + max_m)
+    ones = np.ones(max(mad_window, 1) + max_m)
     for k in range(n_epochs):
-        if k > 0:  # time update, paper 002 eq. (12)-(13) with F = I
-            for i in range(n):
-                x[i] += u[k, i]
-                c[i, i] += q[k, i]
+        if block > 0 and k % block == 0:
+            cp_x[k // block] = x
+            cp_c[k // block] = c
+        if k > 0:
+            time_update(x, c, nav, k, dim, q_coef, q_squared, dt)
         lo = obs_ptr[k]
         m = obs_ptr[k + 1] - lo
-        # innovations at the prior and their variances d = H C H^T + R, eq. (14), (19)
+        epoch_innovations(
+            x, c, lo, m, obs_kind, obs_a, obs_b, obs_anchor, obs_dz2, z, r_var, dim,
+            h_idx, h_val, h_cnt, v, d,
+        )  # fmt: skip
         for j in range(m):
-            o = lo + j
-            pred, cnt = _observe(
-                x, obs_kind[o], obs_a[o], obs_b[o], obs_anchor[o], obs_dz2[o], dim,
-                h_idx[j], h_val[j],
-            )  # fmt: skip
-            h_cnt[j] = cnt
-            v[j] = z[o] - pred
-            hch = 0.0
-            for p in range(cnt):
-                for s in range(cnt):
-                    hch += h_val[j, p] * c[h_idx[j, p], h_idx[j, s]] * h_val[j, s]
-            d[j] = hch + r_var[o]
-            innov[o] = v[j]
-            innov_var[o] = d[j]
+            innov[lo + j] = v[j]
+            innov_var[lo + j] = d[j]
         if robust and m > 0 and (mad_window <= 0 or m >= MAD_EPOCH_MIN):
             # eq. (20) -> (19) -> (18) over the epoch's own innovations
             sigma = mad_sigma_nb(v[:m], d[:m], sigma_floor)
@@ -188,87 +344,13 @@ def ekf_forward(
                     ring[ring_at] = abs(v[j]) / np.sqrt(d[j])
                     ring_at = (ring_at + 1) % mad_window
                     ring_n = min(ring_n + 1, mad_window)
-        for i in range(n):
-            x_prior[i] = x[i]
-        for j in range(m):  # batch update eq. (15)-(17) as corrected scalar updates
-            o = lo + j
-            cnt = h_cnt[j]
-            vj = v[j]
-            for p in range(cnt):
-                vj -= h_val[j, p] * (x[h_idx[j, p]] - x_prior[h_idx[j, p]])
-            for i in range(n):
-                acc = 0.0
-                for p in range(cnt):
-                    acc += c[i, h_idx[j, p]] * h_val[j, p]
-                ph[i] = acc
-            s_var = r_var[o] / gamma[o]  # R / gamma, eq. (16)
-            for p in range(cnt):
-                s_var += h_val[j, p] * ph[h_idx[j, p]]
-            for i in range(n):
-                x[i] += ph[i] / s_var * vj
-            for i in range(n):
-                gi = ph[i] / s_var
-                for jj in range(n):
-                    c[i, jj] -= gi * ph[jj]
-        for i in range(n):
-            for jj in range(i + 1, n):
-                sym = 0.5 * (c[i, jj] + c[jj, i])
-                c[i, jj] = sym
-                c[jj, i] = sym
-            xs[k, i] = x[i]
-            var[k, i] = c[i, i]
-        if keep_cov:
-            covs[k] = c
-    return xs, var, covs, gamma, innov, innov_var
-
-
-@numba.njit(cache=True)
-def rts_backward(
-    xs_f: FloatArray, covs_f: FloatArray, u: FloatArray, q: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """RTS fixed-interval smoother (paper 003 section 2.8) for F = I.
-
-    With X^-_{k+1} = X_k + u_{k+1} and C^-_{k+1} = C_k + Q_{k+1}:
-    A_k = C_k (C^-_{k+1})^-1, X^s_k = X_k + A_k (X^s_{k+1} - X^-_{k+1}),
-    C^s_k = C_k + A_k (C^s_{k+1} - C^-_{k+1}) A_k^T. Returns states and variances (K, n).
-    """
-    n_epochs, n = xs_f.shape
-    xs = np.empty((n_epochs, n))
-    var = np.empty((n_epochs, n))
-    x_next = xs_f[n_epochs - 1].copy()
-    c_next = covs_f[n_epochs - 1].copy()
-    xs[n_epochs - 1] = x_next
-    for i in range(n):
-        var[n_epochs - 1, i] = c_next[i, i]
-    c_pred = np.empty((n, n))
-    for k in range(n_epochs - 2, -1, -1):
-        c_f = covs_f[k]
-        for i in range(n):
-            for jj in range(n):
-                c_pred[i, jj] = c_f[i, jj]
-            c_pred[i, i] += q[k + 1, i]
-        # A^T = (C^-)^-1 C_k since both are symmetric
-        a_t = cholesky_solve_nb(c_pred, c_f)
-        dx = np.empty(n)
-        for i in range(n):
-            dx[i] = x_next[i] - (xs_f[k, i] + u[k + 1, i])
-        x_s = np.empty(n)
-        for i in range(n):
-            acc = xs_f[k, i]
-            for jj in range(n):
-                acc += a_t[jj, i] * dx[jj]
-            x_s[i] = acc
-        dc = c_next - c_pred
-        tmp = a_t.T @ dc
-        c_s = c_f + tmp @ a_t
-        for i in range(n):
-            for jj in range(i + 1, n):
-                sym = 0.5 * (c_s[i, jj] + c_s[jj, i])
-                c_s[i, jj] = sym
-                c_s[jj, i] = sym
-        xs[k] = x_s
-        for i in range(n):
-            var[k, i] = c_s[i, i]
-        x_next = x_s
-        c_next = c_s
-    return xs, var
+        epoch_update(
+            x, c, lo, m, h_idx, h_val, h_cnt, v, gamma, r_var, x_prior, ph,
+            False, unused, unused_v, unused_v,
+        )  # fmt: skip
+        for r in range(rec_ptr[k], rec_ptr[k + 1]):
+            p = rec_plat[r]
+            for ax in range(dim):
+                xs[r, ax] = x[p * dim + ax]
+                var[r, ax] = c[p * dim + ax, p * dim + ax]
+    return xs, var, gamma, innov, innov_var, cp_x, cp_c

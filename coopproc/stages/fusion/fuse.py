@@ -50,11 +50,12 @@ from coopproc.stages.fusion.ekf import (
     OBS_ANCHOR,
     OBS_POSITION,
     OBS_RANGE,
+    block_size,
     ekf_forward,
-    rts_backward,
 )
 from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
-from coopproc.stages.fusion.output import trajectories_from_states
+from coopproc.stages.fusion.output import recorded_slots, trajectories_from_slots
+from coopproc.stages.fusion.smoother import mbf_backward
 
 __all__ = ["FusionOutput", "FusionParams", "fuse", "fusion_params_from_toml"]
 
@@ -213,35 +214,40 @@ def fuse(
             f"({start:.3f} .. {stop:.3f} s)"
         )
     nav = np.stack([session.nav[p].interpolate(epochs) for p in moving])  # (P, K, 3)
-    n_plat, n_ep = len(moving), epochs.shape[0]
-    n = n_plat * dim
-    u = np.zeros((n_ep, n))
-    u[1:] = np.diff(nav[:, :, :dim], axis=1).transpose(1, 0, 2).reshape(n_ep - 1, n)
+    n_ep = epochs.shape[0]
     dt = np.diff(epochs, prepend=epochs[0])
     scale = drift_scale or {}
     drift = np.array([_drift(session, p, params) * scale.get(p, 1.0) for p in moving])
     if params.drift_correlation_s > 0:  # 2 sigma^2 tau dt, see the module docstring
-        q_plat = 2.0 * drift[:, None] ** 2 * params.drift_correlation_s * dt[None, :]
-    else:
-        q_plat = (drift[:, None] * dt[None, :]) ** 2
-    q = q_plat.T.repeat(dim, axis=1)  # (K, n)
+        q_coef = 2.0 * drift**2 * params.drift_correlation_s
+    else:  # (sigma dt)^2
+        q_coef = drift.astype(np.float64)
+    q_squared = params.drift_correlation_s <= 0
     x0, c0 = _initial_state(session, rows, ep_idx, epochs, nav, moving, params)
     obs = _observations(session, rows, ep_idx, epochs, nav, moving, anchors, params)
-    obs_ptr = obs["ptr"]
+    record_all = output == "nav" or params.epoch_merge_s > 0
+    rec_ptr, rec_plat = recorded_slots(session, ranges, moving, epochs, record_all)
     smooth = params.smoother and n_ep > 1
-    xs_f, var_f, covs, gamma, innov, innov_var = ekf_forward(
-        x0, c0, u, q, obs_ptr, obs["kind"], obs["a"], obs["b"], obs["anchor"], obs["dz2"],
-        obs["z"], obs["var"], dim, params.robust, params.k0, params.k1, params.mad_floor,
-        smooth, params.mad_window,
+    block = block_size(n_ep) if smooth else 0
+    kernel_obs = (
+        obs["ptr"], obs["kind"], obs["a"], obs["b"], obs["anchor"], obs["dz2"], obs["z"],
+        obs["var"],
+    )  # fmt: skip
+    noise = (nav, q_coef, q_squared, dt)
+    xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c = ekf_forward(
+        x0, c0, *noise, *kernel_obs, params.dims, params.robust, params.k0, params.k1,
+        params.mad_floor, params.mad_window, rec_ptr, rec_plat, block,
     )  # fmt: skip
     if smooth:
-        xs_s, var_s = rts_backward(xs_f, covs, u, q)
+        xs_s, var_s = mbf_backward(
+            cp_x, cp_c, *noise, *kernel_obs, gamma, dim, rec_ptr, rec_plat, block
+        )
     else:
         xs_s, var_s = xs_f, var_f
-    del covs
-    common = (session, moving, epochs, nav)
-    forward = trajectories_from_states(*common, xs_f, var_f, dim, output, hold=True)
-    smoothed = trajectories_from_states(*common, xs_s, var_s, dim, output, hold=False)
+    del cp_x, cp_c
+    slots = (session, moving, epochs, nav, rec_ptr, rec_plat, dim, output)
+    forward = trajectories_from_slots(*slots, xs_f, var_f, hold=True)
+    smoothed = trajectories_from_slots(*slots, xs_s, var_s, hold=False)
     is_range = obs["kind"] != OBS_POSITION
     row_of = obs["row"][is_range]
     table = pd.DataFrame(

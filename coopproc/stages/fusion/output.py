@@ -1,12 +1,97 @@
-"""Fused states back to one Trajectory per platform, at the epochs or at the nav rate."""
+"""Fused states back to one Trajectory per platform, at the epochs or at the nav rate.
+
+With staggered polling every range has its own epoch (45 per second for 10 platforms), and a
+platform is reported and scored only at the epochs of its own ranges (paper 000's
+cooperative updates; ``positions_at = "ranges"``). So the filter records each platform's
+state only at the epochs where it can be asked for (:func:`recorded_slots`): those of its
+ranges in the session and in the fused range set (dropouts included), the epochs either
+side of any such time that falls between epochs, and the first and last epoch, so that
+linear interpolation at those times gives exactly what the full trajectory would. That is
+about 2/P of the states of P platforms at every epoch.
+"""
 
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 
 from coopproc.model import FloatArray, Session, Trajectory
+from coopproc.stages.fusion.data import platform_codes
 
-__all__ = ["trajectories_from_states"]
+__all__ = ["recorded_slots", "trajectories_from_slots", "trajectories_from_states"]
+
+
+def recorded_slots(
+    session: Session,
+    ranges: pd.DataFrame,
+    moving: list[str],
+    epochs: FloatArray,
+    record_all: bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """CSR by epoch of the (epoch, platform) slots whose state the filter keeps.
+
+    Returns ``rec_ptr`` (K + 1) and ``rec_plat`` (R): epoch k's slots are
+    ``rec_plat[rec_ptr[k]:rec_ptr[k + 1]]``, platform indices into ``moving``, ascending.
+    ``record_all``: every platform at every epoch (nav-rate output, merged epochs).
+    """
+    n_ep, n_plat = epochs.shape[0], len(moving)
+    if record_all:
+        ptr = np.arange(n_ep + 1, dtype=np.int64) * n_plat
+        return ptr, np.tile(np.arange(n_plat, dtype=np.int64), n_ep)
+    keys = [np.arange(n_plat, dtype=np.int64), (n_ep - 1) * n_plat + np.arange(n_plat)]
+    for frame in (session.ranges.frame, ranges):
+        t = pd.to_numeric(frame["time"], errors="coerce").to_numpy(np.float64)
+        good = np.isfinite(t)
+        right = np.clip(np.searchsorted(epochs, t, side="right") - 1, 0, n_ep - 1)
+        left = np.clip(np.searchsorted(epochs, t, side="left"), 0, n_ep - 1)
+        for column in ("from", "to"):
+            code = platform_codes(frame[column].astype(str), moving)
+            sel = good & (code >= 0)
+            keys.append(right[sel] * n_plat + code[sel])
+            keys.append(left[sel] * n_plat + code[sel])
+    unique = np.unique(np.concatenate(keys))
+    counts = np.bincount(unique // n_plat, minlength=n_ep)
+    ptr = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
+    return ptr, (unique % n_plat).astype(np.int64)
+
+
+def trajectories_from_slots(
+    session: Session,
+    moving: list[str],
+    epochs: FloatArray,
+    nav: FloatArray,
+    rec_ptr: np.ndarray,
+    rec_plat: np.ndarray,
+    dim: int,
+    output: str,
+    xs: FloatArray,
+    var: FloatArray,
+    *,
+    hold: bool,
+) -> dict[str, Trajectory]:
+    """One Trajectory per platform from the recorded slots' states and variances (R, dim).
+
+    ``output="ranges"``: each platform at its recorded epochs; ``"nav"`` (every slot
+    recorded): :func:`trajectories_from_states`.
+    """
+    n_ep, n_plat = epochs.shape[0], len(moving)
+    if output != "ranges":
+        full = (n_ep, n_plat * dim)
+        return trajectories_from_states(
+            session, moving, epochs, nav, xs.reshape(full), var.reshape(full), dim, output,
+            hold=hold,
+        )  # fmt: skip
+    epoch_of = np.repeat(np.arange(n_ep), np.diff(rec_ptr))
+    out: dict[str, Trajectory] = {}
+    for p, pid in enumerate(moving):
+        slots = np.flatnonzero(rec_plat == p)
+        at = epoch_of[slots]
+        enu = nav[p, at].copy()
+        enu[:, :dim] = xs[slots]
+        sig = np.full((at.shape[0], 3), np.nan)
+        sig[:, :dim] = np.sqrt(np.maximum(var[slots], 0.0))
+        out[pid] = Trajectory(pid, epochs[at], enu, sigma_enu_m=sig, source="fusion")
+    return out
 
 
 def trajectories_from_states(

@@ -1,0 +1,184 @@
+"""Fixed-interval smoother of the cooperative EKF, memory-bounded and O(n^2) per epoch.
+
+Paper 003 section 2.8 smooths with the Rauch-Tung-Striebel recursion
+A_k = C_k (C^-_{k+1})^-1, X^s_k = X_k + A_k (X^s_{k+1} - X^-_{k+1}),
+C^s_k = C_k + A_k (C^s_{k+1} - C^-_{k+1}) A_k^T. It needs every epoch's filtered covariance
+(K x n x n: 12 GB for a day of 10 platforms at 45 range epochs per second) and an n x n
+inversion per epoch (O(n^3)). This module computes the same smoothed states and variances
+with the equivalent modified Bryson-Frazier form (Bierman 1977), which for our model
+(F = I, control input u, additive Q, observations processed as scalar updates) is
+
+- backward adjoints, starting from lambda = 0, Lambda = 0 after the last epoch; the time
+  update leaves them unchanged (F = I), and each scalar update j (gain g = C h / s,
+  corrected innovation y, variance s = h C h^T + R / gamma, eq. (15)-(17)), taken in
+  reverse order, maps them by
+  lambda <- (I - g h^T)^T lambda - h y / s,
+  Lambda <- (I - g h^T)^T Lambda (I - g h^T) + h h^T / s;
+- smoothed epoch k from its filtered (posterior) X_k, C_k and the adjoints of the later
+  epochs: X^s_k = X_k - C_k lambda, C^s_k = C_k - C_k Lambda C_k (only the diagonal
+  entries of the recorded platforms are formed).
+
+h has at most 2 dim non-zeros, so each step costs O(n^2) and no matrix is inverted.
+Q does not appear: it is in the filtered C_k. The filtered C_k are not stored: each block of
+epochs is re-run forward from the checkpoint ``ekf_forward`` kept, with the same code and the
+forward pass's robust factors, so the covariances are bit for bit the forward ones. Memory:
+the checkpoints plus one block (about 2 sqrt(K) covariances). The tests check the result
+against the dense RTS recursion.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from coopproc.model import FloatArray
+from coopproc.stages.fusion.ekf import (
+    IntArray,
+    epoch_innovations,
+    epoch_update,
+    max_epoch_obs,
+    time_update,
+)
+
+__all__ = ["mbf_backward"]
+
+
+@numba.njit(cache=True)
+def mbf_backward(
+    cp_x: FloatArray,
+    cp_c: FloatArray,
+    nav: FloatArray,
+    q_coef: FloatArray,
+    q_squared: bool,
+    dt: FloatArray,
+    obs_ptr: IntArray,
+    obs_kind: IntArray,
+    obs_a: IntArray,
+    obs_b: IntArray,
+    obs_anchor: FloatArray,
+    obs_dz2: FloatArray,
+    z: FloatArray,
+    r_var: FloatArray,
+    gamma: FloatArray,
+    dim: int,
+    rec_ptr: IntArray,
+    rec_plat: IntArray,
+    block: int,
+) -> tuple[FloatArray, FloatArray]:
+    """Smoothed states and variances (R, dim) at the recorded slots (see the module doc).
+
+    ``cp_x``, ``cp_c``, ``gamma`` come from :func:`~coopproc.stages.fusion.ekf.ekf_forward`
+    run with the same inputs and ``block``.
+    """
+    n_epochs = dt.shape[0]
+    n = cp_x.shape[1]
+    n_rec = rec_plat.shape[0]
+    xs = np.empty((n_rec, dim))
+    var = np.empty((n_rec, dim))
+    lam = np.zeros(n)
+    big_lam = np.zeros((n, n))
+    max_m = max_epoch_obs(obs_ptr)
+    width = 2 * dim
+    h_idx = np.zeros((max_m, width), dtype=np.int64)
+    h_val = np.zeros((max_m, width))
+    h_cnt = np.zeros(max_m, dtype=np.int64)
+    v = np.zeros(max_m)
+    d = np.zeros(max_m)
+    ph = np.zeros(n)
+    x_prior = np.zeros(n)
+    # one block's filtered states, covariances and scalar-update records
+    bx = np.empty((block, n))
+    bc = np.empty((block, n, n))
+    most = 0
+    for b in range(cp_x.shape[0]):
+        lo = b * block
+        hi = min(lo + block, n_epochs)
+        most = max(most, obs_ptr[hi] - obs_ptr[lo])
+    b_idx = np.zeros((max(most, 1), width), dtype=np.int64)
+    b_val = np.zeros((max(most, 1), width))
+    b_cnt = np.zeros(max(most, 1), dtype=np.int64)
+    b_gain = np.zeros((max(most, 1), n))
+    b_y = np.zeros(max(most, 1))
+    b_s = np.zeros(max(most, 1))
+    lam_g = np.zeros(n)
+    col = np.zeros(n)
+    for b in range(cp_x.shape[0] - 1, -1, -1):
+        first = b * block
+        last = min(first + block, n_epochs)
+        base = obs_ptr[first]
+        x = cp_x[b].copy()
+        c = cp_c[b].copy()
+        for k in range(first, last):  # re-run the forward filter over the block
+            if k > 0:
+                time_update(x, c, nav, k, dim, q_coef, q_squared, dt)
+            lo = obs_ptr[k]
+            m = obs_ptr[k + 1] - lo
+            epoch_innovations(
+                x, c, lo, m, obs_kind, obs_a, obs_b, obs_anchor, obs_dz2, z, r_var, dim,
+                h_idx, h_val, h_cnt, v, d,
+            )  # fmt: skip
+            at = lo - base
+            epoch_update(
+                x, c, lo, m, h_idx, h_val, h_cnt, v, gamma, r_var, x_prior, ph,
+                True, b_gain[at : at + m], b_y[at : at + m], b_s[at : at + m],
+            )  # fmt: skip
+            for j in range(m):
+                b_cnt[at + j] = h_cnt[j]
+                for p in range(h_cnt[j]):
+                    b_idx[at + j, p] = h_idx[j, p]
+                    b_val[at + j, p] = h_val[j, p]
+            bx[k - first] = x
+            bc[k - first] = c
+        for k in range(last - 1, first - 1, -1):
+            cf = bc[k - first]
+            xf = bx[k - first]
+            for r in range(rec_ptr[k], rec_ptr[k + 1]):  # X_k - C_k lambda, C_k - C_k L C_k
+                p = rec_plat[r]
+                for ax in range(dim):
+                    i = p * dim + ax
+                    acc = xf[i]
+                    for jj in range(n):
+                        acc -= cf[i, jj] * lam[jj]
+                    xs[r, ax] = acc
+                    for jj in range(n):
+                        s = 0.0
+                        for ll in range(n):
+                            s += big_lam[jj, ll] * cf[ll, i]
+                        col[jj] = s
+                    quad = 0.0
+                    for jj in range(n):
+                        quad += cf[i, jj] * col[jj]
+                    var[r, ax] = cf[i, i] - quad
+            for o in range(obs_ptr[k + 1] - 1, obs_ptr[k] - 1, -1):  # scalar updates, reversed
+                j = o - base
+                cnt = b_cnt[j]
+                g = b_gain[j]
+                g_lam = 0.0
+                for i in range(n):
+                    g_lam += g[i] * lam[i]
+                shift = g_lam + b_y[j] / b_s[j]
+                for p in range(cnt):
+                    lam[b_idx[j, p]] -= b_val[j, p] * shift
+                for i in range(n):  # Lambda g (Lambda symmetric)
+                    acc = 0.0
+                    for jj in range(n):
+                        acc += big_lam[i, jj] * g[jj]
+                    lam_g[i] = acc
+                g_lam_g = 0.0
+                for i in range(n):
+                    g_lam_g += g[i] * lam_g[i]
+                for p in range(cnt):
+                    row = b_idx[j, p]
+                    hv = b_val[j, p]
+                    for i in range(n):
+                        big_lam[row, i] -= hv * lam_g[i]
+                for p in range(cnt):
+                    column = b_idx[j, p]
+                    hv = b_val[j, p]
+                    for i in range(n):
+                        big_lam[i, column] -= lam_g[i] * hv
+                extra = g_lam_g + 1.0 / b_s[j]
+                for p in range(cnt):
+                    for s_ in range(cnt):
+                        big_lam[b_idx[j, p], b_idx[j, s_]] += b_val[j, p] * b_val[j, s_] * extra
+    return xs, var

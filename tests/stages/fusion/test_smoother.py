@@ -1,0 +1,152 @@
+"""The memory-bounded MBF smoother against the dense RTS recursion (paper 003 sec. 2.8)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from coopproc.stages.filters import rts_step
+from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_POSITION, OBS_RANGE, ekf_forward
+from coopproc.stages.fusion.smoother import mbf_backward
+
+DIM = 2
+
+
+def _problem(seed: int, n_plat: int = 3, n_ep: int = 60) -> dict[str, np.ndarray]:
+    """Platforms wandering in 2D with noisy DR, ranges between them and to an anchor,
+    platform 0's own fix every 3rd epoch, one gross outlier; the last epoch observes
+    nothing (so that its checkpoint gives the previous epoch's posterior covariance)."""
+    rng = np.random.default_rng(seed)
+    truth = np.cumsum(rng.normal(0, 0.3, (n_plat, n_ep, 3)), axis=1)
+    truth[:, :, 0] += 10.0 * np.arange(n_plat)[:, None]
+    nav = truth + np.cumsum(rng.normal(0, 0.05, (n_plat, n_ep, 3)), axis=1)
+    anchor_pos = np.array([5.0, 20.0, 0.0])
+    kinds, a_list, b_list, anchors, z, var, counts = [], [], [], [], [], [], []
+    for k in range(n_ep - 1):
+        m = 0
+        if k % 3 == 0:
+            for axis in range(DIM):
+                kinds.append(OBS_POSITION)
+                a_list.append(0)
+                b_list.append(axis)
+                anchors.append(np.zeros(3))
+                z.append(truth[0, k, axis] + rng.normal(0, 0.05))
+                var.append(0.05**2)
+                m += 1
+        a, b = rng.choice(n_plat, 2, replace=False)
+        kinds.append(OBS_RANGE)
+        a_list.append(a)
+        b_list.append(b)
+        anchors.append(np.zeros(3))
+        z.append(np.linalg.norm(truth[a, k, :DIM] - truth[b, k, :DIM]) + rng.normal(0, 0.1))
+        var.append(0.1**2)
+        m += 1
+        p = rng.integers(n_plat)
+        kinds.append(OBS_ANCHOR)
+        a_list.append(p)
+        b_list.append(-1)
+        anchors.append(anchor_pos)
+        z.append(np.linalg.norm(truth[p, k, :DIM] - anchor_pos[:DIM]) + rng.normal(0, 0.1))
+        var.append(0.1**2)
+        m += 1
+        counts.append(m)
+    counts.append(0)
+    z_arr = np.array(z)
+    z_arr[len(z) // 2] += 5.0  # a gross error the IGG-III factor must reject
+    n_obs = len(z)
+    return {
+        "x0": nav[:, 0, :DIM].reshape(-1).copy(),
+        "c0": np.eye(n_plat * DIM) * 0.5,
+        "nav": np.ascontiguousarray(nav),
+        "q_coef": np.full(n_plat, 0.02),
+        "dt": np.full(n_ep, 0.5),
+        "ptr": np.concatenate(([0], np.cumsum(counts))).astype(np.int64),
+        "kind": np.array(kinds, dtype=np.int64),
+        "a": np.array(a_list, dtype=np.int64),
+        "b": np.array(b_list, dtype=np.int64),
+        "anchor": np.array(anchors),
+        "dz2": np.zeros(n_obs),
+        "z": z_arr,
+        "var": np.array(var),
+    }
+
+
+def _forward(pb: dict[str, np.ndarray], rec_ptr: np.ndarray, rec_plat: np.ndarray, block: int):
+    return ekf_forward(
+        pb["x0"], pb["c0"], pb["nav"], pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"],
+        pb["a"], pb["b"], pb["anchor"], pb["dz2"], pb["z"], pb["var"], DIM, True, 3.0, 4.0,
+        1.0, 20, rec_ptr, rec_plat, block,
+    )  # fmt: skip
+
+
+def _all_slots(n_ep: int, n_plat: int) -> tuple[np.ndarray, np.ndarray]:
+    ptr = np.arange(n_ep + 1, dtype=np.int64) * n_plat
+    return ptr, np.tile(np.arange(n_plat, dtype=np.int64), n_ep)
+
+
+def _dense_rts(pb: dict[str, np.ndarray], n_plat: int) -> tuple[np.ndarray, np.ndarray]:
+    """States and variances of the dense RTS recursion (filters.rts_step) at every epoch
+    but the last, from the forward pass's posteriors (checkpoints with block = 1)."""
+    n_ep = pb["dt"].shape[0]
+    xs_f, _, _, _, _, _, cp_c = _forward(pb, *_all_slots(n_ep, n_plat), 1)
+    xs_f = xs_f.reshape(n_ep, n_plat * DIM)
+    post = cp_c[1:]  # posterior covariance of epochs 0 .. K - 2
+    q = (pb["q_coef"] * pb["dt"][:, None]).repeat(DIM, axis=1)
+    u = np.zeros_like(xs_f)
+    u[1:] = np.diff(pb["nav"][:, :, :DIM], axis=1).transpose(1, 0, 2).reshape(n_ep - 1, -1)
+    last = n_ep - 2
+    xs = [xs_f[last]]
+    cs = [post[last]]
+    for k in range(last - 1, -1, -1):
+        c_pred = post[k] + np.diag(q[k + 1])
+        x_s, c_s = rts_step(
+            xs_f[k], post[k], xs_f[k] + u[k + 1], c_pred, xs[-1], cs[-1], np.eye(xs_f.shape[1])
+        )
+        xs.append(x_s)
+        cs.append(c_s)
+    return np.array(xs[::-1]), np.array([np.diag(c) for c in cs[::-1]])
+
+
+@pytest.mark.parametrize(("seed", "block"), [(0, 7), (1, 16), (2, 1), (3, 200)])
+def test_mbf_smoother_equals_dense_rts(seed: int, block: int) -> None:
+    n_plat = 3
+    pb = _problem(seed, n_plat)
+    n_ep = pb["dt"].shape[0]
+    rec = _all_slots(n_ep, n_plat)
+    _, _, gamma, _, _, cp_x, cp_c = _forward(pb, *rec, block)
+    assert (gamma < 1e-6).sum() >= 1  # the outlier was rejected, and the smoother knows it
+    xs, var = mbf_backward(
+        cp_x, cp_c, pb["nav"], pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"], pb["a"],
+        pb["b"], pb["anchor"], pb["dz2"], pb["z"], pb["var"], gamma, DIM, *rec, block,
+    )  # fmt: skip
+    ref_x, ref_var = _dense_rts(pb, n_plat)
+    got_x = xs.reshape(n_ep, -1)[:-1]
+    got_var = var.reshape(n_ep, -1)[:-1]
+    assert got_x == pytest.approx(ref_x, abs=1e-9)
+    assert got_var == pytest.approx(ref_var, rel=1e-8, abs=1e-12)
+    # smoothing used the future: the variances are below the filtered ones
+    _, var_f, *_ = _forward(pb, *rec, block)
+    assert (got_var <= var_f.reshape(n_ep, -1)[:-1] + 1e-12).all()
+    assert np.abs(got_var - var_f.reshape(n_ep, -1)[:-1]).max() > 1e-3
+
+
+def test_recorded_subset_gives_the_same_slots() -> None:
+    n_plat = 3
+    pb = _problem(5, n_plat)
+    n_ep = pb["dt"].shape[0]
+    full = _all_slots(n_ep, n_plat)
+    rng = np.random.default_rng(9)
+    keep = rng.random(full[1].shape[0]) < 0.3
+    epoch_of = np.repeat(np.arange(n_ep), n_plat)
+    sub_ptr = np.concatenate(([0], np.cumsum(np.bincount(epoch_of[keep], minlength=n_ep))))
+    sub = (sub_ptr.astype(np.int64), full[1][keep])
+    outs = []
+    for rec in (full, sub):
+        xs_f, var_f, gamma, _, _, cp_x, cp_c = _forward(pb, *rec, 8)
+        xs, var = mbf_backward(
+            cp_x, cp_c, pb["nav"], pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"],
+            pb["a"], pb["b"], pb["anchor"], pb["dz2"], pb["z"], pb["var"], gamma, DIM, *rec, 8,
+        )  # fmt: skip
+        outs.append((xs_f, var_f, xs, var))
+    for whole, part in zip(outs[0], outs[1], strict=True):
+        np.testing.assert_array_equal(whole[keep], part)
