@@ -38,7 +38,7 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
-from coopproc.model import FloatArray, Session, pair_members, pair_name
+from coopproc.model import FloatArray, Session, pair_members, pair_names
 from coopproc.stages.fusion.data import anchor_positions
 from coopproc.stages.fusion.fuse import FusionOutput, FusionParams, fuse
 from coopproc.stages.ranging.calibration import MAD_SCALE, posterior_sigma
@@ -93,12 +93,12 @@ def postfit_residuals(session: Session, fused: FusionOutput, ranges: pd.DataFram
     """Columns time, pair, residual: each range minus the fused distance at its time."""
     anchors = anchor_positions(session)
     frame = ranges[np.isfinite(ranges["range"].to_numpy(dtype=np.float64))]
-    pairs = np.array([pair_name(a, b) for a, b in zip(frame["from"], frame["to"], strict=True)])
+    pairs = pair_names(frame["from"], frame["to"])
     t = frame["time"].to_numpy(dtype=np.float64)
     resid = np.full(t.shape[0], np.nan)
-    for pair in np.unique(pairs):
-        sel = np.flatnonzero(pairs == pair)
-        a, b = frame["from"].to_numpy()[sel[0]], frame["to"].to_numpy()[sel[0]]
+    from_ids, to_ids = frame["from"].to_numpy(), frame["to"].to_numpy()
+    for _, sel in _groups(pairs):
+        a, b = from_ids[sel[0]], to_ids[sel[0]]
         if (a not in anchors and a not in fused.smoothed) or (
             b not in anchors and b not in fused.smoothed
         ):
@@ -109,6 +109,14 @@ def postfit_residuals(session: Session, fused: FusionOutput, ranges: pd.DataFram
             xa - xb, axis=1
         )
     return pd.DataFrame({"time": t, "pair": pairs, "residual": resid})
+
+
+def _groups(names: np.ndarray) -> list[tuple[str, np.ndarray]]:
+    """(name, row indices) of each distinct name, names sorted (one sort, no scans)."""
+    unique, inverse = np.unique(names, return_inverse=True)
+    order = np.argsort(inverse, kind="stable")
+    bounds = np.searchsorted(inverse[order], np.arange(unique.shape[0] + 1))
+    return [(str(unique[i]), order[bounds[i] : bounds[i + 1]]) for i in range(unique.shape[0])]
 
 
 def _pair_figures(
@@ -272,15 +280,14 @@ def calibrated_fuse(
     first, scale, _ = _drift_scales(session, ranges, params, {})
     # 2. per-pair ranging sigma from the post-fit residuals
     rms, bias, count = _pair_figures(postfit_residuals(session, first, ranges))
-    pairs = np.array([pair_name(a, b) for a, b in zip(ranges["from"], ranges["to"], strict=True)])
+    pairs = pair_names(ranges["from"], ranges["to"])
     given = pd.to_numeric(ranges["sigma"], errors="coerce").to_numpy(dtype=np.float64)
     default = session.config.uwb_sigma_m or params.range_sigma_m
     given = np.where(np.isfinite(given) & (given > 0), given, default)
     sigma_used: dict[str, float] = {}
     notes: list[str] = []
     new_sigma = given.copy()
-    for pair in np.unique(pairs):
-        sel = pairs == pair
+    for pair, sel in _groups(pairs):
         prior = float(np.median(given[sel]))
         if pair in rms:
             # inflate only: a declared sigma above the post-fit RMS stays (shrinking it

@@ -38,18 +38,23 @@ def recorded_slots(
     if record_all:
         ptr = np.arange(n_ep + 1, dtype=np.int64) * n_plat
         return ptr, np.tile(np.arange(n_plat, dtype=np.int64), n_ep)
-    keys = [np.arange(n_plat, dtype=np.int64), (n_ep - 1) * n_plat + np.arange(n_plat)]
+    wanted = np.zeros(n_ep * n_plat, dtype=bool)  # slot k * P + p
+    wanted[:n_plat] = True
+    wanted[(n_ep - 1) * n_plat :] = True
     for frame in (session.ranges.frame, ranges):
         t = pd.to_numeric(frame["time"], errors="coerce").to_numpy(np.float64)
         good = np.isfinite(t)
         right = np.clip(np.searchsorted(epochs, t, side="right") - 1, 0, n_ep - 1)
         left = np.clip(np.searchsorted(epochs, t, side="left"), 0, n_ep - 1)
         for column in ("from", "to"):
-            code = platform_codes(frame[column].astype(str), moving)
+            ids = frame[column]
+            if not pd.api.types.is_string_dtype(ids):
+                ids = ids.astype(str)
+            code = platform_codes(ids, moving)
             sel = good & (code >= 0)
-            keys.append(right[sel] * n_plat + code[sel])
-            keys.append(left[sel] * n_plat + code[sel])
-    unique = np.unique(np.concatenate(keys))
+            wanted[right[sel] * n_plat + code[sel]] = True
+            wanted[left[sel] * n_plat + code[sel]] = True
+    unique = np.flatnonzero(wanted)
     counts = np.bincount(unique // n_plat, minlength=n_ep)
     ptr = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
     return ptr, (unique % n_plat).astype(np.int64)
