@@ -77,12 +77,13 @@ class PipelineOutput:
 
 def _ranges_for(base: pd.DataFrame, values: FloatArray, sigma: pd.Series) -> pd.DataFrame:
     """One processed method's distances in the shape the position estimators take."""
-    members = {p: pair_members(p) for p in base["pair"].unique()}
+    codes, pairs = pd.factorize(base["pair"])
+    members = np.array([pair_members(str(p)) for p in pairs], dtype=object).reshape(-1, 2)
     out = pd.DataFrame(
         {
             "time": base["time"].to_numpy(),
-            "from": [members[p][0] for p in base["pair"]],
-            "to": [members[p][1] for p in base["pair"]],
+            "from": members[codes, 0],
+            "to": members[codes, 1],
             "range": values,
             "sigma": sigma.to_numpy(),
         }

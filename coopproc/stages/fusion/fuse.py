@@ -43,17 +43,15 @@ from coopproc.stages.fusion.data import (
     anchor_positions,
     clean_ranges,
     epoch_groups,
-    platform_codes,
 )
 from coopproc.stages.fusion.data import range_sigma_default as _range_sigma_default
 from coopproc.stages.fusion.ekf import (
-    OBS_ANCHOR,
     OBS_POSITION,
-    OBS_RANGE,
     block_size,
     ekf_forward,
 )
 from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
+from coopproc.stages.fusion.observations import build_observations, nav_sigma
 from coopproc.stages.fusion.output import recorded_slots, trajectories_from_slots
 from coopproc.stages.fusion.smoother import mbf_backward
 
@@ -129,6 +127,13 @@ class FusionParams:
         default=0.0,
         metadata={"help": "successive range times closer than this (s) form one epoch"},
     )
+    leader_fix: str = field(
+        default="epoch",
+        metadata={
+            "help": "when a leader's own fix is an observation: 'epoch' (every range epoch) "
+            "or 'nav' (once per nav sample; cheaper with many pairs, see docs/methods-fusion.md)"
+        },
+    )
     lsq: LsqParams = field(
         default_factory=LsqParams,
         metadata={"help": "robust LSQ from anchors ([fusion.lsq])"},
@@ -144,6 +149,8 @@ class FusionParams:
         for name in ("range_sigma_m", "drift_sigma_mps", "leader_sigma_m", "initial_sigma_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} = {getattr(self, name)}, expected > 0")
+        if self.leader_fix not in ("epoch", "nav"):
+            raise ValueError(f"leader_fix = {self.leader_fix!r}, expected 'epoch' or 'nav'")
         if self.mad_window < 0:
             raise ValueError(f"mad_window = {self.mad_window}, expected >= 0")
         if self.mad_floor < 0 or self.epoch_merge_s < 0 or self.drift_correlation_s < 0:
@@ -224,7 +231,7 @@ def fuse(
         q_coef = drift.astype(np.float64)
     q_squared = params.drift_correlation_s <= 0
     x0, c0 = _initial_state(session, rows, ep_idx, epochs, nav, moving, params)
-    obs = _observations(session, rows, ep_idx, epochs, nav, moving, anchors, params)
+    obs = build_observations(session, rows, ep_idx, epochs, nav, moving, anchors, params)
     record_all = output == "nav" or params.epoch_merge_s > 0
     rec_ptr, rec_plat = recorded_slots(session, ranges, moving, epochs, record_all)
     smooth = params.smoother and n_ep > 1
@@ -269,19 +276,6 @@ def _drift(session: Session, pid: str, params: FusionParams) -> float:
     return float(value) if value is not None and value > 0 else params.drift_sigma_mps
 
 
-def _nav_sigma(session: Session, pid: str, times: FloatArray, default_m: float) -> FloatArray:
-    """1-sigma (K, 3) of a platform's own nav at ``times``: its sigma columns, else default."""
-    traj = session.nav[pid]
-    out = np.full((times.shape[0], 3), default_m)
-    if traj.sigma_enu_m is not None:
-        for axis in range(3):
-            col = traj.sigma_enu_m[:, axis]
-            good = np.isfinite(col) & (col > 0)
-            if good.any():
-                out[:, axis] = np.interp(times, traj.time_s[good], col[good])
-    return out
-
-
 def _initial_state(
     session: Session,
     rows: pd.DataFrame,
@@ -297,9 +291,9 @@ def _initial_state(
     sig = np.full(x0.shape[0], params.initial_sigma_m)
     for p, pid in enumerate(moving):
         default = params.leader_sigma_m if session.platforms[pid].role == "leader" else None
-        sig[p * dim : (p + 1) * dim] = _nav_sigma(
-            session, pid, epochs[:1], default or sig[p * dim]
-        )[0, :dim]
+        sig[p * dim : (p + 1) * dim] = nav_sigma(session, pid, epochs[:1], default or sig[p * dim])[
+            0, :dim
+        ]
     has_anchor = any(pl.role == "anchor" for pl in session.platforms.values())
     if params.init_from_anchors and has_anchor:
         lsq = dataclasses.replace(params.lsq, dims=dim)
@@ -316,84 +310,3 @@ def _initial_state(
             assert fix.sigma_enu_m is not None
             sig[p * dim : (p + 1) * dim] = np.maximum(fix.sigma_enu_m[0, :dim], 1e-3)
     return x0, np.diag(sig * sig)
-
-
-def _observations(
-    session: Session,
-    rows: pd.DataFrame,
-    ep_idx: np.ndarray,
-    epochs: FloatArray,
-    nav: FloatArray,
-    moving: list[str],
-    anchors: Mapping[str, FloatArray],
-    params: FusionParams,
-) -> dict[str, np.ndarray]:
-    """Flat observation arrays in epoch order and the epoch pointers ``ptr`` (K + 1)."""
-    dim = params.dims
-    index = {pid: i for i, pid in enumerate(moving)}
-    a_from = platform_codes(rows["from"], moving)
-    a_to = platform_codes(rows["to"], moving)
-    from_moving = a_from >= 0
-    to_moving = a_to >= 0
-    both = from_moving & to_moving
-    a = np.where(from_moving, a_from, a_to).astype(np.int64)
-    b = np.where(both, a_to, -1).astype(np.int64)
-    anchor_ids = sorted(anchors)
-    anchor_table = np.array([anchors[k] for k in anchor_ids] + [np.zeros(3)])
-    to_code = platform_codes(rows["to"], anchor_ids)
-    anchor_code = np.where(from_moving, to_code, platform_codes(rows["from"], anchor_ids))
-    anchor = anchor_table[np.where(anchor_code >= 0, anchor_code, len(anchor_ids))]
-    row_t = rows["time"].to_numpy()
-    late = np.flatnonzero(row_t != epochs[ep_idx])
-    if late.size:  # ranges after their (merged) epoch time: carry the DR motion to them
-        motion = np.zeros((len(rows), 2, 3))
-        for p, pid in enumerate(moving):
-            for end, ids in ((0, a), (1, b)):
-                sel = late[ids[late] == p]
-                if sel.size:
-                    at_row = session.nav[pid].interpolate(row_t[sel])
-                    motion[sel, end] = at_row - nav[p, ep_idx[sel]]
-        # OBS_RANGE: |X_a + m_a - X_b - m_b| = |X_a - X_b - (m_b - m_a)|;
-        # OBS_ANCHOR: |X_a + m_a - anchor| = |X_a - (anchor - m_a)|
-        anchor = np.where(both[:, None], motion[:, 1] - motion[:, 0], anchor - motion[:, 0])
-    up_a = nav[a, ep_idx, 2]
-    up_b = np.where(both, nav[np.maximum(b, 0), ep_idx, 2], anchor[:, 2])
-    dz2 = (up_a - up_b) ** 2 if dim == 2 else np.zeros(len(rows))
-    # layout in epoch order: each epoch's leader fixes, then its ranges (rows are sorted)
-    n_ep = nav.shape[1]
-    leaders = [pid for pid in moving if session.platforms[pid].role == "leader"]
-    n_lead = len(leaders) * dim
-    counts = np.bincount(ep_idx, minlength=n_ep) + n_lead
-    ptr = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
-    total = int(ptr[-1])
-    first_row = np.searchsorted(ep_idx, np.arange(n_ep))
-    at = ptr[ep_idx] + n_lead + (np.arange(len(rows)) - first_row[ep_idx])
-    obs: dict[str, np.ndarray] = {
-        "epoch": np.repeat(np.arange(n_ep, dtype=np.int64), counts),
-        "kind": np.full(total, OBS_POSITION, dtype=np.int64),
-        "a": np.zeros(total, dtype=np.int64),
-        "b": np.zeros(total, dtype=np.int64),
-        "anchor": np.zeros((total, 3)),
-        "dz2": np.zeros(total),
-        "z": np.zeros(total),
-        "var": np.ones(total),
-        "row": np.full(total, -1, dtype=np.int64),
-    }
-    obs["kind"][at] = np.where(both, OBS_RANGE, OBS_ANCHOR)
-    obs["a"][at] = a
-    obs["b"][at] = b
-    obs["anchor"][at] = anchor
-    obs["dz2"][at] = dz2
-    obs["z"][at] = rows["range"].to_numpy(np.float64)
-    obs["var"][at] = rows["var"].to_numpy(np.float64)
-    obs["row"][at] = np.arange(len(rows), dtype=np.int64)
-    for j, pid in enumerate(leaders):
-        sig = _nav_sigma(session, pid, epochs, params.leader_sigma_m)
-        for axis in range(dim):
-            slot = ptr[:-1] + j * dim + axis
-            obs["a"][slot] = index[pid]
-            obs["b"][slot] = axis
-            obs["z"][slot] = nav[index[pid], :, axis]
-            obs["var"][slot] = sig[:, axis] ** 2
-    obs["ptr"] = ptr
-    return obs

@@ -1,0 +1,34 @@
+"""When a leader's own fix is an observation ([fusion] leader_fix)."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+import pytest
+
+from coopproc.stages.fusion.fuse import FusionParams
+from coopproc.stages.fusion.observations import leader_fix_epochs
+
+
+def _session(nav_times: dict[str, list[float]]) -> Any:
+    return SimpleNamespace(
+        nav={p: SimpleNamespace(time_s=np.array(t)) for p, t in nav_times.items()}
+    )
+
+
+def test_nav_rate_fix_at_the_first_epoch_at_or_after_each_nav_sample() -> None:
+    epochs = np.array([0.0, 0.03, 0.06, 0.1, 0.13, 0.2, 0.25])
+    session = _session({"B": [0.0, 0.1, 0.2, 0.3], "L": [0.05, 0.21]})
+    fixes = leader_fix_epochs(session, ["B", "L"], epochs, every_epoch=False)
+    assert fixes[0].tolist() == [True, False, False, True, False, True, False]
+    # the first epoch always; 0.05 -> 0.06, 0.21 -> 0.25
+    assert fixes[1].tolist() == [True, False, True, False, False, False, True]
+    assert leader_fix_epochs(session, ["B"], epochs, every_epoch=True).all()
+
+
+def test_leader_fix_must_be_epoch_or_nav() -> None:
+    assert FusionParams(leader_fix="nav").leader_fix == "nav"
+    with pytest.raises(ValueError, match="leader_fix"):
+        FusionParams(leader_fix="sometimes")
