@@ -8,7 +8,13 @@ from typing import Any, TypeVar
 
 import click
 
-__all__ = ["comma_names", "config_option", "output_option", "session_argument"]
+__all__ = [
+    "comma_names",
+    "config_option",
+    "max_panels_option",
+    "output_option",
+    "session_argument",
+]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -44,3 +50,15 @@ def comma_names(value: str | None) -> list[str] | None:
     if not names:
         raise click.BadParameter("expected a comma-separated list of names")
     return names
+
+
+def max_panels_option() -> Callable[[F], F]:
+    """``--max-panels N``: most panels on one figure page (None: the default, 24)."""
+    return click.option(
+        "--max-panels",
+        type=click.IntRange(min=1),
+        default=None,
+        metavar="N",
+        help="Most panels per figure page (default 24); more go on further pages "
+        "(distance_errors.png, distance_errors_2.png, ...).",
+    )

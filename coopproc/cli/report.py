@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from coopproc.cli.options import comma_names
+from coopproc.cli.options import comma_names, max_panels_option
 
 __all__ = ["report"]
 
@@ -66,8 +66,10 @@ def _alignments(value: str | None) -> list[str]:
     help="Write the tables to FILE instead of standard output.",
 )
 @click.option("--metrics", help="Columns to show, comma separated (e.g. max,rmse,snr_db).")
-@click.option("--pairs", help="Pairs to show in Table 2, comma separated (e.g. A-B,B-C).")
-@click.option("--platforms", help="Platforms to show in Table 3, comma separated.")
+@click.option(
+    "--pairs", help="Pairs to show in Table 2 and the figures, comma separated (e.g. A-B,B-C)."
+)
+@click.option("--platforms", help="Platforms to show in Table 3 and the figures, comma separated.")
 @click.option("--plots", is_flag=True, help="Remake the figures in OUT/figures (PNG).")
 @click.option("--pdf", is_flag=True, help="Also write PDF figures (implies --plots).")
 @click.option("--svg", is_flag=True, help="Also write SVG figures (implies --plots).")
@@ -78,6 +80,7 @@ def _alignments(value: str | None) -> list[str]:
     show_default=True,
     help="Resolution of PNG figures.",
 )
+@max_panels_option()
 @click.option("--html", "make_html", is_flag=True, help="Write OUT/report.html.")
 @click.option(
     "--evaluate",
@@ -124,6 +127,7 @@ def report(
     pdf: bool,
     svg: bool,
     dpi: int,
+    max_panels: int | None,
     make_html: bool,
     evaluate: bool,
     align: str | None,
@@ -139,6 +143,7 @@ def report(
     coopproc report out --format latex -o t.tex LaTeX (booktabs) to a file
     coopproc report out --metrics max,rmse --pairs A-B
     coopproc report out --plots --pdf --html    figures (PNG + PDF) and report.html
+    coopproc report out --plots --pairs A-B,A-C figures of two pairs only
     coopproc report out --evaluate --align se3  3-D / vertical errors and RPE, evo-style
     coopproc report out --stochastic --plots    UWB noise model, IMU Allan deviation
     """
@@ -164,6 +169,14 @@ def report(
     run = load_run(out)
     plots = plots or pdf or svg
     stochastic = stochastic or bool(imu_files)
+    figure_options = None
+    if plots or make_html:  # the pairs / platforms drawn (unknown ones fail before any work)
+        from coopproc.report.pages import check_selection
+        from coopproc.report.style import MAX_PANELS
+
+        figure_options = check_selection(
+            run, comma_names(pairs), comma_names(platforms), max_panels or MAX_PANELS
+        )
     if plots or make_html or stochastic:
         check_writable_dir(out, out)
     stoch = None
@@ -217,12 +230,14 @@ def report(
 
         formats = ["png", *(["pdf"] if pdf else []), *(["svg"] if svg else [])]
         with output_errors(out):
-            written = write_figures(run, out / "figures", formats=formats, dpi=dpi)
+            written = write_figures(
+                run, out / "figures", formats=formats, dpi=dpi, options=figure_options
+            )
         for path in written:
             click.echo(f"wrote {path}")
     if make_html:
         from coopproc.report.html import write_html
 
         with output_errors(out):
-            html = write_html(out, run, stoch)
+            html = write_html(out, run, stoch, figure_options)
         click.echo(f"wrote {html}")

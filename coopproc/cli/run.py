@@ -5,10 +5,21 @@ from __future__ import annotations
 import datetime as dt
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
-from coopproc.cli.options import config_option, output_option, session_argument
+from coopproc.cli.options import (
+    comma_names,
+    config_option,
+    max_panels_option,
+    output_option,
+    session_argument,
+)
+
+if TYPE_CHECKING:
+    from coopproc.model import Session
+    from coopproc.report.pages import FigureOptions
 
 __all__ = ["run"]
 
@@ -26,6 +37,9 @@ __all__ = ["run"]
 @click.option("--pdf", is_flag=True, help="Also write figures as PDF.")
 @click.option("--svg", is_flag=True, help="Also write figures as SVG.")
 @click.option("--no-figures", is_flag=True, help="Write the tables only (no figures/ or HTML).")
+@click.option("--pairs", help="Pairs to draw in the figures, comma separated (e.g. A-B,B-C).")
+@click.option("--platforms", help="Platforms to draw in the figures, comma separated.")
+@max_panels_option()
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def run(
     session: Path,
@@ -35,6 +49,9 @@ def run(
     pdf: bool,
     svg: bool,
     no_figures: bool,
+    pairs: str | None,
+    platforms: str | None,
+    max_panels: int | None,
     quiet: bool,
 ) -> None:
     """Process a recorded session: clean the ranges, detect and estimate NLOS errors,
@@ -73,6 +90,7 @@ def run(
     if no_figures:
         config = dataclasses.replace(config, run=dataclasses.replace(config.run, figures=False))
     data = read_session(session)
+    figure_options = _figure_options(data, pairs, platforms, max_panels)  # checked early
     check_output_dir(out_dir, force=force, protect=[data.root, *data.inputs])
     note(
         f"session {data.name}: {len(data.platforms)} platforms, "
@@ -105,6 +123,7 @@ def run(
             figure_formats=formats,
             started=started,
             summary=summary.facts,
+            figure_options=figure_options,
         )
     for line in calibration_lines(output):
         say(line)
@@ -113,3 +132,24 @@ def run(
     say(f"tables: {files.out_dir}/ ({len(files.tables)} CSV), figures: {len(files.figures)}")
     if files.html is not None:
         say(f"report: {files.html}")
+
+
+def _figure_options(
+    data: Session, pairs: str | None, platforms: str | None, max_panels: int | None
+) -> FigureOptions:
+    """--pairs / --platforms / --max-panels checked against the session's pairs and
+    platforms (an unknown one is a one-line error listing them)."""
+    from coopproc.report.pages import FigureOptions, check_names
+    from coopproc.report.style import MAX_PANELS
+
+    chosen_pairs = comma_names(pairs)
+    chosen_platforms = comma_names(platforms)
+    return FigureOptions(
+        pairs=None
+        if chosen_pairs is None
+        else check_names(chosen_pairs, sorted(data.ranges.pairs), "pair"),
+        platforms=None
+        if chosen_platforms is None
+        else check_names(chosen_platforms, sorted(data.platforms), "platform"),
+        max_panels=max_panels or MAX_PANELS,
+    )

@@ -18,6 +18,7 @@ from matplotlib.collections import PathCollection
 from matplotlib.colors import Normalize
 
 from coopproc.model import FloatArray
+from coopproc.report.decimate import decimate, envelope_indices
 from coopproc.report.methods import position_methods, primary_method
 from coopproc.report.rundir import RunTables
 from coopproc.report.style import method_style
@@ -32,6 +33,11 @@ _TOP_PERCENTILE = 95.0
 
 def _values(frame: pd.DataFrame, column: str) -> FloatArray:
     return frame[column].to_numpy(dtype=np.float64, na_value=np.nan)
+
+
+def _by_method(frame: pd.DataFrame) -> dict[str, pd.DataFrame]:
+    """The rows per method in row order, grouped once."""
+    return {str(k): g for k, g in frame.groupby("method", sort=False, observed=True)}
 
 
 def track_method(run: RunTables) -> str | None:
@@ -54,18 +60,21 @@ def plot_error_cdf(
     smallest); dotted lines at 0.5 and 0.95 read off CEP50 and CEP95. ``methods``
     default: every method of the rows but ``reference``, in row order.
     """
-    rows = platform_positions
+    by_method = _by_method(platform_positions)
     if methods is None:
-        methods = [str(m) for m in dict.fromkeys(rows["method"]) if m != "reference"]
+        methods = [m for m in by_method if m != "reference"]
     for method in methods:
-        h = np.sort(_values(rows[rows["method"] == method], "error_h"))
+        if method not in by_method:
+            continue
+        h = np.sort(_values(by_method[method], "error_h"))
         h = h[np.isfinite(h)]
         if not h.size:
             continue
         y = np.arange(1, h.size + 1, dtype=np.float64) / h.size
+        x, y = decimate(np.concatenate([[0.0], h]), np.concatenate([[0.0], y]))
         ax.plot(
-            np.concatenate([[0.0], h]),
-            np.concatenate([[0.0], y]),
+            x,
+            y,
             drawstyle="steps-post",
             gid=method,
             **method_style(method).kwargs(),
@@ -100,27 +109,33 @@ def plot_error_track(
     ``norm``: the colour scale (default :func:`error_norm` of these errors); returns the
     dots (for a colour bar), None when the method has no epoch with an error.
     """
-    rows = platform_positions
-    ref = rows[rows["method"] == "reference"].sort_values("time", kind="stable")
+    by_method = _by_method(platform_positions)
+    empty = platform_positions.iloc[:0]
+    ref = by_method.get("reference", empty).sort_values("time", kind="stable")
     if len(ref):
         style = method_style("reference")
+        _, ref_east, ref_north = decimate(
+            _values(ref, "time"), _values(ref, "east"), _values(ref, "north")
+        )
         ax.plot(
-            _values(ref, "east"),
-            _values(ref, "north"),
+            ref_east,
+            ref_north,
             gid="reference",
             label=style.label,
             color=style.color,
             linewidth=0.5,
         )
-    own = rows[rows["method"] == method].sort_values("time", kind="stable")
+    own = by_method.get(method, empty).sort_values("time", kind="stable")
     h = _values(own, "error_h")
     keep = np.isfinite(h)
     if not keep.any():
         return None
+    # drawn: the largest and smallest errors of each stretch (the colour scale is all of them)
+    at = np.flatnonzero(keep)[envelope_indices(h[keep])]
     dots = ax.scatter(
-        _values(own, "east")[keep],
-        _values(own, "north")[keep],
-        c=h[keep],
+        _values(own, "east")[at],
+        _values(own, "north")[at],
+        c=h[at],
         s=2.0,
         cmap=TRACK_CMAP,
         norm=norm if norm is not None else error_norm(h),

@@ -8,6 +8,12 @@ rows) are skipped. The methods drawn are the run's (:mod:`coopproc.report.method
 *primary* method (``di`` if the run has it, else its last processed range method) is the
 one whose NLOS events are shaded and that gets one convergence panel per event.
 
+:class:`~coopproc.report.pages.FigureOptions` chooses the pairs and platforms drawn and
+the most panels per page: a figure of more panels is written as ``name.png``,
+``name_2.png``... with labels running on (:mod:`coopproc.report.pages`). Long series are
+drawn from their min/max envelope (:mod:`coopproc.report.decimate`). Each PNG records
+the keys of its panels in a ``Panels`` text chunk (``report.html`` checks it).
+
 | file | content | paper 000 |
 |---|---|---|
 | ``distance_errors`` | distance error per method over time, NLOS events shaded | fig. 9, 11 |
@@ -21,9 +27,8 @@ one whose NLOS events are shaded and that gets one convergence panel per event.
 
 from __future__ import annotations
 
-import math
-import string
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -34,18 +39,16 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from coopproc.errors import ConfigError
+from coopproc.report.convergence import convergence_panels
 from coopproc.report.evaluation_plots import (
     error_norm,
     plot_error_cdf,
     plot_error_track,
     track_method,
 )
-from coopproc.report.methods import (
-    nlos_methods,
-    position_methods,
-    primary_method,
-    range_methods,
-)
+from coopproc.report.methods import position_methods, primary_method, range_methods
+from coopproc.report.pages import FigureOptions, page_ranges, page_stem
+from coopproc.report.panels import Panels, colorbar_below, grid, groups, legend, stack, time_label
 from coopproc.report.plots import (
     plot_di_errors,
     plot_distance_errors,
@@ -54,10 +57,16 @@ from coopproc.report.plots import (
     plot_trajectory,
 )
 from coopproc.report.rundir import RunTables
-from coopproc.report.scores import event_bias
-from coopproc.report.style import COLUMN_WIDTH_IN, PANEL_HEIGHT_IN, RC, WIDE_WIDTH_IN
+from coopproc.report.style import RC
 
-__all__ = ["FIGURE_NAMES", "FORMATS", "make_figures", "write_figures"]
+__all__ = [
+    "FIGURE_NAMES",
+    "FORMATS",
+    "FigurePage",
+    "figure_pages",
+    "make_figures",
+    "write_figures",
+]
 
 FORMATS: tuple[str, ...] = ("png", "pdf", "svg")
 #: Metadata that would change from run to run (tool versions, dates) left out.
@@ -66,72 +75,47 @@ _METADATA: dict[str, dict[str, Any]] = {
     "pdf": {"Creator": None, "Producer": None, "CreationDate": None},
     "svg": {"Creator": None, "Date": None},
 }
-#: Most panels stacked in one column; more go into a 3-column grid.
-_MAX_STACK = 6
-
-
-def _label(i: int, text: str) -> str:
-    letter = string.ascii_lowercase[i] if i < 26 else str(i + 1)
-    return f"({letter}) {text}"
-
-
-def _stack(n: int) -> tuple[Figure, list[Axes]]:
-    """Panels stacked in one column sharing the time axis; a 3-column grid beyond 6."""
-    if n > _MAX_STACK:
-        return _grid(n, PANEL_HEIGHT_IN, sharex=True)
-    fig = Figure(figsize=(COLUMN_WIDTH_IN, 0.55 + PANEL_HEIGHT_IN * n), layout="constrained")
-    axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
-    return fig, list(axes)
-
-
-def _grid(n: int, row_height_in: float, *, sharex: bool = False) -> tuple[Figure, list[Axes]]:
-    ncols = min(n, 3)
-    nrows = math.ceil(n / ncols)
-    width = COLUMN_WIDTH_IN if ncols == 1 else WIDE_WIDTH_IN * (0.67 if ncols == 2 else 1.0)
-    fig = Figure(figsize=(width, 0.45 + row_height_in * nrows), layout="constrained")
-    grid = fig.subplots(nrows, ncols, squeeze=False, sharex=sharex)
-    axes = list(grid.ravel())
-    for ax in axes[n:]:
-        fig.delaxes(ax)
-    return fig, axes[:n]
-
-
-def _legend(fig: Figure, axes: Sequence[Axes]) -> None:
-    seen: dict[str, Any] = {}
-    for ax in axes:
-        handles, labels = ax.get_legend_handles_labels()
-        for handle, label in zip(handles, labels, strict=True):
-            seen.setdefault(label, handle)
-    if seen:
-        # Three entries a row where they fit the figure width, else two.
-        width_chars = fig.get_figwidth() * 13
-        ncols = min(len(seen), 3)
-        if sum(len(k) + 6 for k in list(seen)[:ncols]) > width_chars:
-            ncols = 2
-        fig.legend(list(seen.values()), list(seen), loc="outside upper center", ncols=ncols)
-
-
-def _time_label(axes: Sequence[Axes], origin_s: float) -> None:
-    """Label the time axis of the bottom panel of every column."""
-    text = f"Time since t0 = {origin_s:.1f} (s)" if origin_s else "Time (s)"
-    bottom: dict[int, Axes] = {}
-    for ax in axes:
-        spec = ax.get_subplotspec()
-        column = spec.colspan.start if spec is not None else 0
-        bottom[column] = ax
-    for ax in bottom.values():
-        ax.set_xlabel(text)
-        ax.xaxis.set_tick_params(labelbottom=True)
+#: PNG text chunk with the keys of a page's panels, separated by ``PANEL_SEPARATOR``.
+PANELS_KEY = "Panels"
+PANEL_SEPARATOR = "; "
 
 
 def _has(frame: pd.DataFrame, column: str) -> pd.Series:
     return frame[column].notna()
 
 
-def distance_errors_figure(run: RunTables) -> Figure | None:
+class _Groups:
+    """The run's rows per pair / platform, grouped once and shared by the figures."""
+
+    def __init__(self, run: RunTables) -> None:
+        self.run = run
+        self._cache: dict[str, dict[str, pd.DataFrame]] = {}
+
+    def positions(self) -> dict[str, pd.DataFrame]:
+        if "positions" not in self._cache:
+            self._cache["positions"] = groups(self.run.positions, "platform")
+        return self._cache["positions"]
+
+    def ranges(self) -> dict[str, pd.DataFrame]:
+        if "ranges" not in self._cache:
+            self._cache["ranges"] = groups(self.run.ranges, "pair")
+        return self._cache["ranges"]
+
+
+def _time_finish(origin_s: float) -> Callable[[Figure, list[Axes], list[Any]], None]:
+    def finish(fig: Figure, axes: list[Axes], drawn: list[Any]) -> None:
+        time_label(axes, origin_s)
+        legend(fig, axes)
+
+    return finish
+
+
+def _distance_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
     """Paper 000 fig. 9/11: one panel per pair that has a reference distance."""
-    ranges = run.ranges[_has(run.ranges, "reference")]
-    pairs = sorted(ranges["pair"].unique())
+    by_pair = {
+        p: rows[_has(rows, "reference")] for p, rows in g.ranges().items() if opts.keep_pair(p)
+    }
+    pairs = sorted(p for p, rows in by_pair.items() if len(rows))
     if not pairs:
         return None
     t0 = run.time_origin_s
@@ -140,201 +124,234 @@ def distance_errors_figure(run: RunTables) -> Figure | None:
     primary = primary_method(run)
     if primary is not None and primary in set(events["method"]):
         events = events[events["method"] == primary]
-    fig, axes = _stack(len(pairs))
-    for i, (ax, pair) in enumerate(zip(axes, pairs, strict=True)):
-        plot_distance_errors(
-            ax,
-            ranges[ranges["pair"] == pair],
-            events[events["pair"] == pair],
-            methods=methods,
-            time_origin_s=t0,
-        )
-        ax.set_title(_label(i, pair), loc="left")
-    _time_label(axes, t0)
-    _legend(fig, axes)
-    return fig
+    events_by_pair = groups(events, "pair")
+    no_events = events.iloc[:0]
+
+    def draw(ax: Axes, i: int) -> None:
+        pair = pairs[i]
+        rows, shaded = by_pair[pair], events_by_pair.get(pair, no_events)
+        plot_distance_errors(ax, rows, shaded, methods=methods, time_origin_s=t0)
+
+    return Panels(pairs, pairs, stack, draw, _time_finish(t0))
 
 
-def di_errors_figure(run: RunTables) -> Figure | None:
+def _di_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
     """Paper 000 fig. 8: one panel per pair that has a reference DI."""
     di = run.di[_has(run.di, "di_reference")]
-    pairs = sorted(di["pair"].unique())
+    by_pair = {p: rows for p, rows in groups(di, "pair").items() if opts.keep_pair(p)}
+    pairs = sorted(by_pair)
     if not pairs:
         return None
     t0 = run.time_origin_s
-    fig, axes = _stack(len(pairs))
-    for i, (ax, pair) in enumerate(zip(axes, pairs, strict=True)):
-        plot_di_errors(ax, di[di["pair"] == pair], time_origin_s=t0)
-        ax.set_title(_label(i, pair), loc="left")
-    _time_label(axes, t0)
-    _legend(fig, axes)
-    return fig
+
+    def draw(ax: Axes, i: int) -> None:
+        plot_di_errors(ax, by_pair[pairs[i]], time_origin_s=t0)
+
+    return Panels(pairs, pairs, stack, draw, _time_finish(t0))
 
 
-def position_errors_figure(run: RunTables) -> Figure | None:
+def _platform_rows(
+    g: _Groups, opts: FigureOptions, methods: Sequence[str], *, error: bool
+) -> dict[str, pd.DataFrame]:
+    """Each chosen platform's rows of ``methods`` (with a horizontal error if ``error``)."""
+    out = {}
+    for platform, rows in g.positions().items():
+        if not opts.keep_platform(platform):
+            continue
+        keep = rows["method"].isin(list(methods))
+        if error:
+            keep &= _has(rows, "error_h")
+        if keep.any():
+            out[platform] = rows[keep]
+    return out
+
+
+def _position_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
     """Paper 000 fig. 12: one panel per platform with a horizontal error."""
     methods = position_methods(run)
-    pos = run.positions[_has(run.positions, "error_h") & run.positions["method"].isin(methods)]
-    platforms = sorted(pos["platform"].unique())
+    by_platform = _platform_rows(g, opts, methods, error=True)
+    platforms = sorted(by_platform)
     if not platforms:
         return None
     t0 = run.time_origin_s
-    fig, axes = _stack(len(platforms))
-    for i, (ax, platform) in enumerate(zip(axes, platforms, strict=True)):
-        rows = pos[pos["platform"] == platform]
+
+    def draw(ax: Axes, i: int) -> None:
+        rows = by_platform[platforms[i]]
         plot_position_errors(ax, rows, methods=methods, time_origin_s=t0)
-        ax.set_title(_label(i, f"Platform {platform}"), loc="left")
-    _time_label(axes, t0)
-    _legend(fig, axes)
-    return fig
+
+    titles = [f"Platform {p}" for p in platforms]
+    return Panels(platforms, titles, stack, draw, _time_finish(t0))
 
 
-def convergence_panels(run: RunTables) -> list[tuple[str, pd.DataFrame, float | None]]:
-    """(title, estimate rows of every method, reference bias) per event of the primary method.
-
-    The primary method is the run's (:func:`~coopproc.report.methods.primary_method`) if
-    it has estimates, else the first NLOS method with estimates, else the first by name.
-    Events of other methods of the same pair join the panel whose time span they overlap
-    (spans widened by one step spacing).
-    """
-    est = run.nlos_estimates
-    if est is None or not len(est):
-        return []
-    have = {str(m) for m in est["method"].unique()}
-    preferred = [m for m in (primary_method(run), *nlos_methods(run)) if m in have]
-    primary = preferred[0] if preferred else sorted(have)[0]
-    spans = {
-        key: (float(g["time"].min()), float(g["time"].max()), g)
-        for key, g in est.groupby(["pair", "method", "event"], sort=True)
-    }
-    panels = []
-    for (pair, method, event), (lo, hi, rows) in spans.items():
-        if method != primary:
-            continue
-        dt = float(np.median(np.diff(np.sort(rows["time"].to_numpy())))) if len(rows) > 1 else 1.0
-        parts = [rows]
-        for (p2, m2, _), (lo2, hi2, rows2) in spans.items():
-            if p2 == pair and m2 != primary and lo2 <= hi + dt and hi2 >= lo - dt:
-                parts.append(rows2)
-        bias = _event_reference_bias(run, str(pair), str(method), lo)
-        panels.append(
-            (f"{pair}, event {event} (t = {lo - run.time_origin_s:.0f} s)", pd.concat(parts), bias)
-        )
-    return panels
-
-
-def _event_reference_bias(run: RunTables, pair: str, method: str, first_s: float) -> float | None:
-    events = run.nlos_events[
-        (run.nlos_events["pair"] == pair) & (run.nlos_events["method"] == method)
-    ]
-    if not len(events):
-        return None
-    nearest = events.iloc[int(np.argmin(np.abs(events["start"].to_numpy(float) - first_s)))]
-    pair_ranges = run.ranges[run.ranges["pair"] == pair]
-    bias, n = event_bias(pair_ranges, float(nearest["start"]), float(nearest["end"]))
-    return bias if n else None
-
-
-def nlos_convergence_figure(run: RunTables) -> Figure | None:
+def _nlos_convergence(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
     """Paper 000 fig. 10: one panel per NLOS event."""
-    panels = convergence_panels(run)
+    panels = convergence_panels(run, opts)
     if not panels:
         return None
-    fig, axes = _grid(len(panels), 1.55)
-    for i, (ax, (title, rows, bias)) in enumerate(zip(axes, panels, strict=True)):
+
+    def draw(ax: Axes, i: int) -> None:
+        _, rows, bias = panels[i]
         plot_nlos_convergence(ax, rows, reference_bias_m=bias)
-        ax.set_title(_label(i, title), loc="left")
-    _legend(fig, axes)
-    return fig
+
+    titles = [title for title, _, _ in panels]
+    return Panels(titles, titles, lambda n: grid(n, 1.55), draw)
 
 
-def trajectories_figure(run: RunTables) -> Figure | None:
+def _trajectories(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
     """Tracks in the east-north plane, one panel per moving platform (paper 000 fig. 7)."""
-    platforms = sorted(run.positions["platform"].unique())
+    by_platform = {p: rows for p, rows in g.positions().items() if opts.keep_platform(p)}
+    platforms = sorted(by_platform)
     if not platforms:
         return None
     methods = ("reference", "nav", *position_methods(run))
-    fig, axes = _grid(len(platforms), 2.3)
-    for i, (ax, platform) in enumerate(zip(axes, platforms, strict=True)):
-        rows = run.positions[run.positions["platform"] == platform]
-        plot_trajectory(ax, rows, methods=methods)
-        ax.set_title(_label(i, f"Platform {platform}"), loc="left")
-    _legend(fig, axes)
-    return fig
+
+    def draw(ax: Axes, i: int) -> None:
+        plot_trajectory(ax, by_platform[platforms[i]], methods=methods)
+
+    titles = [f"Platform {p}" for p in platforms]
+    return Panels(platforms, titles, lambda n: grid(n, 2.3), draw)
 
 
-def error_cdf_figure(run: RunTables) -> Figure | None:
+def _error_cdf(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
     """CDF of the horizontal error, one panel per platform with one (methods overlaid)."""
     methods = ("nav", *position_methods(run))
-    pos = run.positions[_has(run.positions, "error_h") & run.positions["method"].isin(methods)]
-    platforms = sorted(pos["platform"].unique())
+    by_platform = _platform_rows(g, opts, methods, error=True)
+    platforms = sorted(by_platform)
     if not platforms:
         return None
-    fig, axes = _grid(len(platforms), 2.0)
-    for i, (ax, platform) in enumerate(zip(axes, platforms, strict=True)):
-        plot_error_cdf(ax, pos[pos["platform"] == platform], methods=methods)
-        ax.set_title(_label(i, f"Platform {platform}"), loc="left")
-    _legend(fig, axes)
-    return fig
+
+    def draw(ax: Axes, i: int) -> None:
+        plot_error_cdf(ax, by_platform[platforms[i]], methods=methods)
+
+    titles = [f"Platform {p}" for p in platforms]
+    return Panels(platforms, titles, lambda n: grid(n, 2.0), draw)
 
 
-def error_track_figure(run: RunTables) -> Figure | None:
+def _error_track(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
     """The primary method's track coloured by its horizontal error over the reference, one
     panel per platform; one colour scale (0 to the 95th percentile) for all panels."""
     method = track_method(run)
-    pos = run.positions
-    own = pos[(pos["method"] == method) & _has(pos, "error_h")]
-    platforms = sorted(own["platform"].unique())
-    if method is None or not platforms:
+    if method is None:
         return None
-    norm = error_norm(own["error_h"].to_numpy(dtype=np.float64))
-    fig, axes = _grid(len(platforms), 2.3)
-    dots = None
-    for i, (ax, platform) in enumerate(zip(axes, platforms, strict=True)):
-        drawn = plot_error_track(ax, pos[pos["platform"] == platform], method, norm=norm)
-        dots = drawn if drawn is not None else dots
-        ax.set_title(_label(i, f"Platform {platform}"), loc="left")
-    if dots is not None:
-        fig.colorbar(
-            dots,
-            ax=axes,
-            location="bottom",
-            shrink=0.5,
-            aspect=40,
-            extend="max",
-            label="Horizontal error (m)",
-        )
-    _legend(fig, axes)
-    return fig
+    own = _platform_rows(g, opts, [method], error=True)
+    platforms = sorted(own)
+    if not platforms:
+        return None
+    errors = [rows["error_h"].to_numpy(dtype=np.float64) for rows in own.values()]
+    norm = error_norm(np.concatenate(errors))
+    by_platform = g.positions()
+
+    def draw(ax: Axes, i: int) -> Any:
+        return plot_error_track(ax, by_platform[platforms[i]], method, norm=norm)
+
+    def finish(fig: Figure, axes: list[Axes], drawn: list[Any]) -> None:
+        dots = [d for d in drawn if d is not None]
+        if dots:
+            colorbar_below(fig, axes, dots[-1], "Horizontal error (m)")
+        legend(fig, axes)
+
+    titles = [f"Platform {p}" for p in platforms]
+    return Panels(platforms, titles, lambda n: grid(n, 2.3, colorbar=True), draw, finish)
 
 
-_BUILDERS: dict[str, Callable[[RunTables], Figure | None]] = {
-    "distance_errors": distance_errors_figure,
-    "di_errors": di_errors_figure,
-    "position_errors": position_errors_figure,
-    "nlos_convergence": nlos_convergence_figure,
-    "trajectories": trajectories_figure,
-    "error_cdf": error_cdf_figure,
-    "error_track": error_track_figure,
+_BUILDERS: dict[str, Callable[[RunTables, FigureOptions, _Groups], Panels | None]] = {
+    "distance_errors": _distance_errors,
+    "di_errors": _di_errors,
+    "position_errors": _position_errors,
+    "nlos_convergence": _nlos_convergence,
+    "trajectories": _trajectories,
+    "error_cdf": _error_cdf,
+    "error_track": _error_track,
 }
 FIGURE_NAMES: tuple[str, ...] = tuple(_BUILDERS)
 
 
-def make_figures(run: RunTables) -> dict[str, Figure]:
-    """Every figure the run's data allow, by name (see the module table)."""
-    out = {}
+@dataclass(frozen=True)
+class FigurePage:
+    """One page of a figure: file ``stem`` (``name``, ``name_2``...), the keys of its
+    panels and where it stands (page ``index`` of ``count``, ``total`` panels)."""
+
+    name: str
+    stem: str
+    index: int
+    count: int
+    keys: tuple[str, ...]
+    first: int
+    total: int
+    draw: Callable[[], Figure]
+
+
+def figure_pages(run: RunTables, options: FigureOptions | None = None) -> Iterator[FigurePage]:
+    """Every page the run's data allow, in figure order; nothing is drawn until a page's
+    ``draw()`` is called (inside ``matplotlib.rc_context(RC)``)."""
+    opts = options or FigureOptions()
+    g = _Groups(run)
+    for name, build in _BUILDERS.items():
+        panels = build(run, opts, g)
+        if panels is None:
+            continue
+        pages = page_ranges(len(panels.keys), opts.max_panels)
+        for index, at in enumerate(pages):
+            yield FigurePage(
+                name=name,
+                stem=page_stem(name, index),
+                index=index,
+                count=len(pages),
+                keys=tuple(panels.keys[i] for i in at),
+                first=at.start,
+                total=len(panels.keys),
+                draw=lambda p=panels, at=at: p.page(at),  # type: ignore[misc]
+            )
+
+
+def _first_page(name: str) -> Callable[..., Figure | None]:
+    def first(run: RunTables, options: FigureOptions | None = None) -> Figure | None:
+        opts = options or FigureOptions()
+        panels = _BUILDERS[name](run, opts, _Groups(run))
+        if panels is None:
+            return None
+        return panels.page(range(min(len(panels.keys), opts.max_panels)))
+
+    first.__doc__ = f"The first page of ``{name}`` (None without data)."
+    return first
+
+
+distance_errors_figure = _first_page("distance_errors")
+di_errors_figure = _first_page("di_errors")
+position_errors_figure = _first_page("position_errors")
+nlos_convergence_figure = _first_page("nlos_convergence")
+trajectories_figure = _first_page("trajectories")
+error_cdf_figure = _first_page("error_cdf")
+error_track_figure = _first_page("error_track")
+
+
+def make_figures(run: RunTables, options: FigureOptions | None = None) -> dict[str, Figure]:
+    """Every page the run's data allow, by file stem (see the module table)."""
     with mpl.rc_context(RC):
-        for name, build in _BUILDERS.items():
-            fig = build(run)
-            if fig is not None:
-                out[name] = fig
+        return {page.stem: page.draw() for page in figure_pages(run, options)}
+
+
+def _stale_pages(fig_dir: Path, fmt: str, keep: set[str]) -> list[Path]:
+    """Further pages of our figures left by an earlier call (``name_<n>.fmt``)."""
+    out = []
+    for name in FIGURE_NAMES:
+        for path in fig_dir.glob(f"{name}_*.{fmt}"):
+            suffix = path.stem[len(name) + 1 :]
+            if suffix.isdigit() and path.stem not in keep:
+                out.append(path)
     return out
 
 
 def write_figures(
-    run: RunTables, fig_dir: Path, *, formats: Sequence[str] = ("png",), dpi: int = 300
+    run: RunTables,
+    fig_dir: Path,
+    *,
+    formats: Sequence[str] = ("png",),
+    dpi: int = 300,
+    options: FigureOptions | None = None,
 ) -> list[Path]:
-    """Save every figure as ``fig_dir/<name>.<format>``; returns the paths written, in order."""
+    """Save every page as ``fig_dir/<stem>.<format>`` (one page in memory at a time) and
+    remove further pages an earlier call left; returns the paths written, in order."""
     bad = [f for f in formats if f not in FORMATS]
     if bad:
         raise ConfigError(f"unknown figure format {bad[0]!r}; expected one of {', '.join(FORMATS)}")
@@ -342,9 +359,17 @@ def write_figures(
     fig_dir.mkdir(parents=True, exist_ok=True)
     written = []
     with mpl.rc_context(RC):
-        for name, fig in make_figures(run).items():
+        for page in figure_pages(run, options):
+            fig = page.draw()
             for fmt in formats:
-                path = fig_dir / f"{name}.{fmt}"
-                fig.savefig(path, format=fmt, dpi=dpi, metadata=_METADATA[fmt])
+                path = fig_dir / f"{page.stem}.{fmt}"
+                meta = dict(_METADATA[fmt])
+                if fmt == "png":
+                    meta[PANELS_KEY] = PANEL_SEPARATOR.join(page.keys)
+                fig.savefig(path, format=fmt, dpi=dpi, metadata=meta)
                 written.append(path)
+    stems = {p.stem for p in written}
+    for fmt in FORMATS:
+        for path in _stale_pages(fig_dir, fmt, stems):
+            path.unlink()
     return written

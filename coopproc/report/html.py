@@ -1,31 +1,29 @@
-"""``OUT/report.html``: one self-contained page with the tables, the figures and the run facts.
+"""``OUT/report.html``: one page with the tables, the figures and the run facts.
 
 Figures are embedded as base64 PNG: the ``OUT/figures/<name>.png`` files where they exist,
-else rendered in memory from the tables. The page has no external resources, so it opens
-in any browser and can be mailed as one file.
+else rendered in memory from the tables. While the figures are small the page has no
+external resources, so it opens in any browser and can be mailed as one file; when their
+files are large (many pairs, long runs) it shows a reduced first page of each and links
+the PNG files in ``figures/`` (:mod:`coopproc.report.html_figures`).
 """
 
 from __future__ import annotations
 
-import base64
 import html
-import io
 import json
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import matplotlib as mpl
-
 from coopproc.report.evaluation_tables import evaluation_html
-from coopproc.report.figures import FIGURE_NAMES, make_figures
 from coopproc.report.formats import render_table
+from coopproc.report.html_figures import figures_section
 from coopproc.report.injected import injected_tables
+from coopproc.report.pages import FigureOptions
 from coopproc.report.rundir import RunTables
 from coopproc.report.scores import NLOS_EVENT_SCORE_COLUMNS, nlos_event_scores
 from coopproc.report.stochastic import StochasticReport
 from coopproc.report.stochastic_figures import stochastic_section
-from coopproc.report.style import RC
 from coopproc.report.tables import (
     POSITION_ALL,
     distance_table,
@@ -62,21 +60,8 @@ td.num { text-align: right; font-variant-numeric: tabular-nums; }
 .chg { color: #777; font-size: 0.9em; } .note { color: #555; font-size: 0.8em; }
 figure { margin: 1.5em 0; } figure img { max-width: 100%; border: 1px solid #eee; }
 figcaption { color: #444; font-size: 0.9em; } dt { font-weight: bold; }
+figure a img { display: block; margin-bottom: 0.3em; }
 """
-
-
-def _png_bytes(out_dir: Path, run: RunTables) -> dict[str, bytes]:
-    found = {n: out_dir / "figures" / f"{n}.png" for n in FIGURE_NAMES}
-    out = {n: p.read_bytes() for n, p in found.items() if p.is_file()}
-    if out:
-        return out
-    rendered = {}
-    with mpl.rc_context(RC):
-        for name, fig in make_figures(run).items():
-            buf = io.BytesIO()
-            fig.savefig(buf, format="png", dpi=150, metadata={"Software": None})
-            rendered[name] = buf.getvalue()
-    return rendered
 
 
 def _facts(info: Mapping[str, Any]) -> str:
@@ -151,7 +136,12 @@ def _event_table(run: RunTables) -> str:
     return "\n".join(out)
 
 
-def render_html(out_dir: Path, run: RunTables, stochastic: StochasticReport | None = None) -> str:
+def render_html(
+    out_dir: Path,
+    run: RunTables,
+    stochastic: StochasticReport | None = None,
+    options: FigureOptions | None = None,
+) -> str:
     """The page as a string (see :func:`write_html`)."""
     session = run.info.get("session")
     name = session.get("name", "") if isinstance(session, Mapping) else ""
@@ -176,23 +166,22 @@ def render_html(out_dir: Path, run: RunTables, stochastic: StochasticReport | No
     # a run of a `coopproc inject` session: the injected NLOS against each method's estimate
     parts.extend(render_table(t, "html") for t in injected_tables(run))
     parts.append(evaluation_html(run))  # 3-D / vertical errors and RPE (evaluation.csv, rpe.csv)
-    parts.append("<h2>Figures</h2>")
-    for fig_name, png in _png_bytes(Path(out_dir), run).items():
-        data = base64.b64encode(png).decode("ascii")
-        caption = html.escape(FIGURE_CAPTIONS.get(fig_name, fig_name))
-        parts.append(
-            f'<figure id="fig-{fig_name}"><img alt="{fig_name}" '
-            f'src="data:image/png;base64,{data}"><figcaption>{caption}</figcaption></figure>'
-        )
+    parts.append(figures_section(Path(out_dir), run, options, FIGURE_CAPTIONS))
     if stochastic is not None:  # coopproc report OUT --stochastic --html
         parts.append(stochastic_section(stochastic))
     parts.append("</body></html>")
     return "\n".join(p for p in parts if p) + "\n"
 
 
-def write_html(out_dir: Path, run: RunTables, stochastic: StochasticReport | None = None) -> Path:
+def write_html(
+    out_dir: Path,
+    run: RunTables,
+    stochastic: StochasticReport | None = None,
+    options: FigureOptions | None = None,
+) -> Path:
     """Write ``out_dir/report.html`` and return its path; ``stochastic`` adds the
-    stochastic-analysis section (:mod:`coopproc.report.stochastic`)."""
+    stochastic-analysis section (:mod:`coopproc.report.stochastic`); ``options``: the
+    pairs, platforms and panels per page of the figures (as given to ``write_figures``)."""
     path = Path(out_dir) / "report.html"
-    path.write_text(render_html(Path(out_dir), run, stochastic), encoding="utf-8")
+    path.write_text(render_html(Path(out_dir), run, stochastic, options), encoding="utf-8")
     return path

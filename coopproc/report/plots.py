@@ -10,6 +10,8 @@ those found in the rows themselves.
 Nothing is drawn across a gap: a time-series line breaks (a NaN is inserted) where
 consecutive samples are further apart than the gap rule of
 :meth:`~coopproc.model.Trajectory.interpolate_within` (:func:`~coopproc.model.gap_limit_s`).
+A line of more than :data:`~coopproc.report.style.MAX_LINE_POINTS` samples is drawn from
+its min/max envelope (:mod:`coopproc.report.decimate`: spikes and gaps stay visible).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from matplotlib.axes import Axes
 from matplotlib.ticker import MaxNLocator
 
 from coopproc.model import gap_limit_s
+from coopproc.report.decimate import decimate
 from coopproc.report.methods import position_methods_of, range_methods_of
 from coopproc.report.style import DI_STYLES, NLOS_SPAN, method_style
 
@@ -40,12 +43,18 @@ def _values(frame: pd.DataFrame, column: str) -> np.ndarray:
 
 def _break_gaps(time_s: np.ndarray, *series: np.ndarray) -> tuple[np.ndarray, ...]:
     """``time_s`` and ``series`` with a NaN inserted in every gap of ``time_s`` (sorted),
-    so that a line plot draws nothing across it."""
+    so that a line plot draws nothing across it, then decimated for drawing."""
     limit = gap_limit_s(np.unique(time_s))
     at = np.flatnonzero(np.diff(time_s) > limit) + 1
-    if not at.size:
-        return (time_s, *series)
-    return tuple(np.insert(v, at, np.nan) for v in (time_s, *series))
+    if at.size:
+        time_s, *rest = (np.insert(v, at, np.nan) for v in (time_s, *series))
+        series = tuple(rest)
+    return decimate(time_s, *series)
+
+
+def _by_method(frame: pd.DataFrame) -> dict[str, pd.DataFrame]:
+    """The rows per method, grouped once (no comparison of the text column per method)."""
+    return {str(k): g for k, g in frame.groupby("method", sort=False, observed=True)}
 
 
 def plot_distance_errors(
@@ -121,9 +130,11 @@ def plot_position_errors(
     """
     if methods is None:
         methods = position_methods_of(platform_positions)
+    by_method = _by_method(platform_positions)
     for method in methods:
-        rows = platform_positions[platform_positions["method"] == method]
-        rows = rows.sort_values("time", kind="stable")
+        if method not in by_method:
+            continue
+        rows = by_method[method].sort_values("time", kind="stable")
         err = _values(rows, "error_h")
         keep = np.isfinite(err)
         if not keep.any():
@@ -191,9 +202,11 @@ def plot_trajectory(
     """
     if methods is None:
         methods = ("reference", "nav", *position_methods_of(platform_positions))
+    by_method = _by_method(platform_positions)
     for method in methods:
-        rows = platform_positions[platform_positions["method"] == method]
-        rows = rows.sort_values("time", kind="stable")
+        if method not in by_method:
+            continue
+        rows = by_method[method].sort_values("time", kind="stable")
         east, north = _values(rows, "east"), _values(rows, "north")
         keep = np.isfinite(east) & np.isfinite(north)
         if not keep.any():

@@ -25,7 +25,10 @@ from matplotlib.figure import Figure
 
 from coopproc.errors import ConfigError
 from coopproc.report.allan import FLICKER_FACTOR, G_MPS2, ImuAllan
-from coopproc.report.figures import _METADATA, FORMATS, _grid, _label, _legend
+from coopproc.report.figures import _METADATA, FORMATS
+from coopproc.report.pages import panel_label as _label
+from coopproc.report.panels import grid as _grid
+from coopproc.report.panels import legend as _legend
 from coopproc.report.stochastic import PairStochastics, StochasticReport
 from coopproc.report.stochastic_format import stochastic_html
 from coopproc.report.style import RC, WIDE_WIDTH_IN

@@ -17,6 +17,8 @@ __all__ = [
     "DI_STYLES",
     "EXTRA_COLORS",
     "EXTRA_DASHES",
+    "MAX_LINE_POINTS",
+    "MAX_PANELS",
     "METHOD_STYLES",
     "NLOS_SPAN",
     "PANEL_HEIGHT_IN",
@@ -31,6 +33,12 @@ COLUMN_WIDTH_IN = 3.5
 WIDE_WIDTH_IN = 7.0
 #: Height of one panel of a stacked figure.
 PANEL_HEIGHT_IN = 1.45
+#: Most panels on one page of a figure; more go on further pages (``name_2.png``...).
+#: ``coopproc run`` / ``coopproc report --plots`` take ``--max-panels`` to change it.
+MAX_PANELS = 24
+#: Most points drawn per line and panel: longer series are drawn from their min/max
+#: envelope (:mod:`coopproc.report.decimate`); statistics always use every sample.
+MAX_LINE_POINTS = 5000
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,7 @@ from coopproc.report.evaluation import evaluation
 from coopproc.report.figures import write_figures
 from coopproc.report.html import write_html
 from coopproc.report.injected import injected_scores
+from coopproc.report.pages import FigureOptions
 from coopproc.report.rpe import rpe
 from coopproc.report.rundir import RUN_EXTENSION_FILES, RUN_FILES, RunTables
 from coopproc.run.calibration_summary import calibration_facts
@@ -89,6 +90,7 @@ def write_run(
     figure_formats: Sequence[str] = ("png",),
     started: dt.datetime,
     summary: Mapping[str, Any] | None = None,
+    figure_options: FigureOptions | None = None,
 ) -> RunFiles:
     """Write every output of a run into ``out_dir`` (atomically; see coopproc.io.outdir)."""
     info: dict[str, Any] = {
@@ -141,7 +143,9 @@ def write_run(
         figures: list[Path] = []
         html = None
         if config.run.figures:
-            figures = write_figures(run, tmp / "figures", formats=figure_formats)
+            figures = write_figures(
+                run, tmp / "figures", formats=figure_formats, options=figure_options
+            )
         finished = dt.datetime.now(dt.UTC)
         info["duration_s"] = round((finished - started).total_seconds(), 3)
         info["figures"] = [str(p.relative_to(tmp)) for p in figures]
@@ -149,7 +153,7 @@ def write_run(
         run_json = tmp / "run.json"
         run_json.write_text(json.dumps(info, indent=2, default=_json_default) + "\n")
         if config.run.figures:
-            html = write_html(tmp, run_tables(output, info, scores))
+            html = write_html(tmp, run_tables(output, info, scores), options=figure_options)
     final = Path(out_dir)
     return RunFiles(
         out_dir=final,

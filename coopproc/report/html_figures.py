@@ -1,0 +1,172 @@
+"""The Figures section of ``report.html``: embedded while small, linked when large.
+
+Every page of every figure (:func:`~coopproc.report.figures.figure_pages`) is shown from
+its ``OUT/figures/<stem>.png`` when that file holds the same panels (its ``Panels`` text
+chunk; files without one are taken as they are), else rendered in memory from the tables.
+
+- When every page has its file and the files total at most :data:`EMBED_LIMIT_BYTES`,
+  they are embedded as they are (base64): the page is one self-contained file.
+- Otherwise the page stays small: each figure shows a reduced copy of its first page
+  (:data:`THUMBNAIL_WIDTH_PX` wide) linking to the full PNG, and its further pages are
+  links; a note says so. A page with no file is rendered at 150 dpi and embedded while
+  the embedded images stay under the limit, else left out with a note.
+
+The section also says which pairs and platforms the figures leave out (``--pairs``,
+``--platforms``) and how a figure of many panels is split into pages.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import matplotlib as mpl
+
+from coopproc.report.figures import PANEL_SEPARATOR, PANELS_KEY, FigurePage, figure_pages
+from coopproc.report.pages import FigureOptions, panel_letter, selection_note
+from coopproc.report.rundir import RunTables
+from coopproc.report.style import RC
+
+__all__ = ["EMBED_LIMIT_BYTES", "THUMBNAIL_WIDTH_PX", "figures_section"]
+
+#: Most bytes of PNG embedded in report.html (base64 adds a third).
+EMBED_LIMIT_BYTES = 3_000_000
+#: Width of the reduced first page shown when the figures are linked.
+THUMBNAIL_WIDTH_PX = 1000
+#: Resolution of pages rendered in memory (no file in OUT/figures).
+_RENDER_DPI = 150
+
+
+def _file_panels(path: Path) -> tuple[str, ...] | None:
+    """The panel keys recorded in a PNG's text chunk, None if it has none (or is no PNG)."""
+    from PIL import Image
+
+    try:
+        with Image.open(path) as image:
+            text = image.info.get(PANELS_KEY)
+    except (OSError, ValueError):
+        return None
+    return None if not isinstance(text, str) else tuple(text.split(PANEL_SEPARATOR))
+
+
+def _usable(path: Path, page: FigurePage) -> bool:
+    if not path.is_file():
+        return False
+    panels = _file_panels(path)
+    return panels is None or panels == page.keys
+
+
+def _thumbnail(png: bytes) -> bytes:
+    """A copy of a PNG at most :data:`THUMBNAIL_WIDTH_PX` wide, in 256 colours."""
+    from PIL import Image
+
+    with Image.open(io.BytesIO(png)) as image:
+        image.load()
+        small = image.convert("RGB")
+    if small.width > THUMBNAIL_WIDTH_PX:
+        height = max(1, round(small.height * THUMBNAIL_WIDTH_PX / small.width))
+        small = small.resize((THUMBNAIL_WIDTH_PX, height), Image.Resampling.LANCZOS)
+    buf = io.BytesIO()
+    small.quantize(256).save(buf, format="PNG", optimize=True)
+    return buf.getvalue()
+
+
+def _render(page: FigurePage) -> bytes:
+    buf = io.BytesIO()
+    with mpl.rc_context(RC):
+        page.draw().savefig(buf, format="png", dpi=_RENDER_DPI, metadata={"Software": None})
+    return buf.getvalue()
+
+
+def _img(alt: str, png: bytes, href: str | None = None) -> str:
+    data = base64.b64encode(png).decode("ascii")
+    img = f'<img alt="{alt}" src="data:image/png;base64,{data}">'
+    return f'<a href="{html.escape(href)}">{img}</a>' if href else img
+
+
+def _span(page: FigurePage) -> str:
+    """``panels (a)-(x): A-B ... C-D`` of one page."""
+    first, last = panel_letter(page.first), panel_letter(page.first + len(page.keys) - 1)
+    labels = f"({first})" if first == last else f"({first})–({last})"
+    keys = page.keys[0] if len(page.keys) == 1 else f"{page.keys[0]} … {page.keys[-1]}"
+    return f"panels {labels}: {keys}"
+
+
+def _pages_note(pages: Sequence[FigurePage], linked: set[str]) -> str:
+    """How a figure of several pages is split, each page a link where it has a file."""
+    head = pages[0]
+    items = []
+    for page in pages:
+        file = f"figures/{page.stem}.png"
+        name = f'<a href="{file}">{file}</a>' if page.stem in linked else f"{page.stem}"
+        items.append(f"{name} ({html.escape(_span(page))})")
+    return (
+        f'<p class="note">{head.total} panels on {head.count} pages of at most '
+        f"{len(head.keys)}: {'; '.join(items)}.</p>"
+    )
+
+
+def figures_section(
+    out_dir: Path,
+    run: RunTables,
+    options: FigureOptions | None = None,
+    captions: Mapping[str, str] | None = None,
+) -> str:
+    """The ``<h2>Figures</h2>`` section (see the module docstring); ``captions`` by
+    figure name."""
+    opts = options or FigureOptions()
+    pages = list(figure_pages(run, opts))
+    fig_dir = Path(out_dir) / "figures"
+    files = {p.stem: fig_dir / f"{p.stem}.png" for p in pages}
+    usable = {p.stem for p in pages if _usable(files[p.stem], p)}
+    sizes = {s: files[s].stat().st_size for s in usable}
+    embed_all = len(usable) == len(pages) and sum(sizes.values()) <= EMBED_LIMIT_BYTES
+    parts = ["<h2>Figures</h2>"]
+    note = selection_note(run, opts)
+    if note:
+        parts.append(f'<p class="note">{html.escape(note)}</p>')
+    if pages and not embed_all and usable:
+        parts.append(
+            '<p class="note">The figure files are linked, not embedded: together '
+            f"{sum(sizes.values()) / 1e6:.1f} MB, more than the "
+            f"{EMBED_LIMIT_BYTES / 1e6:.0f} MB this page embeds. Each figure shows a reduced "
+            "copy of its first page; click it (or a page link) for the full PNG in figures/ "
+            "next to this file.</p>"
+        )
+    embedded = 0
+    left_out: list[str] = []
+    by_name: dict[str, list[FigurePage]] = {}
+    for page in pages:
+        by_name.setdefault(page.name, []).append(page)
+    for name, fig_pages in by_name.items():
+        caption = html.escape((captions or {}).get(name, name))
+        body = []
+        for page in fig_pages:
+            if page.stem in usable:
+                png = files[page.stem].read_bytes()
+                if embed_all:
+                    body.append(_img(page.stem, png))
+                elif page.index == 0:
+                    body.append(_img(page.stem, _thumbnail(png), f"figures/{page.stem}.png"))
+                continue
+            png = _render(page)
+            if embed_all or embedded + len(png) <= EMBED_LIMIT_BYTES:
+                embedded += len(png)
+                body.append(_img(page.stem, png))
+            else:
+                left_out.append(page.stem)
+        if len(fig_pages) > 1:
+            caption += _pages_note(fig_pages, usable)
+        parts.append(
+            f'<figure id="fig-{name}">{"".join(body)}<figcaption>{caption}</figcaption></figure>'
+        )
+    if left_out:
+        parts.append(
+            f'<p class="note">Not shown, to keep this page under '
+            f"{EMBED_LIMIT_BYTES / 1e6:.0f} MB of images: {', '.join(left_out)}; "
+            "`coopproc report OUT --plots` writes every page to OUT/figures.</p>"
+        )
+    return "\n".join(parts)
