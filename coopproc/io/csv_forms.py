@@ -227,12 +227,32 @@ def _check_widths(path: Path, lines: Sequence[str], header: int, width: int) -> 
             )
 
 
-def _text_lines(lines: Sequence[str], first_data_line: int) -> Callable[[int], int]:
-    """Map data row index -> 1-based line of the decoded text, skipping blank lines."""
+def _split_lines(text: str) -> list[str]:
+    return text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+
+
+def _head_lines(text: str, count: int) -> list[str]:
+    """The first ``count`` lines of ``text`` (all of them if fewer), split as
+    :func:`_split_lines` does, without splitting the whole (large) text."""
+    end = 0
+    for _ in range(count):
+        found = text.find("\n", end)
+        if found < 0:
+            return _split_lines(text)
+        end = found + 1
+    return _split_lines(text[:end])[:-1]
+
+
+def _text_lines(read_lines: Callable[[], list[str]], first_data_line: int) -> Callable[[int], int]:
+    """Map data row index -> 1-based line of the decoded text, skipping blank lines.
+
+    ``read_lines`` gives the text's lines; it is called on the first lookup only (an
+    error message), so a large file's lines are not held in memory."""
     cache: list[int] = []
 
     def line_of(row: int) -> int:
         if not cache:
+            lines = read_lines()
             cache.extend(
                 n
                 for n, text in enumerate(lines[first_data_line - 1 :], start=first_data_line)
@@ -241,6 +261,22 @@ def _text_lines(lines: Sequence[str], first_data_line: int) -> Callable[[int], i
         return cache[row] if row < len(cache) else first_data_line + row
 
     return line_of
+
+
+#: Lines looked at for the header and the first row (the rest is left to the C reader).
+_HEAD_LINES = 1000
+
+
+def _reader(path: Path, form: CsvForm) -> Callable[[], list[str]]:
+    """The decoded lines of ``path``, read again when an error message needs a line."""
+
+    def read_lines() -> list[str]:
+        data = path.read_bytes()
+        if path.name.lower().endswith(".gz"):
+            data = gzip.decompress(data)
+        return _split_lines(decode_bytes(data, path, form)[0])
+
+    return read_lines
 
 
 def read_table(
@@ -268,8 +304,11 @@ def read_table(
         raise InputError(
             path, f"cannot read as CSV ({type(err).__name__}: {one_line(err)})"
         ) from err
-    text, encoding, codec = decode_bytes(data, path, form)
-    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    text, encoding, codec = decode_bytes(data, path, form)  # bad bytes: one clear error
+    del data
+    lines = _head_lines(text, _HEAD_LINES)
+    if not any(t.strip() and not t.strip().startswith("#") for t in lines[:-1]):
+        lines = _split_lines(text)  # a long comment block: look further
     index = _header(lines, path)
     header = lines[index].strip()
     sep, sep_name = sniff_delimiter(header)
@@ -277,8 +316,9 @@ def read_table(
     fields = [f.strip().strip('"') for f in fields]
     _check_header(path, index + 1, fields, known, expected)
     if sep == r"\s+":
-        _check_widths(path, lines, index, len(fields))
+        _check_widths(path, _split_lines(text), index, len(fields))
     first_row = next((t for t in lines[index + 1 :] if t.strip()), "")
+    del text
     decimal = "," if _decimal_comma(first_row, sep) else "."
     as_text = {form.columns.get(c, c): str for c in text_columns}
     try:
@@ -303,7 +343,7 @@ def read_table(
     frame.columns = [str(c).strip() for c in frame.columns]
     if any(c.startswith("Unnamed:") for c in frame.columns):
         raise InputError(path, "a column has no name in the header", line=index + 1)
-    where = Locator(str(path), lines=_text_lines(lines, index + 2))
+    where = Locator(str(path), lines=_text_lines(_reader(path, form), index + 2))
     notes = []
     said = [encoding] if encoding else []
     if sep != ",":

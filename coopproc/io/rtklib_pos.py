@@ -106,7 +106,9 @@ def read_pos(path: str | Path, platform: str) -> RawTrajectory:
             comment="%",
             header=None,
             names=names,
-            dtype=str,
+            # times as text; the numbers parsed by the C reader (a column with a stray
+            # token stays text and numeric_column reports its row)
+            dtype={"t1": str, "t2": str},
             engine="c",
             encoding="utf-8",
         )
