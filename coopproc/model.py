@@ -11,6 +11,7 @@ below are the single source of those names.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -320,11 +321,20 @@ class RangeTable:
     @property
     def pairs(self) -> tuple[str, ...]:
         """Pairs with at least one range, sorted."""
-        return tuple(sorted(self.frame["pair"].unique()))
+        return tuple(self.pair_index)
+
+    @functools.cached_property
+    def pair_index(self) -> Mapping[str, np.ndarray]:
+        """Row positions of each pair (ascending), pairs sorted: one grouping of the table
+        instead of a string comparison over every row per pair (45-190 pairs)."""
+        codes, names = pd.factorize(self.frame["pair"], sort=True)
+        order = np.argsort(codes, kind="stable")
+        bounds = np.searchsorted(codes[order], np.arange(len(names) + 1))
+        return {str(name): order[bounds[i] : bounds[i + 1]] for i, name in enumerate(names)}
 
     def for_pair(self, pair: str) -> pd.DataFrame:
         """The rows of one pair, in time order."""
-        return self.frame[self.frame["pair"] == pair]
+        return self.frame.iloc[self.pair_index.get(pair, np.empty(0, dtype=np.int64))]
 
     def __len__(self) -> int:
         return len(self.frame)

@@ -153,10 +153,13 @@ def _own_epochs(session: Session) -> dict[str, FloatArray]:
     """Per platform, the times of the ranges it took part in (sorted, unique)."""
     frame = session.ranges.frame
     times = frame["time"].to_numpy(dtype=np.float64)
+    ids = pd.Index(list(session.platform_ids))
+    first = ids.get_indexer(pd.Index(frame["from"]))  # codes: no string compare per platform
+    second = ids.get_indexer(pd.Index(frame["to"]))
     out = {}
-    for platform in session.platform_ids:
-        involved = (frame["from"] == platform).to_numpy() | (frame["to"] == platform).to_numpy()
-        out[platform] = np.unique(times[involved])
+    for code, platform in enumerate(ids):
+        involved = (first == code) | (second == code)
+        out[str(platform)] = np.unique(times[involved])
     return out
 
 

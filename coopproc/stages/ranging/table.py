@@ -55,8 +55,7 @@ def reference_positions(session: Session, platform: str, time_s: FloatArray) -> 
 
 def pair_rows(session: Session, pair: str) -> pd.DataFrame:
     """The session's ranges of one pair, by time (stable)."""
-    frame = session.ranges.frame
-    return frame[frame["pair"] == pair].sort_values("time", kind="stable")
+    return session.ranges.for_pair(pair).sort_values("time", kind="stable")
 
 
 def observed_table(session: Session) -> pd.DataFrame:
