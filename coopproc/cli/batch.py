@@ -80,6 +80,10 @@ def batch(
     config = load_run_config(config_path)
     if no_figures:
         config = dataclasses.replace(config, run=dataclasses.replace(config.run, figures=False))
+    if config.run.format == "parquet":  # [run] format: once here, not once per session
+        from coopproc.io.parquet import require_pyarrow
+
+        require_pyarrow()
     show_bar = not quiet and sys.stderr.isatty()
     with tqdm(total=len(sessions), disable=not show_bar, unit="session") as bar:
 

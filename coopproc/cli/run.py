@@ -40,6 +40,14 @@ __all__ = ["run"]
 @click.option("--pairs", help="Pairs to draw in the figures, comma separated (e.g. A-B,B-C).")
 @click.option("--platforms", help="Platforms to draw in the figures, comma separated.")
 @max_panels_option()
+@click.option(
+    "--format",
+    "table_format",
+    type=click.Choice(["csv", "parquet"]),
+    default=None,
+    help="Per-epoch tables (ranges, di, nlos_estimates, positions) as CSV or Parquet "
+    "(needs pyarrow); default: the config's [run] format, csv.",
+)
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def run(
     session: Path,
@@ -52,6 +60,7 @@ def run(
     pairs: str | None,
     platforms: str | None,
     max_panels: int | None,
+    table_format: str | None,
     quiet: bool,
 ) -> None:
     """Process a recorded session: clean the ranges, detect and estimate NLOS errors,
@@ -89,6 +98,17 @@ def run(
     config = load_run_config(config_path)
     if no_figures:
         config = dataclasses.replace(config, run=dataclasses.replace(config.run, figures=False))
+    if table_format is not None:
+        config = dataclasses.replace(
+            config,
+            run=dataclasses.replace(
+                config.run, format="parquet" if table_format == "parquet" else "csv"
+            ),
+        )
+    if config.run.format == "parquet":
+        from coopproc.io.parquet import require_pyarrow
+
+        require_pyarrow()  # before the work
     data = read_session(session)
     figure_options = _figure_options(data, pairs, platforms, max_panels)  # checked early
     check_output_dir(out_dir, force=force, protect=[data.root, *data.inputs])
@@ -129,7 +149,9 @@ def run(
         say(line)
     for line in summary.lines:
         say(line)
-    say(f"tables: {files.out_dir}/ ({len(files.tables)} CSV), figures: {len(files.figures)}")
+    parquet = sum(p.suffix == ".parquet" for p in files.tables)
+    kinds = f"{len(files.tables) - parquet} CSV" + (f", {parquet} Parquet" if parquet else "")
+    say(f"tables: {files.out_dir}/ ({kinds}), figures: {len(files.figures)}")
     if files.html is not None:
         say(f"report: {files.html}")
 

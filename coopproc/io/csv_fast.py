@@ -25,6 +25,7 @@ from __future__ import annotations
 import csv
 import io
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from typing import TYPE_CHECKING, Any
 
 import numba
@@ -113,7 +114,7 @@ def _put_float(x: float, out: np.ndarray, pos: int) -> int:  # pragma: no cover 
     return pos + 7
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _format_rows(
     rows: int,
     kinds: np.ndarray,
@@ -228,11 +229,10 @@ class _Texts:
         return table, bounds
 
 
-def _text_codes(values: np.ndarray, texts: _Texts) -> tuple[np.ndarray, int] | None:
+def _text_codes(column: pd.Series, texts: _Texts) -> tuple[np.ndarray, int] | None:
     """Codes of a text column (-1: missing) and its longest cell; None if not text."""
-    import pandas as pd
-
-    codes, uniques = pd.factorize(values, use_na_sentinel=True)
+    # the column's own factorize: pyarrow's dictionary encoding for a pyarrow-backed str
+    codes, uniques = column.factorize(use_na_sentinel=True)
     labels = list(uniques)
     if not all(isinstance(u, str) and "\0" not in u for u in labels):
         return None
@@ -243,10 +243,18 @@ def _text_codes(values: np.ndarray, texts: _Texts) -> tuple[np.ndarray, int] | N
     return codes, max([0, *(len(t) for t in cells)])
 
 
+@numba.njit(cache=True, nogil=True)
+def _any_slow(x: np.ndarray) -> bool:  # pragma: no cover - jit
+    """Whether a finite value of ``x`` has a magnitude the kernel does not take."""
+    for v in x:  # noqa: SIM110 - a compiled loop that stops at the first
+        if np.isfinite(v) and not abs(v) < FAST_LIMIT:
+            return True
+    return False
+
+
 def _slow_floats(x: np.ndarray, texts: _Texts) -> tuple[np.ndarray, int] | None:
     """A float column with magnitudes the kernel does not take, as text codes."""
-    slow = np.isfinite(x) & ~(np.abs(x) < FAST_LIMIT)
-    if not slow.any():
+    if not _any_slow(x):
         return None
     cells = [b"" if np.isnan(v) else b"%.6f" % v for v in x.tolist()]
     codes = np.arange(len(cells), dtype=np.int64) + texts.add(cells)
@@ -269,6 +277,9 @@ def row_pieces(
     for j in range(len(labels)):
         column = frame.iloc[:, j]
         dtype = column.dtype
+        if isinstance(dtype, pd.StringDtype) or dtype == np.dtype(object):
+            columns.append((_TEXT, column))
+            continue
         values = column.to_numpy()
         if isinstance(dtype, np.dtype) and dtype.kind == "f":
             columns.append((_FLOAT, values.astype(np.float64, copy=False)))
@@ -277,9 +288,7 @@ def row_pieces(
             if len(values) and (values.max() > limit.max or values.min() == limit.min):
                 return None
             columns.append((_INT, values.astype(np.int64, copy=False)))
-        elif (isinstance(dtype, np.dtype) and dtype.kind in "bO") or isinstance(
-            dtype, pd.StringDtype
-        ):
+        elif isinstance(dtype, np.dtype) and dtype.kind == "b":
             columns.append((_TEXT, values))
         else:
             return None
@@ -289,7 +298,7 @@ def row_pieces(
     kinds, widths = [], []
     plan: list[list[np.ndarray]] = [[], [], []]
     for kind, values in columns:
-        if kind == _TEXT and values.dtype.kind == "b":
+        if kind == _TEXT and values.dtype == np.dtype(bool):
             codes = values.astype(np.int64) + texts.add([b"False", b"True"])
             coded: tuple[np.ndarray, int] | None = (codes, 5)
         elif kind == _TEXT:
@@ -333,15 +342,22 @@ def _pieces(
     row_width: int,
     chunk_rows: int,
 ) -> Iterator[tuple[memoryview, np.ndarray]]:
-    """The header, then the rows chunk by chunk: (text, where each row ends in it)."""
+    """The header, then the rows chunk by chunk: (text, where each row ends in it).
+
+    The next chunk is formatted in a thread (the kernel releases the GIL) while the
+    caller writes this one; two buffers take turns.
+    """
     yield memoryview(header), np.array([len(header)], dtype=np.int64)
-    out = np.empty(row_width * min(rows, chunk_rows), dtype=np.uint8)
-    ends = np.empty(min(rows, chunk_rows), dtype=np.int64)
-    for start in range(0, rows, chunk_rows):
+    if rows == 0:
+        return
+    n = min(rows, chunk_rows)
+    buffers = [(np.empty(row_width * n, np.uint8), np.empty(n, np.int64)) for _ in range(2)]
+
+    def format_chunk(start: int, k: int) -> tuple[int, int]:
         s = slice(start, min(rows, start + chunk_rows))
-        n = s.stop - s.start
+        out, ends = buffers[k % 2]
         size = _format_rows(
-            n,
+            s.stop - s.start,
             *layout,
             _stacked(plan[_FLOAT], s, np.float64),
             _stacked(plan[_INT], s, np.int64),
@@ -350,7 +366,17 @@ def _pieces(
             out,
             ends,
         )
-        yield out[:size].data, ends[:n]
+        return size, s.stop - s.start
+
+    starts = range(0, rows, chunk_rows)
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        pending = pool.submit(format_chunk, 0, 0)
+        for k in range(len(starts)):
+            size, count = pending.result()
+            if k + 1 < len(starts):  # into the other buffer: this one is the caller's
+                pending = pool.submit(format_chunk, starts[k + 1], k + 1)
+            out, ends = buffers[k % 2]
+            yield out[:size].data, ends[:count]
 
 
 def csv_chunks(frame: pd.DataFrame, chunk_rows: int = CHUNK_ROWS) -> Iterator[memoryview] | None:

@@ -31,6 +31,7 @@ __all__ = [
     "check_output_dir",
     "check_output_file",
     "check_writable_dir",
+    "columns_first",
     "csv_text",
     "output_errors",
     "write_csv",
@@ -211,6 +212,18 @@ def _write_failure(path: str | Path, tmp: Path, err: OSError, existed: bool) -> 
     return f"{path}: cannot write {what} ({_cause(err)}); {left}"
 
 
+def columns_first(frame: pd.DataFrame, path: Path, columns: Sequence[str] | None) -> pd.DataFrame:
+    """``frame`` with ``columns`` first, in that order, then the others; an OutputError
+    naming ``path`` when one is missing."""
+    if columns is None:
+        return frame
+    missing = [c for c in columns if c not in frame.columns]
+    if missing:
+        raise OutputError(f"{path.name}: missing columns {missing}")
+    extra = [c for c in frame.columns if c not in columns]
+    return frame[[*columns, *extra]]
+
+
 def write_csv(frame: pd.DataFrame, path: Path, columns: Sequence[str] | None = None) -> Path:
     """Write ``frame`` as CSV with the project's fixed float format; empty cells for NaN.
 
@@ -219,12 +232,7 @@ def write_csv(frame: pd.DataFrame, path: Path, columns: Sequence[str] | None = N
     float_format=FLOAT_FORMAT, lineterminator="\\n")``, made by the compiled writer of
     :mod:`coopproc.io.csv_fast` (pandas itself for a table that writer does not take).
     """
-    if columns is not None:
-        missing = [c for c in columns if c not in frame.columns]
-        if missing:
-            raise OutputError(f"{path.name}: missing columns {missing}")
-        extra = [c for c in frame.columns if c not in columns]
-        frame = frame[[*columns, *extra]]
+    frame = columns_first(frame, path, columns)
     from coopproc.io.csv_fast import csv_chunks  # numba: imported late
     from coopproc.io.csv_gzip import write_csv_gzip
 

@@ -4,6 +4,9 @@
 run facts of ``run.json``. :func:`load_run` reads it from a directory; the pipeline builds
 it from its in-memory tables with the plain constructor.
 
+The per-epoch tables may be Parquet files instead (``coopproc run --format parquet``:
+``positions.parquet``, ...; :data:`PARQUET_TABLES`); either form is read the same way.
+
 The methods of a run are not fixed (:mod:`coopproc.report.methods`): ``ranges.csv`` has
 ``time, pair, observed``, then one column per range method of the chain, then
 ``reference, nlos_flag, nlos_estimate`` (:func:`ranges_columns`); only those six are
@@ -34,14 +37,18 @@ from coopproc.report.methods import METHOD_KEYS, listed_methods, range_methods_o
 from coopproc.report.scores import NLOS_EVENT_SCORE_COLUMNS, NLOS_SCORE_COLUMNS
 
 __all__ = [
+    "PARQUET_TABLES",
     "RANGES_LEADING_COLUMNS",
     "RANGES_REQUIRED_COLUMNS",
     "RANGES_TRAILING_COLUMNS",
     "RUN_EXTENSION_FILES",
     "RUN_FILES",
     "RunTables",
+    "find_table",
     "load_run",
     "ranges_columns",
+    "read_table_file",
+    "table_file_name",
 ]
 
 #: Columns read as text (ids; ``alignment`` of evaluation.csv / rpe.csv); every other
@@ -125,14 +132,52 @@ class RunTables:
 #: Columns each table must have, by attribute (the leading columns unless listed here).
 _REQUIRED = {"ranges": RANGES_REQUIRED_COLUMNS}
 
+#: The per-epoch tables, which ``coopproc run --format parquet`` (``[run] format``)
+#: writes as ``<name>.parquet``; the summary tables are always CSV.
+PARQUET_TABLES: tuple[str, ...] = ("ranges.csv", "di.csv", "nlos_estimates.csv", "positions.csv")
+
+
+def table_file_name(name: str, table_format: str = "csv") -> str:
+    """The file of table ``name`` ("positions.csv") in a run written in ``table_format``."""
+    if table_format == "parquet" and name in PARQUET_TABLES:
+        return name.removesuffix(".csv") + ".parquet"
+    return name
+
+
+def find_table(root: Path, name: str) -> Path | None:
+    """The file of table ``name`` ("positions.csv") in the run directory ``root``: the CSV,
+    else its Parquet form; None when there is neither."""
+    for form in ("csv", "parquet"):
+        path = root / table_file_name(name, form)
+        if path.is_file():
+            return path
+    return None
+
+
+def read_table_file(path: Path, text: Sequence[str] = _TEXT_COLUMNS) -> pd.DataFrame:
+    """A run table as written, CSV or Parquet (by its suffix), with the ``text`` columns
+    read as text; the errors of the readers are left to the caller (OSError,
+    ValueError, pandas' ParserError; ImportError: a Parquet table without pyarrow)."""
+    if path.suffix == ".parquet":
+        frame = pd.read_parquet(path)
+        for col in text:
+            if col in frame.columns and not pd.api.types.is_string_dtype(frame[col]):
+                frame[col] = frame[col].astype(str)
+        return frame
+    header = pd.read_csv(path, nrows=0).columns
+    return pd.read_csv(path, dtype={c: str for c in text if c in header}, keep_default_na=True)
+
 
 def _read_table(path: Path, columns: Sequence[str]) -> pd.DataFrame:
     try:
-        header = pd.read_csv(path, nrows=0).columns
-        text = {c: str for c in _TEXT_COLUMNS if c in header}
-        frame = pd.read_csv(path, dtype=text, keep_default_na=True)
+        frame = read_table_file(path)
+    except ImportError as err:
+        raise InputError(
+            path, 'a Parquet table; reading it needs pyarrow: pip install "coopproc[parquet]"'
+        ) from err
     except (OSError, ValueError, pd.errors.ParserError) as err:
-        raise InputError(path, f"not a readable CSV table ({err})") from err
+        form = "Parquet" if path.suffix == ".parquet" else "CSV"
+        raise InputError(path, f"not a readable {form} table ({err})") from err
     if not len(frame):  # header only: every column but the ids is numeric (e.g. a method)
         for col in frame.columns:
             if col not in _TEXT_COLUMNS:
@@ -202,10 +247,12 @@ def load_run(out_dir: str | Path) -> RunTables:
         )
     tables: dict[str, pd.DataFrame | None] = {}
     for name, attr, columns, required in RUN_FILES:
-        path = root / name
-        if not path.is_file():
+        path = find_table(root, name)
+        if path is None:
             if required:
-                raise InputError(path, "missing; is this an output directory of coopproc run?")
+                raise InputError(
+                    root / name, "missing; is this an output directory of coopproc run?"
+                )
             tables[attr] = pd.DataFrame(columns=list(columns)) if attr == "nlos_estimates" else None
             continue
         tables[attr] = _read_table(path, _REQUIRED.get(attr, columns))
@@ -217,5 +264,7 @@ def load_run(out_dir: str | Path) -> RunTables:
     if ranges is not None:  # the range methods are columns of numbers too
         listed = listed_methods(info, "ranges")
         methods = range_methods_of(ranges) if listed is None else listed
-        _check_columns(root / "ranges.csv", ranges, ranges_columns(methods))
+        _check_columns(
+            find_table(root, "ranges.csv") or root / "ranges.csv", ranges, ranges_columns(methods)
+        )
     return RunTables(info=info, **tables)  # type: ignore[arg-type]

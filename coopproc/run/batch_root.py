@@ -32,7 +32,7 @@ from coopproc.errors import CoopprocError, OutputError
 from coopproc.io.outdir import write_csv
 from coopproc.model import POSITIONS_COLUMNS
 from coopproc.report.pooled import pooled_position_metrics
-from coopproc.report.rundir import RUN_FILES
+from coopproc.report.rundir import RUN_FILES, find_table, read_table_file
 from coopproc.run.config import RunConfig
 
 __all__ = [
@@ -91,7 +91,10 @@ def _incomplete(out_dir: Path) -> tuple[dict[str, Any] | None, str | None]:
         return None, "no readable run.json"
     figures = info.get("figures")
     listed = [f for f in figures if isinstance(f, str)] if isinstance(figures, list) else []
-    for name in [name for name, *_ in RUN_FILES] + listed:
+    for name, *_ in RUN_FILES:
+        if find_table(out_dir, name) is None:
+            return info, f"{name} missing"
+    for name in listed:
         if not (out_dir / name).is_file():
             return info, f"{name} missing"
     return info, None
@@ -264,11 +267,11 @@ def _write_pooled(out_root: Path, names: Sequence[str]) -> None:
         path.unlink(missing_ok=True)
         return
     positions = {}
-    for name in names:
-        table = out_root / name / "positions.csv"
+    for name in names:  # positions.csv, or positions.parquet of a --format parquet run
+        table = find_table(out_root / name, "positions.csv") or out_root / name / "positions.csv"
         try:
-            frame = pd.read_csv(table, dtype={"platform": str, "method": str})
-        except (OSError, ValueError, pd.errors.ParserError) as err:
+            frame = read_table_file(table, text=("platform", "method"))
+        except (OSError, ValueError, ImportError, pd.errors.ParserError) as err:
             raise OutputError(f"{table}: cannot read it to pool ({err})") from err
         missing = [c for c in POSITIONS_COLUMNS if c not in frame.columns]
         if missing:

@@ -52,6 +52,14 @@ class RunParams:
         },
     )
     figures: bool = field(default=True, metadata={"help": "write figures/ and report.html"})
+    format: Literal["csv", "parquet"] = field(
+        default="csv",
+        metadata={
+            "help": "form of the per-epoch tables (ranges, di, nlos_estimates, positions): "
+            "'csv', or 'parquet' (<name>.parquet, same numbers; needs pyarrow: "
+            'pip install "coopproc[parquet]"); the summary tables are always CSV'
+        },
+    )
 
 
 @dataclass(frozen=True)

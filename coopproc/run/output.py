@@ -1,7 +1,8 @@
 """Write a finished run to its output directory (DATA.md "Output"), atomically.
 
 CSV tables with fixed columns and float format (byte-identical for the same inputs and
-config), ``nlos_scores.csv``, ``figures/``, ``report.html`` and ``run.json``.
+config; the per-epoch ones as Parquet with ``[run] format = "parquet"``),
+``nlos_scores.csv``, ``figures/``, ``report.html`` and ``run.json``.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 from coopproc import __version__
 from coopproc.io.injected import session_injected
 from coopproc.io.outdir import atomic_output_dir, write_csv
+from coopproc.io.parquet import require_pyarrow, write_parquet
 from coopproc.model import Session
 from coopproc.report.evaluation import evaluation
 from coopproc.report.figures import write_figures
@@ -25,7 +27,7 @@ from coopproc.report.html import write_html
 from coopproc.report.injected import injected_scores
 from coopproc.report.pages import FigureOptions
 from coopproc.report.rpe import rpe
-from coopproc.report.rundir import RUN_EXTENSION_FILES, RUN_FILES, RunTables
+from coopproc.report.rundir import RUN_EXTENSION_FILES, RUN_FILES, RunTables, table_file_name
 from coopproc.run.calibration_summary import calibration_facts
 from coopproc.run.config import RunConfig
 from coopproc.run.pipeline import PipelineOutput
@@ -92,7 +94,12 @@ def write_run(
     summary: Mapping[str, Any] | None = None,
     figure_options: FigureOptions | None = None,
 ) -> RunFiles:
-    """Write every output of a run into ``out_dir`` (atomically; see coopproc.io.outdir)."""
+    """Write every output of a run into ``out_dir`` (atomically; see coopproc.io.outdir).
+
+    ``config.run.format`` "parquet": the per-epoch tables as Parquet (needs pyarrow).
+    """
+    if config.run.format == "parquet":
+        require_pyarrow()
     info: dict[str, Any] = {
         "coopproc_version": __version__,
         "python": platform.python_version(),
@@ -132,11 +139,11 @@ def write_run(
         # the same list of files and columns that `coopproc report` reads back
         run = run_tables(output, info, scores)
         tables = [
-            write_csv(getattr(run, attr), tmp / name, columns)
+            _write_table(getattr(run, attr), tmp, name, columns, config.run.format)
             for name, attr, columns, _required in RUN_FILES
         ]
         tables += [
-            write_csv(getattr(run, attr), tmp / name, columns)
+            _write_table(getattr(run, attr), tmp, name, columns, config.run.format)
             for name, attr, columns, _required in RUN_EXTENSION_FILES
             if getattr(run, attr) is not None
         ]
@@ -162,6 +169,17 @@ def write_run(
         html=None if html is None else final / html.name,
         run_json=final / "run.json",
     )
+
+
+def _write_table(
+    frame: pd.DataFrame, out: Path, name: str, columns: Sequence[str], table_format: str
+) -> Path:
+    """Table ``name`` ("positions.csv") into ``out``: CSV, or Parquet for a per-epoch
+    table when ``table_format`` is "parquet" (report.rundir.PARQUET_TABLES)."""
+    path = out / table_file_name(name, table_format)
+    if path.suffix == ".parquet":
+        return write_parquet(frame, path, columns)
+    return write_csv(frame, path, columns)
 
 
 def _relative(path: Path, root: Path) -> str:
