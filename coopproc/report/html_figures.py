@@ -68,9 +68,11 @@ def _thumbnail(png: bytes) -> bytes:
         small = image.convert("RGB")
     if small.width > THUMBNAIL_WIDTH_PX:
         height = max(1, round(small.height * THUMBNAIL_WIDTH_PX / small.width))
-        small = small.resize((THUMBNAIL_WIDTH_PX, height), Image.Resampling.LANCZOS)
+        small = small.resize(
+            (THUMBNAIL_WIDTH_PX, height), Image.Resampling.BILINEAR, reducing_gap=2.0
+        )
     buf = io.BytesIO()
-    small.quantize(256).save(buf, format="PNG", optimize=True)
+    small.quantize(256, method=Image.Quantize.FASTOCTREE).save(buf, format="PNG")
     return buf.getvalue()
 
 
