@@ -131,7 +131,9 @@ def main() -> None:
                 print(target(f"{what} <= {goal[1]:g} GB", peak, goal[1], at_most=True))
         if goal is not None and wall is not None:
             limit = goal[0] * args.hours
-            share = f"{what} <= {limit:.3g} s ({goal[0]:g} s per hour, linear; {how})"
+            # the day target's linear share: stricter than the target on short sessions,
+            # where fixed costs (process start, figure layout) weigh most
+            share = f"pace {what} <= {limit:.3g} s ({goal[0]:g} s per hour; {how})"
             print(target(share, wall, limit, at_most=True))
 
 

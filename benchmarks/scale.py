@@ -241,7 +241,7 @@ def main() -> None:
     if args.thirty:
         sessions.append((1.0, 30))
     extra = shlex.split(args.run_args)
-    print(f"coopproc run {' '.join(extra)} on the large scenario, seed 0 ({load()})")
+    print(f"{' '.join(['coopproc run', *extra])} on the large scenario, seed 0 ({load()})")
     with tempfile.TemporaryDirectory(prefix="coopproc-scale-") as tmp:
         out_root = args.out or Path(tmp)
         # one small run first: numba compiles into its cache (or loads it), as any
