@@ -196,7 +196,7 @@ def _platform_bias(
     current = ranges
     rms_first = float("nan")
     for _ in range(BIAS_ITERATIONS):
-        fused = fuse(session, current, params, output="ranges")
+        fused = fuse(session, current, params, output="ranges", smoothed_sigma=False)
         resid = postfit_residuals(session, fused, current)["residual"].to_numpy()
         if np.isnan(rms_first):
             rms_first = _rms(resid, involved)
@@ -212,7 +212,7 @@ def _platform_bias(
         current = ranges.assign(range=corrected)
         if max(abs(v) for v in step.values()) < BIAS_TOL_M:
             break
-    fused = fuse(session, current, params, output="ranges")
+    fused = fuse(session, current, params, output="ranges", smoothed_sigma=False)
     rms_last = _rms(postfit_residuals(session, fused, current)["residual"].to_numpy(), involved)
     if not rms_last < BIAS_GAIN * rms_first:
         return ranges, {}  # the bias does not explain the disagreement: leave the ranges
@@ -235,6 +235,7 @@ def _drift_scales(
     params: FusionParams,
     scale: dict[str, float],
     only: set[str] | None = None,
+    smoothed_sigma: bool = True,
 ) -> tuple[FusionOutput, dict[str, float], dict[str, float]]:
     """Inflate the drift of platforms whose range innovations are inconsistent (NIS above
     :data:`NIS_LIMIT`) by sqrt(NIS), refusing until none is (at most
@@ -242,7 +243,9 @@ def _drift_scales(
     Returns the last fusion (at the range epochs), the scales and the last NIS."""
     moving = set(session.moving_platforms()) if only is None else only
     scale = dict(scale)
-    fused = fuse(session, ranges, params, output="ranges", drift_scale=scale)
+    fused = fuse(
+        session, ranges, params, output="ranges", drift_scale=scale, smoothed_sigma=smoothed_sigma
+    )
     nis = _platform_nis(fused.observations)
     for _ in range(NIS_ROUNDS):
         high = {p: v for p, v in nis.items() if p in moving and v > NIS_LIMIT}
@@ -250,7 +253,10 @@ def _drift_scales(
             break
         for platform, value in high.items():
             scale[platform] = scale.get(platform, 1.0) * float(np.sqrt(value))
-        fused = fuse(session, ranges, params, output="ranges", drift_scale=scale)
+        fused = fuse(
+            session, ranges, params, output="ranges", drift_scale=scale,
+            smoothed_sigma=smoothed_sigma,
+        )  # fmt: skip
         nis = _platform_nis(fused.observations)
     return fused, scale, nis
 
@@ -263,6 +269,7 @@ def calibrated_fuse(
     output: Literal["ranges", "nav"] = "ranges",
     label: str = "observed",
     sigma_floor: Mapping[str, float] | None = None,
+    smoothed_sigma: bool = True,
 ) -> tuple[FusionOutput, FusionCalibration]:
     """Fuse with per-pair sigmas and drift scales estimated from the data (module docstring).
 
@@ -274,10 +281,10 @@ def calibrated_fuse(
     (measured on paper-experiment seed 1: fused DI mean error 0.080 m against 0.074 m).
     """
     if not params.self_calibrate:
-        plain = fuse(session, ranges, params, output=output)
+        plain = fuse(session, ranges, params, output=output, smoothed_sigma=smoothed_sigma)
         return plain, FusionCalibration({}, {}, {}, {}, {})
     # 1. dead reckoning that the ranges contradict, with the given range sigmas
-    first, scale, _ = _drift_scales(session, ranges, params, {})
+    first, scale, _ = _drift_scales(session, ranges, params, {}, smoothed_sigma=smoothed_sigma)
     # 2. per-pair ranging sigma from the post-fit residuals
     rms, bias, count = _pair_figures(postfit_residuals(session, first, ranges))
     pairs = pair_names(ranges["from"], ranges["to"])
@@ -317,13 +324,17 @@ def calibrated_fuse(
             )
         if platform_factor:
             _, scale, _ = _drift_scales(
-                session, calibrated, params, unscaled, only=set(platform_factor)
-            )
+                session, calibrated, params, unscaled, only=set(platform_factor),
+                smoothed_sigma=False,
+            )  # fmt: skip
     unchanged = np.array_equal(new_sigma, given) and not platform_factor
     if unchanged and output == "ranges":
         result = first  # the sigmas, biases and drifts of the first fusion stand
     else:
-        result = fuse(session, calibrated, params, output=output, drift_scale=scale)
+        result = fuse(
+            session, calibrated, params, output=output, drift_scale=scale,
+            smoothed_sigma=smoothed_sigma,
+        )  # fmt: skip
     nis = _platform_nis(result.observations)
     for platform, factor in sorted(scale.items()):
         notes.append(

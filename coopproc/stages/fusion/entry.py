@@ -34,12 +34,15 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
         output=inp.output,
         label=inp.range_set,
         sigma_floor=floor,
+        smoothed_sigma=False,  # positions.csv and the ranging stage take positions only
     )
     cp = None
     if inp.want_cp:
         at_ranges = fused
         if inp.output != "ranges":
-            at_ranges, _ = calibrated_fuse(inp.session, inp.ranges, params, output="ranges")
+            at_ranges, _ = calibrated_fuse(
+                inp.session, inp.ranges, params, output="ranges", smoothed_sigma=False
+            )
         cp = (at_ranges.forward, at_ranges.smoothed)
     return PositionProduct(positions=fused.smoothed, cp=cp, calibration=cal, notes=cal.notes)
 

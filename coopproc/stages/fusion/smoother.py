@@ -64,11 +64,14 @@ def mbf_backward(
     rec_ptr: IntArray,
     rec_plat: IntArray,
     block: int,
+    with_var: bool = True,
 ) -> tuple[FloatArray, FloatArray]:
     """Smoothed states and variances (R, dim) at the recorded slots (see the module doc).
 
     ``cp_x``, ``cp_c``, ``gamma`` come from :func:`~coopproc.stages.fusion.ekf.ekf_forward`
-    run with the same inputs and ``block``.
+    run with the same inputs and ``block``. ``with_var=False`` leaves the variances NaN
+    (they cost n^2 per recorded value, more than the states; the run's tables do not use
+    them).
     """
     n_epochs = dt.shape[0]
     n = cp_x.shape[1]
@@ -140,6 +143,9 @@ def mbf_backward(
                     for jj in range(n):
                         acc -= cf[i, jj] * lam[jj]
                     xs[r, ax] = acc
+                    if not with_var:
+                        var[r, ax] = np.nan
+                        continue
                     for jj in range(n):
                         s = 0.0
                         for ll in range(n):
