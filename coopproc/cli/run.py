@@ -81,8 +81,6 @@ def run(
     import matplotlib
 
     matplotlib.use("Agg")
-    from tqdm import tqdm
-
     from coopproc.checks.coverage import prepare_run
     from coopproc.io import read_session
     from coopproc.run.calibration_summary import calibration_lines
@@ -90,6 +88,7 @@ def run(
     from coopproc.run.config import load_run_config
     from coopproc.run.output import write_run
     from coopproc.run.pipeline import run_pipeline
+    from coopproc.run.progress import PhaseProgress
     from coopproc.run.summary import summarize
 
     # the closing summary on stdout (`> log` keeps it); progress and notes on stderr
@@ -109,30 +108,28 @@ def run(
         from coopproc.io.parquet import require_pyarrow
 
         require_pyarrow()  # before the work
-    data = read_session(session)
-    figure_options = _figure_options(data, pairs, platforms, max_panels)  # checked early
-    check_output_dir(out_dir, force=force, protect=[data.root, *data.inputs])
-    note(
-        f"session {data.name}: {len(data.platforms)} platforms, "
-        f"{len(data.ranges.pairs)} pairs, {len(data.ranges)} ranges"
-    )
-    # ranges the navigation does not cover left out, frames checked; notes appended
-    data, _ = prepare_run(data)
-    for text in data.notes:
-        note(f"note: {text}")
-
     show_bar = not quiet and sys.stderr.isatty()
-    # the chain's steps, then metrics and writing the outputs
-    total = len(resolve(config.pipeline)) + 2
-    with tqdm(total=total, disable=not show_bar, unit="step", leave=False) as bar:
-
-        def progress(label: str) -> None:
-            bar.set_description(label)
-            bar.update(1)
-
-        output = run_pipeline(data, config, progress=progress)
-        progress("writing outputs")
+    # read, prepare, the chain's steps, metrics, summary, tables (, figures, html)
+    total = len(resolve(config.pipeline)) + 5 + (2 if config.run.figures else 0)
+    with PhaseProgress(total, bar=show_bar, log=None if quiet else note, prefix="run") as phases:
+        phases.start("read")
+        data = read_session(session)
+        figure_options = _figure_options(data, pairs, platforms, max_panels)  # checked early
+        check_output_dir(out_dir, force=force, protect=[data.root, *data.inputs])
+        note(
+            f"session {data.name}: {len(data.platforms)} platforms, "
+            f"{len(data.ranges.pairs)} pairs, {len(data.ranges)} ranges"
+        )
+        # ranges the navigation does not cover left out, frames checked; notes appended
+        phases.start("prepare")
+        data, _ = prepare_run(data)
+        for text in data.notes:
+            note(f"note: {text}")
+        output = run_pipeline(data, config, progress=phases.start)
+        phases.start("summary")
         summary = summarize(output)
+        phases.end()
+        before = {k: phases.timings_s[k] for k in ("read", "prepare")}
         formats = ("png",) + (("pdf",) if pdf else ()) + (("svg",) if svg else ())
         files = write_run(
             output,
@@ -144,6 +141,9 @@ def run(
             started=started,
             summary=summary.facts,
             figure_options=figure_options,
+            progress=phases.start,
+            timings_before=before,
+            timings_after={"summary": phases.timings_s["summary"]},
         )
     for line in calibration_lines(output):
         say(line)

@@ -73,12 +73,20 @@ def run_one(
     from coopproc.io import read_session
     from coopproc.run.output import write_run
     from coopproc.run.pipeline import run_pipeline
+    from coopproc.run.progress import PhaseProgress
     from coopproc.run.summary import summarize
 
     started = dt.datetime.now(dt.UTC)
+    phases = PhaseProgress(0, bar=False, log=None)  # timings only: a worker shows nothing
     try:
-        session, _ = prepare_run(read_session(session_path))
-        output = run_pipeline(session, config)
+        phases.start("read")
+        session = read_session(session_path)
+        phases.start("prepare")
+        session, _ = prepare_run(session)
+        output = run_pipeline(session, config, progress=phases.start)
+        phases.start("summary")
+        facts = summarize(output).facts
+        phases.end()
         write_run(
             output,
             session,
@@ -87,7 +95,9 @@ def run_one(
             force=force,
             figure_formats=formats,
             started=started,
-            summary=summarize(output).facts,
+            summary=facts,
+            timings_before={k: phases.timings_s[k] for k in ("read", "prepare")},
+            timings_after={"summary": phases.timings_s["summary"]},
         )
     except CoopprocError as err:
         return failed_outcome(session_path, out_dir, str(err))

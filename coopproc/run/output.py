@@ -11,7 +11,8 @@ import datetime as dt
 import hashlib
 import json
 import platform
-from collections.abc import Mapping, Sequence
+import time
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -93,11 +94,26 @@ def write_run(
     started: dt.datetime,
     summary: Mapping[str, Any] | None = None,
     figure_options: FigureOptions | None = None,
+    progress: Callable[[str], None] | None = None,
+    timings_before: Mapping[str, float] | None = None,
+    timings_after: Mapping[str, float] | None = None,
 ) -> RunFiles:
     """Write every output of a run into ``out_dir`` (atomically; see coopproc.io.outdir).
 
     ``config.run.format`` "parquet": the per-epoch tables as Parquet (needs pyarrow).
+    ``progress`` is called as each writing phase starts ("write tables", "figures",
+    "html"). run.json ``timings_s``: ``timings_before`` (e.g. reading), the chain's
+    steps, ``timings_after`` (e.g. the summary), the writing phases, and ``other`` (the
+    rest of the wall time since ``started``: imports, checks, run.json), so that they add
+    up to ``duration_s``.
     """
+    phase = progress or (lambda label: None)
+    timings: dict[str, float] = {
+        **(timings_before or {}),
+        **output.timings_s,
+        **(timings_after or {}),
+    }
+    clock = time.perf_counter
     if config.run.format == "parquet":
         require_pyarrow()
     info: dict[str, Any] = {
@@ -126,7 +142,7 @@ def write_run(
         "notes": list(session.notes),
         "sigma": {p: {"sigma_m": s, "source": src} for p, (s, src) in output.sigma.items()},
         "calibration": calibration_facts(output),
-        "timings_s": dict(output.timings_s),
+        "timings_s": timings,
         "start_time": started.isoformat(timespec="seconds"),
     }
     # a session made by `coopproc inject`: the methods scored against its injected.csv
@@ -137,6 +153,8 @@ def write_run(
         info["injected"] = {"file": injected[0].name, "sha256": sha256_of(injected[0])}
     with atomic_output_dir(out_dir, force=force, protect=[session.root, *session.inputs]) as tmp:
         # the same list of files and columns that `coopproc report` reads back
+        phase("write tables")
+        since = clock()
         run = run_tables(output, info, scores)
         tables = [
             _write_table(getattr(run, attr), tmp, name, columns, config.run.format)
@@ -147,20 +165,29 @@ def write_run(
             for name, attr, columns, _required in RUN_EXTENSION_FILES
             if getattr(run, attr) is not None
         ]
+        timings["write tables"] = clock() - since
         figures: list[Path] = []
         html = None
+        info["summary"] = dict(summary or {})
         if config.run.figures:
+            phase("figures")
+            since = clock()
             figures = write_figures(
                 run, tmp / "figures", formats=figure_formats, options=figure_options
             )
+            timings["figures"] = clock() - since
+            info["figures"] = [str(p.relative_to(tmp)) for p in figures]
+            phase("html")
+            since = clock()
+            html = write_html(tmp, run_tables(output, info, scores), options=figure_options)
+            timings["html"] = clock() - since
+        info["figures"] = [str(p.relative_to(tmp)) for p in figures]
         finished = dt.datetime.now(dt.UTC)
         info["duration_s"] = round((finished - started).total_seconds(), 3)
-        info["figures"] = [str(p.relative_to(tmp)) for p in figures]
-        info["summary"] = dict(summary or {})
+        timings["other"] = max(info["duration_s"] - sum(timings.values()), 0.0)
+        info["timings_s"] = {k: round(v, 3) for k, v in timings.items()}
         run_json = tmp / "run.json"
         run_json.write_text(json.dumps(info, indent=2, default=_json_default) + "\n")
-        if config.run.figures:
-            html = write_html(tmp, run_tables(output, info, scores), options=figure_options)
     final = Path(out_dir)
     return RunFiles(
         out_dir=final,

@@ -118,3 +118,22 @@ def test_config_command_round_trips(tmp_path: Path, session: Path) -> None:
         str(session), "-o", str(tmp_path / "c"), "-c", str(cfg), "-q", "--no-figures"
     )
     assert code == 0, output
+
+
+def test_phases_are_logged_and_timings_add_up_to_the_wall_time(
+    session: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["run", str(session), "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    info = json.loads((out / "run.json").read_text())
+    timings = info["timings_s"]
+    phases = ["read", "prepare", "fusion (observed)", "ranging (rn, di)", "fusion (rn)"]
+    phases += ["fusion (di)", "metrics", "summary", "write tables", "figures", "html", "other"]
+    assert list(timings) == phases
+    assert all(v >= 0 for v in timings.values())
+    assert sum(timings.values()) == pytest.approx(info["duration_s"], abs=0.01)
+    # not a terminal: one line per phase with its time and the elapsed time (stderr)
+    for phase in phases[:-1]:
+        assert f"run: {phase}: " in res.stderr
+    assert res.stderr.count("(elapsed ") == len(phases) - 1
