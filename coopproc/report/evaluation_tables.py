@@ -140,6 +140,7 @@ def evaluation_tables(
     platforms: Sequence[str] | None = None,
     evaluation_columns: Sequence[str] = EVALUATION_DEFAULT,
     rpe_columns: Sequence[str] = RPE_DEFAULT,
+    stored: bool = False,
 ) -> list[Table]:
     """The evaluation, transform and RPE tables of ``run``, recomputed from its positions.
 
@@ -148,6 +149,9 @@ def evaluation_tables(
     have are skipped there; the ``align_*`` ones go to the transform table only);
     ``platforms``: rows to keep. Unknown alignments, lengths,
     metrics or platforms raise ConfigError. Tables without rows or columns are left out.
+    ``stored``: take the run's own ``evaluation.csv`` / ``rpe.csv`` (no alignment, the
+    default lengths) when it has them instead of recomputing them (a day of positions:
+    seconds).
     """
     try:
         align = check_alignments(align)
@@ -158,8 +162,12 @@ def evaluation_tables(
         _check_metrics(metrics)
     methods = position_methods(run)
     order = ("nav", *methods)
-    ev = evaluation(run.positions, align, methods)
-    errors = rpe(run.positions, lengths, align, methods)
+    as_run = tuple(align) == ("none",) and tuple(lengths) == tuple(DEFAULT_SEGMENTS_M)
+    if stored and as_run and run.evaluation is not None and run.rpe is not None:
+        ev, errors = run.evaluation, run.rpe
+    else:
+        ev = evaluation(run.positions, align, methods)
+        errors = rpe(run.positions, lengths, align, methods)
     tables: list[Table] = []
     for kind in align:
         rows = ev[ev["alignment"] == kind]
@@ -217,7 +225,9 @@ def evaluation_html(run: RunTables) -> str:
     older run directory without those files gets the section too."""
     if not len(run.positions):
         return ""
-    tables = evaluation_tables(run, evaluation_columns=_HTML_EVALUATION, rpe_columns=_HTML_RPE)
+    tables = evaluation_tables(
+        run, evaluation_columns=_HTML_EVALUATION, rpe_columns=_HTML_RPE, stored=True
+    )
     if not tables:
         return ""
     note = (

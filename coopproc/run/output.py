@@ -7,6 +7,7 @@ config; the per-epoch ones as Parquet with ``[run] format = "parquet"``),
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import hashlib
 import json
@@ -179,7 +180,10 @@ def write_run(
             info["figures"] = [str(p.relative_to(tmp)) for p in figures]
             phase("html")
             since = clock()
-            html = write_html(tmp, run_tables(output, info, scores), options=figure_options)
+            # the tables already made (evaluation and RPE are not computed again)
+            html = write_html(
+                tmp, dataclasses.replace(run, info=dict(info)), options=figure_options
+            )
             timings["html"] = clock() - since
         info["figures"] = [str(p.relative_to(tmp)) for p in figures]
         finished = dt.datetime.now(dt.UTC)
