@@ -332,6 +332,25 @@ class RangeTable:
         bounds = np.searchsorted(codes[order], np.arange(len(names) + 1))
         return {str(name): order[bounds[i] : bounds[i + 1]] for i, name in enumerate(names)}
 
+    @functools.cached_property
+    def id_codes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(platform ids sorted, code of ``from``, code of ``to`` of every row): integer
+        codes to select a platform's rows without comparing strings row by row."""
+        both = np.concatenate(
+            [self.frame["from"].to_numpy(object), self.frame["to"].to_numpy(object)]
+        )
+        codes, ids = pd.factorize(both, sort=True)
+        n = len(self.frame)
+        return np.asarray(ids, dtype=object), codes[:n], codes[n:]
+
+    def rows_of(self, platform: str) -> np.ndarray:
+        """Row positions (ascending) of the ranges ``platform`` takes part in."""
+        ids, first, second = self.id_codes
+        at = int(np.searchsorted(ids, platform))
+        if at >= ids.shape[0] or ids[at] != platform:
+            return np.empty(0, dtype=np.int64)
+        return np.flatnonzero((first == at) | (second == at))
+
     def for_pair(self, pair: str) -> pd.DataFrame:
         """The rows of one pair, in time order."""
         return self.frame.iloc[self.pair_index.get(pair, np.empty(0, dtype=np.int64))]

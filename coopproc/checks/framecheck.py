@@ -144,12 +144,12 @@ def _observations(session: Session, pid: str, known: set[str]) -> _Obs | None:
     if nav is None or len(nav) < 2:
         return None
     frame = session.ranges.frame
-    a = frame["from"].to_numpy()
-    b = frame["to"].to_numpy()
-    rows = np.flatnonzero((a == pid) | (b == pid))
+    rows = session.ranges.rows_of(pid)
     if rows.size < MIN_RANGES:
         return None
-    other = np.where(a[rows] == pid, b[rows], a[rows])
+    ids, first, second = session.ranges.id_codes  # integer codes, no string compares
+    own = int(np.searchsorted(ids, pid))
+    other = ids[np.where(first[rows] == own, second[rows], first[rows])]
     t = frame["time"].to_numpy(dtype=np.float64)[rows]
     r = frame["range"].to_numpy(dtype=np.float64)[rows]
     p = nav.interpolate_within(t)
