@@ -95,8 +95,8 @@ def _positions_rows(
     session: Session,
     method: str,
     trajectories: Mapping[str, Trajectory],
-) -> pd.DataFrame:
-    frames = []
+) -> dict[tuple[str, str], pd.DataFrame]:
+    frames = {}
     for platform in sorted(trajectories):
         traj = trajectories[platform]
         error_h = np.full(len(traj), np.nan)
@@ -104,28 +104,26 @@ def _positions_rows(
         if ref is not None and len(ref) >= 2:
             truth = ref.interpolate_within(traj.time_s)
             error_h = np.hypot(traj.enu_m[:, 0] - truth[:, 0], traj.enu_m[:, 1] - truth[:, 1])
-        frames.append(
-            pd.DataFrame(
-                {
-                    "time": traj.time_s,
-                    "platform": platform,
-                    "method": method,
-                    "east": traj.enu_m[:, 0],
-                    "north": traj.enu_m[:, 1],
-                    "up": traj.enu_m[:, 2],
-                    "error_h": error_h,
-                }
-            )
+        frames[platform, method] = pd.DataFrame(
+            {
+                "time": traj.time_s,
+                "platform": platform,
+                "method": method,
+                "east": traj.enu_m[:, 0],
+                "north": traj.enu_m[:, 1],
+                "up": traj.enu_m[:, 2],
+                "error_h": error_h,
+            }
         )
-    if not frames:
-        return pd.DataFrame(columns=list(POSITIONS_COLUMNS))
-    return pd.concat(frames, ignore_index=True)
+    return frames
 
 
-def _reference_rows(session: Session, like: Mapping[str, Trajectory]) -> pd.DataFrame:
+def _reference_rows(
+    session: Session, like: Mapping[str, Trajectory]
+) -> dict[tuple[str, str], pd.DataFrame]:
     """Rows of method ``reference``: the reference trajectory at the fused output epochs
     (an extension of DATA.md's positions.csv; epochs without reference are left out)."""
-    frames = []
+    frames = {}
     for platform in sorted(like):
         ref = session.reference.get(platform)
         if ref is None or len(ref) < 2:
@@ -133,20 +131,18 @@ def _reference_rows(session: Session, like: Mapping[str, Trajectory]) -> pd.Data
         t = like[platform].time_s
         pos = ref.interpolate_within(t)
         ok = np.all(np.isfinite(pos), axis=1)
-        frames.append(
-            pd.DataFrame(
-                {
-                    "time": t[ok],
-                    "platform": platform,
-                    "method": "reference",
-                    "east": pos[ok, 0],
-                    "north": pos[ok, 1],
-                    "up": pos[ok, 2],
-                    "error_h": np.nan,
-                }
-            )
+        frames[platform, "reference"] = pd.DataFrame(
+            {
+                "time": t[ok],
+                "platform": platform,
+                "method": "reference",
+                "east": pos[ok, 0],
+                "north": pos[ok, 1],
+                "up": pos[ok, 2],
+                "error_h": np.nan,
+            }
         )
-    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+    return frames
 
 
 def _own_epochs(session: Session) -> dict[str, FloatArray]:
@@ -354,16 +350,21 @@ def _positions_table(
     own = _own_epochs(session) if output == "ranges" else None
     solutions = {m: _at_own_epochs(p.positions, own) for m, p in products.items()}
     basis = solutions.get("observed") or next(iter(solutions.values()), None)
-    parts = []
+    parts: dict[tuple[str, str], pd.DataFrame] = {}
     if basis is not None:
-        parts += [
-            _reference_rows(session, basis),
-            _positions_rows(session, "nav", _nav_at(session, basis)),
-        ]
-    parts += [_positions_rows(session, m, s) for m, s in solutions.items()]
+        parts |= _reference_rows(session, basis)
+        parts |= _positions_rows(session, "nav", _nav_at(session, basis))
+    for method, solution in solutions.items():
+        parts |= _positions_rows(session, method, solution)
+    parts = {k: v for k, v in parts.items() if len(v)}
     if not parts:
         return pd.DataFrame(columns=list(POSITIONS_COLUMNS))
-    positions = pd.concat(parts, ignore_index=True)
+    # rows by platform, method, time: the pieces in that order, each in time order,
+    # make one concatenation (sorting a day's table copied it twice)
+    ordered = [parts[key] for key in sorted(parts)]
+    if all(p["time"].is_monotonic_increasing for p in ordered):
+        return pd.concat(ordered, ignore_index=True)[list(POSITIONS_COLUMNS)]
+    positions = pd.concat(ordered, ignore_index=True)
     positions = positions.sort_values(["platform", "method", "time"], kind="stable")
     return positions.reset_index(drop=True)[list(POSITIONS_COLUMNS)]
 
