@@ -68,7 +68,9 @@ class PhaseProgress:
         if self._bar is not None:
             self._bar.update(1)
         elif self._log is not None:
-            self._log(f"{self._prefix}{label}: {took:.1f} s (elapsed {now - self._started:.1f} s)")
+            self._log(
+                f"{self._prefix}{label} done in {took:.1f} s (elapsed {now - self._started:.1f} s)"
+            )
 
     def close(self) -> None:
         """End the running phase and remove the bar."""

@@ -135,5 +135,5 @@ def test_phases_are_logged_and_timings_add_up_to_the_wall_time(
     assert sum(timings.values()) == pytest.approx(info["duration_s"], abs=0.01)
     # not a terminal: one line per phase with its time and the elapsed time (stderr)
     for phase in phases[:-1]:
-        assert f"run: {phase}: " in res.stderr
+        assert f"run: {phase} done in " in res.stderr
     assert res.stderr.count("(elapsed ") == len(phases) - 1

@@ -19,9 +19,9 @@ def test_phases_are_timed_and_logged_with_elapsed_time() -> None:
         now[0] = 21.0
     assert p.timings_s == {"read": 2.5, "fusion": 1.5}
     assert lines == [
-        "run: read: 2.5 s (elapsed 2.5 s)",
-        "run: fusion: 0.5 s (elapsed 3.0 s)",
-        "run: fusion: 1.0 s (elapsed 11.0 s)",
+        "run: read done in 2.5 s (elapsed 2.5 s)",
+        "run: fusion done in 0.5 s (elapsed 3.0 s)",
+        "run: fusion done in 1.0 s (elapsed 11.0 s)",
     ]
 
 
