@@ -48,7 +48,9 @@ from coopproc.run.config import RunConfig
 from coopproc.stages.base import PositionInput
 from coopproc.stages.registry import POSITION_STAGES
 
-KERNELS = ("ekf_forward", "rts_backward")
+#: the forward filter and the smoother (modified Bryson-Frazier form, which re-runs each
+#: block of the forward filter from its checkpoint: its time includes that re-run)
+KERNELS = ("ekf_forward", "mbf_backward")
 
 
 @contextmanager
@@ -158,14 +160,14 @@ def main() -> None:
             if name in kernels:
                 k = float(np.median(kernels[name][1:] or kernels[name]))
                 print(f"  {name + ' kernel':<30} {k:7.2f} s  {n_epochs / k:10,.0f} epochs/s")
-    rts = kernels.get("rts_backward")
+    rts = kernels.get("mbf_backward")
     n_fp = min(args.filterpy_epochs, n_epochs)
     fp = filterpy_rts(n_state, n_fp, args.repeat)
     fp_rate = n_fp / fp
     print(f"filterpy rts_smoother (n = {n_state}):  {fp_rate:10,.0f} epochs/s on {n_fp:,} epochs")
     if rts:
         ours = n_epochs / float(np.median(rts[1:] or rts))
-        print(f"  RTS kernel / filterpy: {ours / fp_rate:.1f}x")
+        print(f"  smoother kernel / filterpy rts_smoother: {ours / fp_rate:.1f}x")
 
     day = 24.0 / args.hours
     print(f"projected to {args.platforms} x 24 h (x {day:g}, linear in duration):")
