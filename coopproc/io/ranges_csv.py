@@ -63,21 +63,29 @@ class RangesRead:
         return self.where.error(message, int(self.order[row]), count)
 
 
-def _ids(frame: pd.DataFrame, name: str, where: Locator, problems: list[InputError]) -> np.ndarray:
-    col = frame[name]
-    values = col.astype("string").str.strip()
-    empty = values.isna().to_numpy() | (values.fillna("") == "").to_numpy()
-    out = values.fillna("").to_numpy(dtype=object)
+def _ids(
+    frame: pd.DataFrame, name: str, where: Locator, problems: list[InputError]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Column ``name`` as (code of every row, -1 where empty; the distinct ids): a day of
+    ranges is millions of rows but a handful of ids, so no per-row Python string."""
+    values = frame[name].astype("string").str.strip()
+    codes, uniques = pd.factorize(values, use_na_sentinel=True)
+    ids = np.asarray(uniques, dtype=object)
+    codes = np.asarray(codes, dtype=np.int64)
+    blank = [i for i, u in enumerate(ids) if u == ""]
+    if blank:
+        codes = np.where(codes == blank[0], -1, codes)
+    empty = codes < 0
     if empty.any():
         idx = np.flatnonzero(empty)
         problems.append(
             where.error(f"column '{name}': empty; expected a platform id", int(idx[0]), idx.size)
         )
-    uniq = pd.unique(out[~empty])
-    bad_ids = [u for u in uniq if not ID_PATTERN.match(str(u))]
-    if bad_ids:
-        mask = pd.Series(out).isin(bad_ids).to_numpy()
-        idx = np.flatnonzero(mask)
+    # factorize numbers the ids in the order they first appear
+    bad_codes = [i for i, u in enumerate(ids) if u != "" and not ID_PATTERN.match(str(u))]
+    if bad_codes:
+        bad_ids = [ids[c] for c in bad_codes]
+        idx = np.flatnonzero(np.isin(codes, bad_codes))
         problems.append(
             where.error(
                 f"column '{name}': {str(bad_ids[0])[:40]!r} is not a platform id; expected "
@@ -86,7 +94,20 @@ def _ids(frame: pd.DataFrame, name: str, where: Locator, problems: list[InputErr
                 idx.size,
             )
         )
-    return out
+    return codes, ids
+
+
+def _merged(
+    src: tuple[np.ndarray, np.ndarray], dst: tuple[np.ndarray, np.ndarray]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(sorted ids, code of every from, of every to) in one id space (-1: empty)."""
+    ids = np.array(sorted({str(u) for u in src[1]} | {str(u) for u in dst[1]} - {""}), dtype=object)
+    out = []
+    for codes, uniques in (src, dst):
+        where_in = np.array([np.searchsorted(ids, str(u)) if u != "" else -1 for u in uniques])
+        mapped = where_in[np.maximum(codes, 0)] if len(uniques) else np.zeros_like(codes)
+        out.append(np.where(codes >= 0, mapped, -1).astype(np.int64))
+    return ids, out[0], out[1]
 
 
 def range_table_from_frame(frame: pd.DataFrame, where: Locator) -> RangesRead:
@@ -112,8 +133,9 @@ def range_table_from_frame(frame: pd.DataFrame, where: Locator) -> RangesRead:
         if "sigma" in columns
         else np.full(len(frame), np.nan)
     )
-    src = _ids(frame, "from", where, problems)
-    dst = _ids(frame, "to", where, problems)
+    ids, src_code, dst_code = _merged(
+        _ids(frame, "from", where, problems), _ids(frame, "to", where, problems)
+    )
     neg = range_m < 0
     if neg.any():
         idx = np.flatnonzero(neg)
@@ -160,26 +182,29 @@ def range_table_from_frame(frame: pd.DataFrame, where: Locator) -> RangesRead:
                 idx.size,
             )
         )
-    self_range = (src == dst) & (src != "")
+    self_range = (src_code == dst_code) & (src_code >= 0)
     if self_range.any():
         idx = np.flatnonzero(self_range)
         problems.append(
             where.error(
-                f"platform {src[idx[0]]} ranges to itself; expected two different platforms",
+                f"platform {ids[src_code[idx[0]]]} ranges to itself; expected two different "
+                "platforms",
                 int(idx[0]),
                 idx.size,
             )
         )
     if problems:
         raise InputProblems(problems)
-    lo = np.where(src <= dst, src, dst)
-    hi = np.where(src <= dst, dst, src)
-    pair = np.char.add(np.char.add(lo.astype(str), "-"), hi.astype(str))
+    # ids are sorted, so the smaller code is the id that sorts first (pair_name's order)
+    lo = np.minimum(src_code, dst_code)
+    hi = np.maximum(src_code, dst_code)
+    keys, inverse = np.unique(lo * len(ids) + hi, return_inverse=True)
+    names = np.array([f"{ids[k // len(ids)]}-{ids[k % len(ids)]}" for k in keys], dtype=object)
     data = {
         "time": time_s,
-        "pair": pair.astype(object),
-        "from": src,
-        "to": dst,
+        "pair": names[inverse.reshape(-1)],
+        "from": ids[src_code],
+        "to": ids[dst_code],
         "range": range_m,
         "sigma": sigma_m,
     }
