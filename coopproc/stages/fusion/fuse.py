@@ -46,7 +46,6 @@ from coopproc.stages.fusion.data import (
 )
 from coopproc.stages.fusion.data import range_sigma_default as _range_sigma_default
 from coopproc.stages.fusion.ekf import (
-    OBS_POSITION,
     block_size,
     ekf_forward,
 )
@@ -258,18 +257,17 @@ def fuse(
     del cp_x, cp_c
     slots = (session, moving, epochs, nav, rec_ptr, rec_plat, dim, output)
     forward = trajectories_from_slots(*slots, xs_f, var_f, hold=True)
-    smoothed = trajectories_from_slots(*slots, xs_s, var_s, hold=False)
-    is_range = obs["kind"] != OBS_POSITION
-    row_of = obs["row"][is_range]
+    smoothed = trajectories_from_slots(*slots, xs_s, var_s if smoothed_sigma else None, hold=False)
+    at = obs["at"]  # the range rows' observations, in row (= observation) order
     table = pd.DataFrame(
         {
-            "time": epochs[obs["epoch"][is_range]],
-            "from": rows["from"].to_numpy()[row_of],
-            "to": rows["to"].to_numpy()[row_of],
-            "range": obs["z"][is_range],
-            "innovation": innov[is_range],
-            "innovation_var": innov_var[is_range],
-            "gamma": gamma[is_range],
+            "time": epochs[ep_idx],
+            "from": rows["from"].to_numpy(),
+            "to": rows["to"].to_numpy(),
+            "range": obs["z"][at],
+            "innovation": innov[at],
+            "innovation_var": innov_var[at],
+            "gamma": gamma[at],
         }
     )
     return FusionOutput(smoothed=smoothed, forward=forward, epochs_s=epochs, observations=table)

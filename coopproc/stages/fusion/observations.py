@@ -117,7 +117,6 @@ def build_observations(
     first_row = np.searchsorted(ep_idx, np.arange(n_ep))
     at = ptr[ep_idx] + n_fix[ep_idx] + (np.arange(len(rows)) - first_row[ep_idx])
     obs: dict[str, np.ndarray] = {
-        "epoch": np.repeat(np.arange(n_ep, dtype=np.int64), counts),
         "kind": np.full(total, OBS_POSITION, dtype=np.int64),
         "a": np.zeros(total, dtype=np.int64),
         "b": np.zeros(total, dtype=np.int64),
@@ -125,7 +124,6 @@ def build_observations(
         "dz2": np.zeros(total),
         "z": np.zeros(total),
         "var": np.ones(total),
-        "row": np.full(total, -1, dtype=np.int64),
     }
     obs["kind"][at] = np.where(both, OBS_RANGE, OBS_ANCHOR)
     obs["a"][at] = a
@@ -134,7 +132,7 @@ def build_observations(
     obs["dz2"][at] = dz2
     obs["z"][at] = rows["range"].to_numpy(np.float64)
     obs["var"][at] = rows["var"].to_numpy(np.float64)
-    obs["row"][at] = np.arange(len(rows), dtype=np.int64)
+    obs["at"] = at  # where each range row is, in row order
     earlier = np.cumsum(fixes, axis=0) - fixes  # fixing leaders before this one, per epoch
     for j, pid in enumerate(leaders):
         ks = np.flatnonzero(fixes[j])

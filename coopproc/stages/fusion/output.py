@@ -70,17 +70,20 @@ def trajectories_from_slots(
     dim: int,
     output: str,
     xs: FloatArray,
-    var: FloatArray,
+    var: FloatArray | None,
     *,
     hold: bool,
 ) -> dict[str, Trajectory]:
     """One Trajectory per platform from the recorded slots' states and variances (R, dim).
 
     ``output="ranges"``: each platform at its recorded epochs; ``"nav"`` (every slot
-    recorded): :func:`trajectories_from_states`.
+    recorded): :func:`trajectories_from_states`. ``var`` None: no sigmas.
     """
     n_ep, n_plat = epochs.shape[0], len(moving)
+    if var is None:
+        var = np.full(xs.shape, np.nan) if output != "ranges" else None
     if output != "ranges":
+        assert var is not None
         full = (n_ep, n_plat * dim)
         return trajectories_from_states(
             session, moving, epochs, nav, xs.reshape(full), var.reshape(full), dim, output,
@@ -93,8 +96,10 @@ def trajectories_from_slots(
         at = epoch_of[slots]
         enu = nav[p, at].copy()
         enu[:, :dim] = xs[slots]
-        sig = np.full((at.shape[0], 3), np.nan)
-        sig[:, :dim] = np.sqrt(np.maximum(var[slots], 0.0))
+        sig = None
+        if var is not None:
+            sig = np.full((at.shape[0], 3), np.nan)
+            sig[:, :dim] = np.sqrt(np.maximum(var[slots], 0.0))
         out[pid] = Trajectory(pid, epochs[at], enu, sigma_enu_m=sig, source="fusion")
     return out
 
