@@ -45,7 +45,6 @@ __all__ = [
     "gap_limit_s",
     "pair_members",
     "pair_name",
-    "pair_names",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -119,27 +118,6 @@ def pair_name(a: str, b: str) -> str:
     """The unordered pair of two platform ids, ``A-B`` with the ids in sorted order."""
     first, second = sorted((a, b))
     return f"{first}-{second}"
-
-
-def pair_names(first: object, second: object) -> np.ndarray:
-    """:func:`pair_name` of every row of two id columns (array-likes), as an object array.
-
-    Vectorized: each distinct (first, second) combination is named once, so a table of
-    millions of ranges costs a factorization, not a Python call per row.
-    """
-    a = np.asarray(first, dtype=object)
-    b = np.asarray(second, dtype=object)
-    if a.shape[0] == 0:
-        return np.empty(0, dtype=object)
-    codes, uniques = pd.factorize(np.concatenate([a, b]))
-    width = max(len(uniques), 1)
-    key = codes[: a.shape[0]].astype(np.int64) * width + codes[a.shape[0] :]
-    combos, inverse = np.unique(key, return_inverse=True)
-    names = np.array(
-        [pair_name(str(uniques[k // width]), str(uniques[k % width])) for k in combos],
-        dtype=object,
-    )
-    return names[inverse.reshape(-1)]
 
 
 def pair_members(pair: str) -> tuple[str, str]:

@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 import pytest
 
-from coopproc.model import Trajectory, pair_members, pair_name, pair_names
+from coopproc.model import Trajectory, pair_members, pair_name
 
 
 def _line() -> Trajectory:
@@ -40,13 +39,3 @@ def test_interpolate_within_leaves_gaps_empty() -> None:
 def test_pair_names_are_sorted_and_split_back(a: str, b: str, name: str) -> None:
     assert pair_name(a, b) == name
     assert pair_members(name) == tuple(sorted((a, b)))
-
-
-def test_pair_names_equals_pair_name_row_by_row() -> None:
-    rng = np.random.default_rng(4)
-    ids = np.array(["A", "B", "tb10", "tb2", "x-1", "C"], dtype=object)
-    first = ids[rng.integers(0, ids.shape[0], 500)]
-    second = ids[rng.integers(0, ids.shape[0], 500)]
-    got = pair_names(pd.Series(first), second)
-    assert list(got) == [pair_name(str(a), str(b)) for a, b in zip(first, second, strict=True)]
-    assert pair_names([], []).shape == (0,)

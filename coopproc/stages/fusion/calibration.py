@@ -38,8 +38,8 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
-from coopproc.model import FloatArray, Session, pair_members, pair_names
-from coopproc.stages.fusion.data import anchor_positions
+from coopproc.model import FloatArray, Session, pair_members
+from coopproc.stages.fusion.data import anchor_positions, pair_names
 from coopproc.stages.fusion.fuse import FusionOutput, FusionParams, fuse
 from coopproc.stages.ranging.calibration import MAD_SCALE, posterior_sigma
 

@@ -7,12 +7,13 @@ import numpy as np
 import pandas as pd
 
 from coopproc.errors import StageError
-from coopproc.model import FloatArray, Session
+from coopproc.model import FloatArray, Session, pair_name
 
 __all__ = [
     "anchor_positions",
     "clean_ranges",
     "epoch_groups",
+    "pair_names",
     "platform_codes",
     "range_sigma_default",
 ]
@@ -130,3 +131,24 @@ def _window_groups(unique: FloatArray, merge_s: float) -> np.ndarray:
             start = unique[i]
         group[i] = current
     return group
+
+
+def pair_names(first: object, second: object) -> np.ndarray:
+    """:func:`pair_name` of every row of two id columns (array-likes), as an object array.
+
+    Vectorized: each distinct (first, second) combination is named once, so a table of
+    millions of ranges costs a factorization, not a Python call per row.
+    """
+    a = np.asarray(first, dtype=object)
+    b = np.asarray(second, dtype=object)
+    if a.shape[0] == 0:
+        return np.empty(0, dtype=object)
+    codes, uniques = pd.factorize(np.concatenate([a, b]))
+    width = max(len(uniques), 1)
+    key = codes[: a.shape[0]].astype(np.int64) * width + codes[a.shape[0] :]
+    combos, inverse = np.unique(key, return_inverse=True)
+    names = np.array(
+        [pair_name(str(uniques[k // width]), str(uniques[k % width])) for k in combos],
+        dtype=object,
+    )
+    return names[inverse.reshape(-1)]

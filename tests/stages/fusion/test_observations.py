@@ -6,8 +6,11 @@ from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
+import pandas as pd
 import pytest
 
+from coopproc.model import pair_name
+from coopproc.stages.fusion.data import pair_names
 from coopproc.stages.fusion.fuse import FusionParams
 from coopproc.stages.fusion.observations import leader_fix_epochs
 
@@ -32,3 +35,13 @@ def test_leader_fix_must_be_epoch_or_nav() -> None:
     assert FusionParams(leader_fix="nav").leader_fix == "nav"
     with pytest.raises(ValueError, match="leader_fix"):
         FusionParams(leader_fix="sometimes")
+
+
+def test_pair_names_equals_pair_name_row_by_row() -> None:
+    rng = np.random.default_rng(4)
+    ids = np.array(["A", "B", "tb10", "tb2", "x-1", "C"], dtype=object)
+    first = ids[rng.integers(0, ids.shape[0], 500)]
+    second = ids[rng.integers(0, ids.shape[0], 500)]
+    got = pair_names(pd.Series(first), second)
+    assert list(got) == [pair_name(str(a), str(b)) for a, b in zip(first, second, strict=True)]
+    assert pair_names([], []).shape == (0,)
