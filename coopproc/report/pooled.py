@@ -19,7 +19,7 @@ error h = |(d_e, d_n)|, recomputed from the positions: the ``error_h`` of the CS
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 import pandas as pd
@@ -67,16 +67,23 @@ def _stats(d: FloatArray) -> dict[str, float]:
     }
 
 
-def pooled_position_metrics(positions: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
+def pooled_position_metrics(
+    positions: Mapping[str, pd.DataFrame] | Iterable[tuple[str, pd.DataFrame]],
+) -> pd.DataFrame:
     """The pooled table (module doc) of the ``positions.csv`` tables of many sessions, by
-    session name (the order of the mapping is the order errors are stacked in)."""
+    session name (the order of the mapping is the order errors are stacked in).
+
+    ``positions`` may be an iterable of (session, table) read one at a time: only each
+    table's errors are kept (3 floats per epoch), not the tables."""
     errors: dict[tuple[str, str], list[FloatArray]] = {}
     sessions: dict[tuple[str, str], set[str]] = {}
     methods: list[str] = []
-    for session, table in positions.items():
+    pairs = positions.items() if isinstance(positions, Mapping) else positions
+    for session, table in pairs:
         for platform, method, _t, est, ref in matched_tracks(table):
+            d = est - ref  # one array, listed under the platform and under "*"
             for key in ((platform, method), (ALL_PLATFORMS, method)):
-                errors.setdefault(key, []).append(est - ref)
+                errors.setdefault(key, []).append(d)
                 if est.shape[0]:  # a session counts where it has epochs
                     sessions.setdefault(key, set()).add(session)
             methods.append(method)

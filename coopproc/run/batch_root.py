@@ -21,7 +21,7 @@ import datetime as dt
 import hashlib
 import json
 import os
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -266,18 +266,23 @@ def _write_pooled(out_root: Path, names: Sequence[str]) -> None:
     if not names:
         path.unlink(missing_ok=True)
         return
-    positions = {}
-    for name in names:  # positions.csv, or positions.parquet of a --format parquet run
-        table = find_table(out_root / name, "positions.csv") or out_root / name / "positions.csv"
-        try:
-            frame = read_table_file(table, text=("platform", "method"))
-        except (OSError, ValueError, ImportError, pd.errors.ParserError) as err:
-            raise OutputError(f"{table}: cannot read it to pool ({err})") from err
-        missing = [c for c in POSITIONS_COLUMNS if c not in frame.columns]
-        if missing:
-            raise OutputError(f"{table}: cannot pool it: missing columns {missing}")
-        positions[name] = frame
-    _write_atomic(path, _csv_writer(pooled_position_metrics(positions)))
+
+    def positions() -> Iterator[tuple[str, pd.DataFrame]]:
+        """Each run's positions table, read when its turn comes (50 one-hour runs of 10
+        platforms held at once took 10 GB; one at a time, only their errors are kept)."""
+        for name in names:  # positions.csv, or positions.parquet of a --format parquet run
+            run_dir = out_root / name
+            table = find_table(run_dir, "positions.csv") or run_dir / "positions.csv"
+            try:
+                frame = read_table_file(table, text=("platform", "method"))
+            except (OSError, ValueError, ImportError, pd.errors.ParserError) as err:
+                raise OutputError(f"{table}: cannot read it to pool ({err})") from err
+            missing = [c for c in POSITIONS_COLUMNS if c not in frame.columns]
+            if missing:
+                raise OutputError(f"{table}: cannot pool it: missing columns {missing}")
+            yield name, frame
+
+    _write_atomic(path, _csv_writer(pooled_position_metrics(positions())))
 
 
 def _csv_writer(frame: pd.DataFrame) -> Callable[[Path], Any]:
