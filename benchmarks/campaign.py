@@ -49,11 +49,14 @@ def _link_copy(src: Path, dst: Path) -> None:
 
 
 class _Sampler(threading.Thread):
-    """Peak RSS of the batch process tree: the largest single process and the sum."""
+    """Peak RSS of the batch process tree: the client (the `coopproc batch` process, which
+    also pools the sessions' errors at the end), the largest other process (a worker, the
+    scheduler) and the sum."""
 
     def __init__(self, pid: int) -> None:
         super().__init__(daemon=True)
         self.root = psutil.Process(pid)
+        self.peak_client = 0
         self.peak_one = 0
         self.peak_sum = 0
         self.stop = threading.Event()
@@ -61,16 +64,16 @@ class _Sampler(threading.Thread):
     def run(self) -> None:
         while not self.stop.is_set():
             try:
-                procs = [self.root, *self.root.children(recursive=True)]
+                client = self.root.memory_info().rss
                 sizes = []
-                for proc in procs:
+                for proc in self.root.children(recursive=True):
                     try:
                         sizes.append(proc.memory_info().rss)
                     except psutil.Error:
                         continue
-                if sizes:
-                    self.peak_one = max(self.peak_one, max(sizes))
-                    self.peak_sum = max(self.peak_sum, sum(sizes))
+                self.peak_client = max(self.peak_client, client)
+                self.peak_one = max(self.peak_one, max(sizes, default=0))
+                self.peak_sum = max(self.peak_sum, client + sum(sizes))
             except psutil.Error:
                 pass
             self.stop.wait(0.5)
@@ -123,7 +126,8 @@ def main() -> None:
     print(f"prepare sessions     {t_prep:8.1f} s")
     print(f"coopproc batch       {wall:8.1f} s  (exit {code}, {done}/{args.sessions} complete)")
     print(f"sessions per minute  {per_min:8.2f}")
-    print(f"largest process RSS  {sampler.peak_one / gb:8.2f} GB")
+    print(f"largest worker RSS   {sampler.peak_one / gb:8.2f} GB (or scheduler)")
+    print(f"client RSS           {sampler.peak_client / gb:8.2f} GB (pools every session's errors)")
     print(f"all processes RSS    {sampler.peak_sum / gb:8.2f} GB (peak of the sum)")
     ok = code == 0 and done == args.sessions
     print(f"target: every session completes: {'met' if ok else 'missed'} ({done}/{args.sessions})")
