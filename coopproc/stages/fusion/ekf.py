@@ -45,6 +45,7 @@ __all__ = [
     "OBS_RANGE",
     "block_size",
     "ekf_forward",
+    "epoch_buffers",
     "epoch_innovations",
     "epoch_update",
     "time_update",
@@ -240,6 +241,24 @@ def max_epoch_obs(obs_ptr: IntArray) -> int:
 
 
 @numba.njit(cache=True)
+def epoch_buffers(
+    max_m: int, dim: int, n: int
+) -> tuple[IntArray, FloatArray, IntArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Work arrays of one epoch for :func:`epoch_innovations` and :func:`epoch_update`:
+    Jacobian rows (indices, values, counts), innovations, their variances, C h, the prior."""
+    width = 2 * dim
+    return (
+        np.zeros((max_m, width), dtype=np.int64),
+        np.zeros((max_m, width)),
+        np.zeros(max_m, dtype=np.int64),
+        np.zeros(max_m),
+        np.zeros(max_m),
+        np.zeros(n),
+        np.zeros(n),
+    )
+
+
+@numba.njit(cache=True)
 def ekf_forward(
     x0: FloatArray,
     c0: FloatArray,
@@ -294,15 +313,8 @@ def ekf_forward(
     innov_var = np.zeros(n_obs)
     x = x0.copy()
     c = c0.copy()
-    width = 2 * dim
     max_m = max_epoch_obs(obs_ptr)
-    h_idx = np.zeros((max_m, width), dtype=np.int64)
-    h_val = np.zeros((max_m, width))
-    h_cnt = np.zeros(max_m, dtype=np.int64)
-    v = np.zeros(max_m)
-    d = np.zeros(max_m)
-    ph = np.zeros(n)
-    x_prior = np.zeros(n)
+    h_idx, h_val, h_cnt, v, d, ph, x_prior = epoch_buffers(max_m, dim, n)
     unused = np.zeros((1, 1))
     unused_v = np.zeros(1)
     ring = np.zeros(max(mad_window, 1))

@@ -34,6 +34,7 @@ import numpy as np
 from coopproc.model import FloatArray
 from coopproc.stages.fusion.ekf import (
     IntArray,
+    epoch_buffers,
     epoch_innovations,
     epoch_update,
     max_epoch_obs,
@@ -82,13 +83,7 @@ def mbf_backward(
     big_lam = np.zeros((n, n))
     max_m = max_epoch_obs(obs_ptr)
     width = 2 * dim
-    h_idx = np.zeros((max_m, width), dtype=np.int64)
-    h_val = np.zeros((max_m, width))
-    h_cnt = np.zeros(max_m, dtype=np.int64)
-    v = np.zeros(max_m)
-    d = np.zeros(max_m)
-    ph = np.zeros(n)
-    x_prior = np.zeros(n)
+    h_idx, h_val, h_cnt, v, d, ph, x_prior = epoch_buffers(max_m, dim, n)
     # one block's filtered states, covariances and scalar-update records
     bx = np.empty((block, n))
     bc = np.empty((block, n, n))
