@@ -22,10 +22,38 @@ class RunSummary:
     facts: dict[str, Any] = field(default_factory=dict)
 
 
+#: Below this magnitude (m) a value is near zero: its change is given in metres, not in
+#: percent (a percent of a few millimetres is noise; the report tables use the same rule).
+NEAR_ZERO_M = 0.01
+
+
 def _change(new: float, old: float) -> str:
-    if not (math.isfinite(new) and math.isfinite(old)) or old == 0:
+    """The change from ``old`` to ``new`` (magnitudes in m): percent of ``old``, or the
+    absolute change in m when ``|old|`` is below :data:`NEAR_ZERO_M`; "no change" when it
+    rounds to zero at the printed digits (no "+0.0%" / "-0.0%")."""
+    if not (math.isfinite(new) and math.isfinite(old)):
         return "n/a"
-    return f"{100.0 * (new - old) / old:+.1f}%"
+    if abs(old) < NEAR_ZERO_M:
+        delta = round(new - old, 3)
+        return "no change" if delta == 0 else f"{delta:+.3f} m"
+    pct = round(100.0 * (new - old) / abs(old), 1)
+    return "no change" if pct == 0 else f"{pct:+.1f}%"
+
+
+def _count(n: int, noun: str) -> str:
+    """``1 event``, ``2 events``, ``0 events``."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
+
+
+def _events_header(name: str, n_events: int, with_events: int, n_pairs: int) -> str:
+    """``NLOS events (DI-Based): 4 on 2 of 3 pairs`` (pairs with events of all pairs)."""
+    if n_events == 0:
+        where = f"none on {_count(n_pairs, 'pair')}"
+    elif with_events == n_pairs:
+        where = f"{n_events} on {'all ' if n_pairs > 1 else ''}{_count(n_pairs, 'pair')}"
+    else:
+        where = f"{n_events} on {with_events} of {_count(n_pairs, 'pair')}"
+    return f"NLOS events ({name}): {where}"
 
 
 def _lookup(table: pd.DataFrame, key: str, value: str, method: str, column: str) -> float:
@@ -66,11 +94,13 @@ def summarize(output: PipelineOutput) -> RunSummary:
     pairs = sorted(result.ranges["pair"].unique())
     if detector is None:
         lines.append(
-            f"NLOS events: none (no NLOS-detecting method in the chain), {len(pairs)} pairs"
+            "NLOS events: none (no NLOS-detecting method in the chain), "
+            + _count(len(pairs), "pair")
         )
     else:
+        with_events = len({str(p) for p in det_events["pair"].unique()} & {str(p) for p in pairs})
         name = _LONG.get(detector, detector)
-        lines.append(f"NLOS events ({name}): {len(det_events)} on {len(pairs)} pairs")
+        lines.append(_events_header(name, len(det_events), with_events, len(pairs)))
     for pair in pairs:
         n_events = int((det_events["pair"] == pair).sum())
         rmse = {m: _lookup(result.metrics, "pair", pair, m, "rmse") for m in range_methods}
@@ -80,9 +110,11 @@ def summarize(output: PipelineOutput) -> RunSummary:
             parts = [f"range RMSE observed {obs:.3f} m"] + [
                 f"{_SHORT.get(m, m)} {rmse[m]:.3f} m ({_change(rmse[m], obs)})" for m in processed
             ]
-            lines.append(f"  {pair}: {n_events} events, " + ", ".join(parts))
+            lines.append(f"  {pair}: {_count(n_events, 'event')}, " + ", ".join(parts))
         else:
-            lines.append(f"  {pair}: {n_events} events (no reference: no error statistics)")
+            lines.append(
+                f"  {pair}: {_count(n_events, 'event')} (no reference: no error statistics)"
+            )
     pm = result.position_metrics
     primary = _primary(tuple(methods["positions"]))
     worse: list[str] = []

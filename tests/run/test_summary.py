@@ -35,8 +35,12 @@ def _output(nav: float, observed: float, di: float) -> Any:
 
 def test_lines_follow_the_run_methods() -> None:
     summary = summarize(_output(0.3, 0.2, 0.1))
-    assert summary.lines[0] == "NLOS events (DI-Based): 1 on 1 pairs"
-    assert summary.lines[1] == ("  A-B: 1 events, range RMSE observed 0.200 m, DI 0.050 m (-75.0%)")
+    assert summary.lines[0] == "NLOS events (DI-Based): 1 on 1 pair"
+    assert summary.lines[1] == "  A-B: 1 event, range RMSE observed 0.200 m, DI 0.050 m (-75.0%)"
+    assert summary.lines[2] == (
+        "  A: mean horizontal error own nav 0.300 m, fused observed 0.200 m, fused DI 0.100 m "
+        "(-50.0%)"
+    )
     assert not any(line.startswith("warning") for line in summary.lines)
     assert "worse_than_nav" not in summary.facts
 
@@ -47,3 +51,44 @@ def test_fused_worse_than_own_navigation_is_said() -> None:
     assert summary.lines[-1].startswith("warning: the fused positions of A are worse than")
     # within 10 % / 2 cm of the navigation it is not
     assert "worse_than_nav" not in summarize(_output(0.30, 0.32, 0.31)).facts
+
+
+def _three_pairs(events: list[str], rmse: dict[str, tuple[float, float]]) -> Any:
+    """Three pairs, DI events on ``events`` (one each), observed and DI RMSE per pair."""
+    out = _output(0.3, 0.2, 0.1)
+    pairs = ["A-B", "A-C", "B-C"]
+    out.result.ranges = pd.DataFrame({"pair": pairs})
+    out.result.nlos_events = pd.DataFrame({"pair": events, "method": ["di"] * len(events)})
+    out.result.metrics = pd.DataFrame(
+        {
+            "pair": [p for p in pairs for _ in range(2)],
+            "method": ["observed", "di"] * 3,
+            "rmse": [v for p in pairs for v in rmse[p]],
+        }
+    )
+    return out
+
+
+def test_the_header_counts_the_pairs_with_events() -> None:
+    rmse = {"A-B": (0.2, 0.05), "A-C": (0.1, 0.1), "B-C": (0.2, 0.1)}
+    lines = summarize(_three_pairs(["A-B", "A-B", "B-C", "B-C"], rmse)).lines
+    assert lines[0] == "NLOS events (DI-Based): 4 on 2 of 3 pairs"
+    assert lines[1].startswith("  A-B: 2 events, ")
+    assert lines[2].startswith("  A-C: 0 events, ")
+    assert summarize(_three_pairs(["A-B", "A-C", "B-C"], rmse)).lines[0] == (
+        "NLOS events (DI-Based): 3 on all 3 pairs"
+    )
+    assert summarize(_three_pairs([], rmse)).lines[0] == "NLOS events (DI-Based): none on 3 pairs"
+    assert summarize(_three_pairs(["B-C"], rmse)).lines[3].startswith("  B-C: 1 event, ")
+
+
+def test_changes_say_no_change_and_metres_near_zero() -> None:
+    """No signed zero ("-0.0%"); a change of a value under 1 cm in metres, not percent."""
+    rmse = {"A-B": (0.2, 0.19999), "A-C": (0.004, 0.006), "B-C": (0.005, 0.005)}
+    lines = summarize(_three_pairs(["A-B"], rmse)).lines
+    assert lines[1] == "  A-B: 1 event, range RMSE observed 0.200 m, DI 0.200 m (no change)"
+    assert lines[2] == "  A-C: 0 events, range RMSE observed 0.004 m, DI 0.006 m (+0.002 m)"
+    assert lines[3] == "  B-C: 0 events, range RMSE observed 0.005 m, DI 0.005 m (no change)"
+    # a platform whose fused error equals its observed one to the printed digits
+    same = summarize(_output(0.025, 0.0250, 0.025004)).lines[2]
+    assert same.endswith("fused DI 0.025 m (no change)"), same
