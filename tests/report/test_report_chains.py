@@ -300,7 +300,8 @@ def test_figures_draw_the_run_methods(chain: str, loaded: RunTables) -> None:
 
 def test_without_di_the_last_processed_method_is_primary() -> None:
     """rn and a later method ``smooth`` both detect NLOS: smooth's events are shaded and
-    get the convergence panels (one event on A-B), rn's join them where they overlap."""
+    get the convergence panels (one event on A-B), rn's join them where they overlap and
+    get panels of their own where they do not (B-C)."""
     run = chain_run("no_di")
     ranges = run.ranges.copy()
     ranges.insert(4, "smooth", ranges["rn"] + 0.01)
@@ -326,8 +327,12 @@ def test_without_di_the_last_processed_method_is_primary() -> None:
     }
     assert spans == {"A-B": 1, "A-C": 0, "B-C": 0}
     panels = figures["nlos_convergence"].axes
-    assert [ax.get_title(loc="left").split(",")[0] for ax in panels] == ["(a) A-B"]
+    assert [ax.get_title(loc="left") for ax in panels] == [
+        "(a) A-B, event 1 (t = 31 s)",
+        "(b) B-C, RN-Based event 1 (t = 51 s)",
+    ]
     assert {ln.get_gid() for ln in panels[0].get_lines()} >= {"smooth", "rn"}
+    assert {ln.get_gid() for ln in panels[1].get_lines()} - {"reference_bias"} == {"rn"}
     assert "position_errors" not in figures  # the run lists no position method
 
 

@@ -1,0 +1,95 @@
+"""A run of sample_logs: every NLOS event with estimates is in the convergence figure, and
+the report.html of the run reads as a page (notes, method names, no figures when asked)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib as mpl
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from coopproc.cli import main
+from coopproc.report.convergence import convergence_panels
+from coopproc.report.figures import figure_pages
+from coopproc.report.rundir import RunTables, load_run
+from coopproc.report.style import RC
+
+SAMPLE = Path(__file__).resolve().parents[2] / "sample_logs"
+
+
+@pytest.fixture(scope="module")
+def sample_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    if not SAMPLE.is_dir():
+        pytest.skip("no sample_logs/ in this checkout")
+    out = tmp_path_factory.mktemp("sample") / "run"
+    result = CliRunner().invoke(main, ["run", str(SAMPLE), "-o", str(out), "--no-figures", "-q"])
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def _expected_events(run: RunTables) -> list[tuple[str, str, tuple[float, ...]]]:
+    """(pair, method, estimates in step order) of every nlos_events row whose span holds
+    estimates of its pair and method."""
+    assert run.nlos_estimates is not None
+    est = run.nlos_estimates
+    out = []
+    for ev in run.nlos_events.itertuples():
+        rows = est[
+            (est["pair"] == ev.pair)
+            & (est["method"] == ev.method)
+            & (est["time"] >= ev.start)
+            & (est["time"] <= ev.end)
+        ]
+        if len(rows):
+            values = rows.sort_values("step")["estimate"].to_numpy(dtype=float)
+            out.append((str(ev.pair), str(ev.method), tuple(np.round(values, 6))))
+    return out
+
+
+def test_every_event_with_estimates_is_a_series(sample_run: Path) -> None:
+    """sample_logs has RN-Based events outside the DI events' estimation steps (B-C at
+    t = 485 s lies in DI event 2's span, 15 s after its last step): matched by the steps'
+    times it was dropped; by the events' spans it is drawn."""
+    run = load_run(sample_run)
+    expected = _expected_events(run)
+    methods = {m for _, m, _ in expected}
+    assert methods == {"di", "rn"}
+    assert len(expected) == 9  # 4 DI, 5 RN (A-B's third RN event has no estimation step)
+    with mpl.rc_context(RC):
+        figs = [p.draw() for p in figure_pages(run) if p.name == "nlos_convergence"]
+    drawn = []
+    for fig in figs:
+        for ax in fig.axes:
+            pair = ax.get_title(loc="left").split()[1].rstrip(",")
+            for line in ax.get_lines():
+                if line.get_gid() in methods:
+                    values = np.round(np.asarray(line.get_ydata(), dtype=float), 6)
+                    drawn.append((pair, str(line.get_gid()), tuple(values)))
+    assert sorted(drawn) == sorted(expected)
+
+
+def test_an_event_beside_the_primary_ones_gets_its_own_panel(sample_run: Path) -> None:
+    """Two RN events inside one DI span: the first joins the DI panel, the second has its
+    own panel, titled with its method; an RN event overlapping no DI event likewise."""
+    run = load_run(sample_run)
+    titles = [title for title, _, _ in convergence_panels(run)]
+    assert titles == [
+        "A-B, event 1 (t = 120 s)",
+        "A-B, event 2 (t = 381 s)",
+        "B-C, event 1 (t = 230 s)",
+        "B-C, event 2 (t = 470 s)",
+        "B-C, RN-Based event 3 (t = 485 s)",
+    ]
+    assert run.nlos_estimates is not None
+    lone = run.nlos_estimates.iloc[[0]].assign(
+        pair="A-B", method="rn", event=9, step=1, time=run.nlos_events["start"].min() - 50.0
+    )
+    moved = RunTables(
+        **{**vars(run), "nlos_estimates": pd.concat([run.nlos_estimates, lone], ignore_index=True)}
+    )
+    panels = convergence_panels(moved)
+    assert panels[0][0].startswith("A-B, RN-Based event 9 (t = 70 s)")
+    assert set(panels[0][1]["method"]) == {"rn"} and len(panels) == 6
