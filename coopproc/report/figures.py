@@ -48,16 +48,28 @@ from coopproc.report.evaluation_plots import (
 )
 from coopproc.report.methods import position_methods, primary_method, range_methods
 from coopproc.report.pages import FigureOptions, page_ranges, page_stem
-from coopproc.report.panels import Panels, colorbar_below, grid, groups, legend, stack, time_label
+from coopproc.report.panels import (
+    Panels,
+    colorbar_below,
+    grid_layout,
+    groups,
+    legend,
+    stack_layout,
+    time_label,
+)
 from coopproc.report.plots import (
     plot_di_errors,
     plot_distance_errors,
     plot_nlos_convergence,
     plot_position_errors,
-    plot_trajectory,
 )
 from coopproc.report.rundir import RunTables
-from coopproc.report.style import RC
+from coopproc.report.trajectory_plots import (
+    mark_anchors,
+    mark_start_end,
+    plot_trajectory,
+    run_anchors,
+)
 
 __all__ = [
     "FIGURE_NAMES",
@@ -132,7 +144,7 @@ def _distance_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels 
         rows, shaded = by_pair[pair], events_by_pair.get(pair, no_events)
         plot_distance_errors(ax, rows, shaded, methods=methods, time_origin_s=t0)
 
-    return Panels(pairs, pairs, stack, draw, _time_finish(t0))
+    return Panels(pairs, pairs, stack_layout(opts.style), draw, _time_finish(t0))
 
 
 def _di_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
@@ -147,7 +159,7 @@ def _di_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None
     def draw(ax: Axes, i: int) -> None:
         plot_di_errors(ax, by_pair[pairs[i]], time_origin_s=t0)
 
-    return Panels(pairs, pairs, stack, draw, _time_finish(t0))
+    return Panels(pairs, pairs, stack_layout(opts.style), draw, _time_finish(t0))
 
 
 def _platform_rows(
@@ -180,7 +192,7 @@ def _position_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels 
         plot_position_errors(ax, rows, methods=methods, time_origin_s=t0)
 
     titles = [f"Platform {p}" for p in platforms]
-    return Panels(platforms, titles, stack, draw, _time_finish(t0))
+    return Panels(platforms, titles, stack_layout(opts.style), draw, _time_finish(t0))
 
 
 def _nlos_convergence(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
@@ -194,22 +206,24 @@ def _nlos_convergence(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels
         plot_nlos_convergence(ax, rows, reference_bias_m=bias)
 
     titles = [title for title, _, _ in panels]
-    return Panels(titles, titles, lambda n: grid(n, 1.55), draw)
+    return Panels(titles, titles, grid_layout(1.55, opts.style), draw)
 
 
 def _trajectories(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
-    """Tracks in the east-north plane, one panel per moving platform (paper 000 fig. 7)."""
+    """Tracks in the east-north plane, one panel per moving platform (paper 000 fig. 7):
+    start, end and anchors marked, a zoomed inset where the methods overlap."""
     by_platform = {p: rows for p, rows in g.positions().items() if opts.keep_platform(p)}
     platforms = sorted(by_platform)
     if not platforms:
         return None
     methods = ("reference", "nav", *position_methods(run))
+    anchors = run_anchors(run)
 
     def draw(ax: Axes, i: int) -> None:
-        plot_trajectory(ax, by_platform[platforms[i]], methods=methods)
+        plot_trajectory(ax, by_platform[platforms[i]], methods=methods, anchors=anchors)
 
     titles = [f"Platform {p}" for p in platforms]
-    return Panels(platforms, titles, lambda n: grid(n, 2.3), draw)
+    return Panels(platforms, titles, grid_layout(2.3, opts.style), draw)
 
 
 def _error_cdf(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
@@ -224,7 +238,7 @@ def _error_cdf(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None
         plot_error_cdf(ax, by_platform[platforms[i]], methods=methods)
 
     titles = [f"Platform {p}" for p in platforms]
-    return Panels(platforms, titles, lambda n: grid(n, 2.0), draw)
+    return Panels(platforms, titles, grid_layout(2.0, opts.style), draw)
 
 
 def _error_track(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
@@ -240,9 +254,15 @@ def _error_track(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | No
     errors = [rows["error_h"].to_numpy(dtype=np.float64) for rows in own.values()]
     norm = error_norm(np.concatenate(errors))
     by_platform = g.positions()
+    anchors = run_anchors(run)
 
     def draw(ax: Axes, i: int) -> Any:
-        return plot_error_track(ax, by_platform[platforms[i]], method, norm=norm)
+        rows = by_platform[platforms[i]]
+        dots = plot_error_track(ax, rows, method, norm=norm)
+        track = own[platforms[i]].sort_values("time", kind="stable")
+        mark_start_end(ax, track["east"].to_numpy(float), track["north"].to_numpy(float))
+        mark_anchors(ax, anchors)
+        return dots
 
     def finish(fig: Figure, axes: list[Axes], drawn: list[Any]) -> None:
         dots = [d for d in drawn if d is not None]
@@ -251,7 +271,8 @@ def _error_track(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | No
         legend(fig, axes)
 
     titles = [f"Platform {p}" for p in platforms]
-    return Panels(platforms, titles, lambda n: grid(n, 2.3, colorbar=True), draw, finish)
+    layout = grid_layout(2.3, opts.style, colorbar=True)
+    return Panels(platforms, titles, layout, draw, finish)
 
 
 _BUILDERS: dict[str, Callable[[RunTables, FigureOptions, _Groups], Panels | None]] = {
@@ -283,7 +304,7 @@ class FigurePage:
 
 def figure_pages(run: RunTables, options: FigureOptions | None = None) -> Iterator[FigurePage]:
     """Every page the run's data allow, in figure order; nothing is drawn until a page's
-    ``draw()`` is called (inside ``matplotlib.rc_context(RC)``)."""
+    ``draw()`` is called (it applies the style of ``options``: ``rc_context(style.rc)``)."""
     opts = options or FigureOptions()
     g = _Groups(run)
     for name, build in _BUILDERS.items():
@@ -300,8 +321,14 @@ def figure_pages(run: RunTables, options: FigureOptions | None = None) -> Iterat
                 keys=tuple(panels.keys[i] for i in at),
                 first=at.start,
                 total=len(panels.keys),
-                draw=lambda p=panels, at=at: p.page(at),  # type: ignore[misc]
+                draw=lambda p=panels, at=at: _draw_styled(p, at, opts),  # type: ignore[misc]
             )
+
+
+def _draw_styled(panels: Panels, at: Sequence[int], opts: FigureOptions) -> Figure:
+    """A page drawn in the fonts of ``opts.style`` whatever the caller's rc settings."""
+    with mpl.rc_context(opts.style.rc):
+        return panels.page(at)
 
 
 def _first_page(name: str) -> Callable[..., Figure | None]:
@@ -310,7 +337,7 @@ def _first_page(name: str) -> Callable[..., Figure | None]:
         panels = _BUILDERS[name](run, opts, _Groups(run))
         if panels is None:
             return None
-        return panels.page(range(min(len(panels.keys), opts.max_panels)))
+        return _draw_styled(panels, range(min(len(panels.keys), opts.max_panels)), opts)
 
     first.__doc__ = f"The first page of ``{name}`` (None without data)."
     return first
@@ -327,7 +354,8 @@ error_track_figure = _first_page("error_track")
 
 def make_figures(run: RunTables, options: FigureOptions | None = None) -> dict[str, Figure]:
     """Every page the run's data allow, by file stem (see the module table)."""
-    with mpl.rc_context(RC):
+    style = (options or FigureOptions()).style
+    with mpl.rc_context(style.rc):
         return {page.stem: page.draw() for page in figure_pages(run, options)}
 
 
@@ -358,7 +386,8 @@ def write_figures(
     fig_dir = Path(fig_dir)
     fig_dir.mkdir(parents=True, exist_ok=True)
     written = []
-    with mpl.rc_context(RC):
+    style = (options or FigureOptions()).style
+    with mpl.rc_context(style.rc):
         for page in figure_pages(run, options):
             fig = page.draw()
             for fmt in formats:

@@ -24,7 +24,7 @@ import pandas as pd
 from coopproc.errors import ConfigError
 from coopproc.model import pair_members, pair_name
 from coopproc.report.rundir import RunTables
-from coopproc.report.style import MAX_PANELS
+from coopproc.report.style import DEFAULT_STYLE, MAX_PANELS, FigureStyle
 
 __all__ = [
     "FigureOptions",
@@ -42,11 +42,13 @@ __all__ = [
 
 @dataclass(frozen=True)
 class FigureOptions:
-    """The pairs and platforms to draw (None: all) and the most panels per page."""
+    """The pairs and platforms to draw (None: all), the most panels per page and the
+    figure style (sizes and fonts, ``--style``)."""
 
     pairs: tuple[str, ...] | None = None
     platforms: tuple[str, ...] | None = None
     max_panels: int = MAX_PANELS
+    style: FigureStyle = DEFAULT_STYLE
 
     def __post_init__(self) -> None:
         if self.max_panels < 1:
@@ -150,6 +152,7 @@ def check_selection(
     pairs: Sequence[str] | None = None,
     platforms: Sequence[str] | None = None,
     max_panels: int = MAX_PANELS,
+    style: FigureStyle = DEFAULT_STYLE,
 ) -> FigureOptions:
     """:class:`FigureOptions` for ``run``; an unknown pair or platform raises ConfigError
     listing the run's. ``B-A`` is taken as the pair ``A-B``."""
@@ -159,6 +162,7 @@ def check_selection(
         if platforms is None
         else check_names(platforms, run_platforms(run), "platform"),
         max_panels=max_panels,
+        style=style,
     )
 
 

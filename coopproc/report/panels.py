@@ -19,16 +19,18 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from coopproc.report.pages import panel_label
-from coopproc.report.style import COLUMN_WIDTH_IN, PANEL_HEIGHT_IN, WIDE_WIDTH_IN
+from coopproc.report.style import DEFAULT_STYLE, PANEL_HEIGHT_IN, FigureStyle
 
 __all__ = [
     "Layout",
     "Panels",
     "colorbar_below",
     "grid",
+    "grid_layout",
     "groups",
     "legend",
     "stack",
+    "stack_layout",
     "time_label",
 ]
 
@@ -44,27 +46,51 @@ _COLORBAR_IN = 0.5
 Layout = Callable[[int], tuple[Figure, list[Axes]]]
 
 
-def stack(n: int) -> tuple[Figure, list[Axes]]:
-    """Panels stacked in one column sharing the time axis; a 3-column grid beyond 6."""
+def stack(n: int, style: FigureStyle = DEFAULT_STYLE) -> tuple[Figure, list[Axes]]:
+    """Panels stacked in one column (``style.column_width_in`` wide) sharing the time
+    axis; a grid beyond 6."""
     if n > _MAX_STACK:
-        return grid(n, PANEL_HEIGHT_IN, sharex=True)
-    fig = Figure(figsize=(COLUMN_WIDTH_IN, 0.55 + PANEL_HEIGHT_IN * n), layout="constrained")
+        return grid(n, PANEL_HEIGHT_IN, sharex=True, style=style)
+    size = (style.column_width_in, 0.55 + PANEL_HEIGHT_IN * n)
+    fig = Figure(figsize=size, layout="constrained")
     axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
     return fig, list(axes)
 
 
+def stack_layout(style: FigureStyle = DEFAULT_STYLE) -> Layout:
+    """:func:`stack` in ``style``."""
+    return lambda n: stack(n, style)
+
+
+def grid_layout(
+    row_height_in: float,
+    style: FigureStyle = DEFAULT_STYLE,
+    *,
+    colorbar: bool = False,
+) -> Layout:
+    """:func:`grid` of rows ``row_height_in`` high in ``style``."""
+    return lambda n: grid(n, row_height_in, colorbar=colorbar, style=style)
+
+
 def grid(
-    n: int, row_height_in: float, *, sharex: bool = False, colorbar: bool = False
+    n: int,
+    row_height_in: float,
+    *,
+    sharex: bool = False,
+    colorbar: bool = False,
+    style: FigureStyle = DEFAULT_STYLE,
 ) -> tuple[Figure, list[Axes]]:
-    """``n`` panels in up to 3 columns (full text width), rows of ``row_height_in``.
+    """``n`` panels in up to ``style.max_columns`` columns (3 by default, full text
+    width), rows of ``row_height_in`` (times ``style.row_scale``).
 
     Up to 6 panels the constrained layout fits labels and legend; beyond, fixed margins
     in inches (:data:`_FIXED_MARGINS_IN`) do, since the constrained layout solver costs
     about 0.1 s a panel; ``colorbar`` keeps room below the panels for one
     (:func:`colorbar_below`), ``sharex`` leaves the x tick labels to the bottom row."""
-    ncols = min(n, 3)
+    ncols = min(n, style.max_columns)
     nrows = math.ceil(n / ncols)
-    width = COLUMN_WIDTH_IN if ncols == 1 else WIDE_WIDTH_IN * (0.67 if ncols == 2 else 1.0)
+    width = style.grid_width_in(ncols)
+    row_height_in *= style.row_scale
     if n <= _MAX_STACK:
         fig = Figure(figsize=(width, 0.45 + row_height_in * nrows), layout="constrained")
     else:

@@ -27,6 +27,7 @@ from coopproc.model import gap_limit_s
 from coopproc.report.decimate import decimate
 from coopproc.report.methods import position_methods_of, range_methods_of
 from coopproc.report.style import DI_STYLES, NLOS_SPAN, method_style
+from coopproc.report.trajectory_plots import plot_trajectory  # moved; re-exported
 
 __all__ = [
     "plot_di_errors",
@@ -187,43 +188,4 @@ def plot_nlos_convergence(
         ax.set_xlim(float(steps[0]) - 1.0, float(steps[0]) + 1.0)
     ax.set_xlabel("Estimation step")
     ax.set_ylabel("NLOS estimate (m)")
-    return ax
-
-
-def plot_trajectory(
-    ax: Axes,
-    platform_positions: pd.DataFrame,
-    *,
-    methods: Sequence[str] | None = None,
-) -> Axes:
-    """The platform's track in the east-north plane per method, start marked by a circle.
-
-    ``methods`` default: ``reference``, ``nav``, then the position methods of the rows.
-    """
-    if methods is None:
-        methods = ("reference", "nav", *position_methods_of(platform_positions))
-    by_method = _by_method(platform_positions)
-    for method in methods:
-        if method not in by_method:
-            continue
-        rows = by_method[method].sort_values("time", kind="stable")
-        east, north = _values(rows, "east"), _values(rows, "north")
-        keep = np.isfinite(east) & np.isfinite(north)
-        if not keep.any():
-            continue
-        style = method_style(method)
-        _, x, y = _break_gaps(_values(rows, "time")[keep], east[keep], north[keep])
-        ax.plot(x, y, gid=method, **style.kwargs(east[keep].size))
-        ax.plot(
-            east[keep][:1],
-            north[keep][:1],
-            "o",
-            color=style.color,
-            markersize=3,
-            gid=f"{method}_start",
-            label="_nolegend_",
-        )
-    ax.set_xlabel("East (m)")
-    ax.set_ylabel("North (m)")
-    ax.set_aspect("equal", adjustable="datalim")
     return ax

@@ -2,7 +2,9 @@
 
 Colours follow paper 000 where its captions say (fig. 11/12: observed blue solid, RN-Based
 green dashed, DI-Based orange dash-dotted; fig. 8: cooperative positioning blue dashed,
-dead reckoning orange solid, smoothed green dash-dotted). ``RC`` is applied with
+dead reckoning orange solid, smoothed green dash-dotted). The figure sizes and
+fonts come from a :class:`FigureStyle` (``--style default|single-column|double-column``,
+:data:`STYLES`); its ``rc`` (``RC`` for the default) is applied with
 ``matplotlib.rc_context`` around figure making only; nothing here changes global state.
 """
 
@@ -12,8 +14,11 @@ import zlib
 from dataclasses import dataclass
 from typing import Any
 
+from coopproc.errors import ConfigError
+
 __all__ = [
     "COLUMN_WIDTH_IN",
+    "DEFAULT_STYLE",
     "DI_STYLES",
     "EXTRA_COLORS",
     "EXTRA_DASHES",
@@ -23,8 +28,12 @@ __all__ = [
     "NLOS_SPAN",
     "PANEL_HEIGHT_IN",
     "RC",
+    "STYLES",
+    "STYLE_NAMES",
     "WIDE_WIDTH_IN",
+    "FigureStyle",
     "LineStyle",
+    "figure_style",
     "method_style",
 ]
 
@@ -95,13 +104,8 @@ def method_style(method: str) -> LineStyle:
     return LineStyle(method, color, EXTRA_DASHES[(code // len(EXTRA_COLORS)) % len(EXTRA_DASHES)])
 
 
-RC: dict[Any, Any] = {
-    "font.size": 7.5,
-    "axes.titlesize": 7.5,
-    "axes.labelsize": 7.5,
-    "legend.fontsize": 7,
-    "xtick.labelsize": 7,
-    "ytick.labelsize": 7,
+#: Settings every style shares (grid, line widths, reproducible files).
+_BASE_RC: dict[Any, Any] = {
     "axes.grid": True,
     "grid.linewidth": 0.4,
     "grid.alpha": 0.5,
@@ -114,3 +118,73 @@ RC: dict[Any, Any] = {
     "svg.hashsalt": "coopproc",
     "pdf.compression": 6,
 }
+
+
+@dataclass(frozen=True)
+class FigureStyle:
+    """Widths and font sizes of the figures (``--style``). Figures are saved at their
+    print size, so a font size here is the size on paper.
+
+    ``column_width_in``: a figure of one column of panels (stacked time series, one
+    panel); ``wide_width_in``: a grid of ``max_columns`` panels a row (fewer panels a row
+    take ``two_columns_share`` of it for two); ``row_scale`` scales the height of grid rows.
+    """
+
+    name: str
+    column_width_in: float
+    wide_width_in: float
+    max_columns: int
+    text_pt: float
+    small_pt: float
+    row_scale: float = 1.0
+    two_columns_share: float = 0.67
+
+    def grid_width_in(self, ncols: int) -> float:
+        """Width of a figure of ``ncols`` panels a row."""
+        if ncols <= 1:
+            return self.column_width_in
+        if ncols == 2 and self.max_columns > 2:
+            return self.wide_width_in * self.two_columns_share
+        return self.wide_width_in
+
+    @property
+    def rc(self) -> dict[Any, Any]:
+        """The matplotlib settings of this style (for ``matplotlib.rc_context``)."""
+        return {
+            "font.size": self.text_pt,
+            "axes.titlesize": self.text_pt,
+            "axes.labelsize": self.text_pt,
+            "legend.fontsize": self.small_pt,
+            "xtick.labelsize": self.small_pt,
+            "ytick.labelsize": self.small_pt,
+            **_BASE_RC,
+        }
+
+
+#: ``default``: one-column stacks (3.5 in), grids up to 3 panels a row at 7 in, 7-7.5 pt;
+#: ``single-column``: every figure one journal column wide (IEEE 3.5 in = 88.9 mm), at
+#: most 2 panels a row, 8 pt; ``double-column``: every figure the full text width of a
+#: two-column page (IEEE 7.16 in = 181.9 mm), up to 3 panels a row, 9 pt text, 8 pt ticks
+#: and legend.
+STYLES: dict[str, FigureStyle] = {
+    "default": FigureStyle("default", COLUMN_WIDTH_IN, WIDE_WIDTH_IN, 3, 7.5, 7.0),
+    "single-column": FigureStyle(
+        "single-column", 3.5, 3.5, 2, 8.0, 8.0, row_scale=0.8, two_columns_share=1.0
+    ),
+    "double-column": FigureStyle("double-column", 7.16, 7.16, 3, 9.0, 8.0),
+}
+STYLE_NAMES: tuple[str, ...] = tuple(STYLES)
+DEFAULT_STYLE = STYLES["default"]
+
+
+def figure_style(name: str) -> FigureStyle:
+    """The style called ``name``; an unknown name raises ConfigError listing them."""
+    if name not in STYLES:
+        raise ConfigError(
+            f"unknown figure style {name!r}; expected one of {', '.join(STYLE_NAMES)}"
+        )
+    return STYLES[name]
+
+
+#: The settings of the default style.
+RC: dict[Any, Any] = DEFAULT_STYLE.rc

@@ -129,6 +129,12 @@ def write_run(
             "origin_llh": list(session.origin_llh)
             if session.config.origin_llh is not None or any(session.origin_llh)
             else None,
+            # fixed platforms' ENU positions: the figures mark them
+            "anchors": {
+                p.id: list(p.position_enu_m)
+                for p in session.platforms.values()
+                if p.role == "anchor" and p.position_enu_m is not None
+            },
         },
         "config": config.to_dict(),
         "pipeline": [
