@@ -135,7 +135,7 @@ def _json_frame(ch: Channel, where: Locator) -> pd.DataFrame:
     if frame is None:
         frame = pd.DataFrame.from_records(_json_rows(ch, where))
     if "time" not in frame.columns:
-        frame.insert(0, "time", np.asarray(ch.log_time_ns, dtype=np.float64) * 1e-9)
+        frame.insert(0, "time", np.asarray(ch.log_time_ns, dtype=np.int64) / 1e9)
     return frame
 
 

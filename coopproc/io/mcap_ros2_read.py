@@ -4,7 +4,8 @@ Fields are read for all messages at once through :mod:`cdr_fast` when the channe
 byte layout is fixed, else message by message with the mcap_ros2 decoder; both give the
 same arrays. Mapping (DATA.md, docs/formats.md): Odometry ``pose.pose.position`` = east,
 north, up, pose covariance diagonal -> sigmas, orientation -> heading, twist.linear ->
-ENU velocity (each "none" when all zero); NavSatFix geodetic with ``status`` -> Q; range
+ENU velocity (each "none" when all zero); NavSatFix geodetic with ``status`` -> Q
+(:mod:`navsat_status`; no-fix messages left out); range
 fields from ``session.toml [mcap]`` (dotted paths). Time: ``header.stamp`` where non-zero,
 else the log time.
 """
@@ -19,13 +20,10 @@ import pandas as pd
 from coopproc.io import cdr_fast
 from coopproc.io._common import Locator, RawTrajectory
 from coopproc.io.mcap_scan import Channel
+from coopproc.io.navsat_status import NAVSAT_TO_Q, navsat_quality
 from coopproc.io.session_toml import McapMapping
 
 __all__ = ["NAVSAT_TO_Q", "RosFields", "ros_range_frame", "ros_trajectory"]
-
-#: sensor_msgs/NavSatStatus status -> RTKLIB-style Q (2 GBAS/RTK -> 1 fix, 1 SBAS -> 3,
-#: 0 plain fix -> 5 single, -1 no fix -> 0).
-NAVSAT_TO_Q = {2: 1, 1: 3, 0: 5, -1: 0}
 
 
 class RosFields:
@@ -73,14 +71,19 @@ class RosFields:
         return np.asarray(values)
 
     def times(self) -> np.ndarray:
-        """Header stamps where non-zero, else log times (seconds)."""
-        t = np.asarray(self.ch.log_time_ns, dtype=np.float64) * 1e-9
+        """Header stamps where non-zero, else log times (seconds).
+
+        Whole nanoseconds divided by 1e9 once: the double nearest the stamp, the same
+        double a CSV time written with up to 9 decimals parses to (``sec + nsec * 1e-9``
+        is off by an ulp at times).
+        """
+        t_ns = np.asarray(self.ch.log_time_ns, dtype=np.int64)
         if self.has("header.stamp.sec"):
-            sec = self.get("header.stamp.sec").astype(np.float64)
-            nsec = self.get("header.stamp.nanosec").astype(np.float64)
+            sec = self.get("header.stamp.sec").astype(np.int64)
+            nsec = self.get("header.stamp.nanosec").astype(np.int64)
             stamped = (sec != 0) | (nsec != 0)
-            t = np.where(stamped, sec + nsec * 1e-9, t)
-        return t
+            t_ns = np.where(stamped, sec * 1_000_000_000 + nsec, t_ns)
+        return t_ns / 1e9
 
 
 def _attr(msg: Any, path: str) -> Any:
@@ -128,19 +131,24 @@ def ros_trajectory(ch: Channel, pid: str, where: Locator) -> RawTrajectory:
         )
     llh = np.column_stack([f.get(k) for k in ("latitude", "longitude", "altitude")])
     cov = np.asarray(f.get("position_covariance"), dtype=np.float64)[:, [0, 4, 8]]
-    status = f.get("status.status").astype(np.int64)
-    quality = np.zeros(status.size, dtype=np.int64)
-    for s, q in NAVSAT_TO_Q.items():
-        quality[status == s] = q
-    return RawTrajectory(
+    sigma = _sigma(cov)
+    sigma_h = None if sigma is None else np.hypot(sigma[:, 0], sigma[:, 1])
+    q = navsat_quality(
+        f.get("status.status"), f.get("status.service"), sigma_h, f"{where.path} {ch.topic}"
+    )
+    raw = RawTrajectory(
         platform=pid,
         time_s=time_s,
         position=llh.astype(np.float64),
         form="llh",
         source=where.path,
-        sigma_enu_m=_sigma(cov),
-        quality=quality,
+        sigma_enu_m=sigma,
+        quality=q.quality,
     )
+    if not q.keep.all():
+        raw = raw.take(np.flatnonzero(q.keep))
+    raw.notes.extend(q.notes)
+    return raw
 
 
 def _ids(values: np.ndarray) -> list[str]:

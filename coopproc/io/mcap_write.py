@@ -4,16 +4,22 @@ The file also carries the session's ``session.toml`` as an attachment named
 ``session.toml`` (roles, origin, time base and the ``[mcap]`` mapping used), so a single
 ``.mcap`` reads back to the same session. Log times are the epoch times in nanoseconds
 (the session time base must then be non-negative); ROS 2 header stamps hold the same time.
+JSON floats are written exactly (shortest round-trip text), so a JSON MCAP reads back to
+the same doubles; a ROS 2 NavSatFix carries the exact RTKLIB Q in its status
+(:mod:`navsat_status`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
+import pandas as pd
 import tomli_w
 from mcap.writer import CompressionType
 from mcap.writer import Writer as JsonWriter
@@ -21,14 +27,12 @@ from mcap_ros2.writer import Writer as Ros2Writer
 
 from coopproc.errors import OutputError
 from coopproc.frames import enu2geodetic
+from coopproc.io.navsat_status import navsat_status
 from coopproc.io.ros2_msgdefs import NAVSATFIX, ODOMETRY, UWB_RANGE, UWB_RANGE_MAPPING
 from coopproc.io.session_toml import McapMapping, session_toml_table
 from coopproc.model import Session, Trajectory
 
-__all__ = ["write_mcap"]
-
-#: RTKLIB Q -> sensor_msgs/NavSatStatus status (2 = GBAS/RTK, 1 = SBAS, 0 = fix, -1 none).
-Q_TO_NAVSAT = {1: 2, 2: 2, 3: 1, 4: 2, 5: 0, 6: 0}
+__all__ = ["json_lines", "write_mcap"]
 
 
 def _log_ns(time_s: np.ndarray, what: str) -> np.ndarray:
@@ -50,8 +54,16 @@ def write_mcap(
     *,
     encoding: Literal["json", "ros2"] = "json",
     compression: Literal["zstd", "lz4", "none"] = "zstd",
+    reference_llh: Mapping[str, np.ndarray] | None = None,
 ) -> Path:
-    """Write ``session`` as one MCAP file (chunks compressed as given); returns the path."""
+    """Write ``session`` as one MCAP file (chunks compressed as given); returns the path.
+
+    ``reference_llh``: per platform, the (n, 3) latitude, longitude (deg) and height (m)
+    of its reference epochs, written into the ROS 2 NavSatFix messages as they are
+    instead of converted from ENU (e.g. the values of the .pos file the session was read
+    from: ENU -> geodetic -> ENU moves a position by up to ~3 nm, enough to change the
+    6th decimal of an output now and then).
+    """
     p = Path(path)
     if compression not in _COMPRESSION:
         raise OutputError(f"compression {compression!r}; expected zstd, lz4 or none")
@@ -69,7 +81,8 @@ def write_mcap(
         if encoding == "json":
             _write_json(session, JsonWriter(fh, compression=chunks), mapping, toml_text)
         else:
-            _write_ros2(session, Ros2Writer(fh, compression=chunks), mapping, toml_text)
+            writer = Ros2Writer(fh, compression=chunks)
+            _write_ros2(session, writer, mapping, toml_text, reference_llh or {})
     return p
 
 
@@ -86,8 +99,7 @@ def _write_json(
     def emit(topic: str, frame: Any, time_s: np.ndarray) -> None:
         cid = channel(topic)
         log = _log_ns(time_s, topic)
-        lines = frame.to_json(orient="records", lines=True, double_precision=15).splitlines()
-        for seq, (line, t) in enumerate(zip(lines, log, strict=True)):
+        for seq, (line, t) in enumerate(zip(json_lines(frame), log, strict=True)):
             writer.add_message(cid, int(t), line.encode(), int(t), seq)
 
     for pid in sorted(session.nav):
@@ -100,6 +112,28 @@ def _write_json(
     if len(ranges):
         emit(mapping.range_topic, ranges, ranges["time"].to_numpy())
     writer.finish()
+
+
+def _json_values(column: pd.Series) -> list[str]:
+    if pd.api.types.is_bool_dtype(column):
+        return ["true" if v else "false" for v in column.tolist()]
+    if pd.api.types.is_integer_dtype(column):
+        return [str(v) for v in column.tolist()]
+    if pd.api.types.is_float_dtype(column):
+        # repr: the shortest text that parses back to the same double (17 digits at most);
+        # pandas' to_json stops at 15 significant digits.
+        return [repr(v) if math.isfinite(v) else "null" for v in column.tolist()]
+    return [json.dumps(v) if isinstance(v, str) else "null" for v in column.tolist()]
+
+
+def json_lines(frame: pd.DataFrame) -> list[str]:
+    """One flat JSON object per row, floats written exactly (they read back bit for bit)."""
+    keys = [json.dumps(str(c)) + ":" for c in frame.columns]
+    columns = [_json_values(frame[c]) for c in frame.columns]
+    return [
+        "{" + ",".join(k + v for k, v in zip(keys, row, strict=True)) + "}"
+        for row in zip(*columns, strict=True)
+    ]
 
 
 def _stamp(t: float) -> dict[str, int]:
@@ -143,7 +177,11 @@ def _odometry(traj: Trajectory, i: int, frame_id: str) -> dict[str, Any]:
 
 
 def _write_ros2(
-    session: Session, writer: Ros2Writer, mapping: McapMapping, toml_text: bytes
+    session: Session,
+    writer: Ros2Writer,
+    mapping: McapMapping,
+    toml_text: bytes,
+    reference_llh: Mapping[str, np.ndarray],
 ) -> None:
     writer.add_attachment(0, 0, "session.toml", "application/toml", toml_text)
     odom = writer.register_msgdef("nav_msgs/msg/Odometry", ODOMETRY)
@@ -157,16 +195,22 @@ def _write_ros2(
     for pid in sorted(session.reference):
         traj = session.reference[pid]
         topic = mapping.reference_topic.format(id=pid)
-        llh = enu2geodetic(traj.enu_m, session.origin_llh)
+        llh = reference_llh.get(pid)
+        if llh is None:
+            llh = enu2geodetic(traj.enu_m, session.origin_llh)
+        elif np.shape(llh) != traj.enu_m.shape:
+            raise OutputError(
+                f"reference_llh of {pid}: shape {np.shape(llh)}; expected {traj.enu_m.shape}"
+            )
         for i, t in enumerate(_log_ns(traj.time_s, topic)):
             cov = [0.0] * 9
             if traj.sigma_enu_m is not None:
                 for k in range(3):
                     cov[4 * k] = float(traj.sigma_enu_m[i, k]) ** 2
-            q = 1 if traj.quality is None else int(traj.quality[i])
+            status, service = navsat_status(None if traj.quality is None else traj.quality[i])
             msg = {
                 "header": {"stamp": _stamp(float(traj.time_s[i])), "frame_id": pid},
-                "status": {"status": Q_TO_NAVSAT.get(q, -1), "service": 1},
+                "status": {"status": status, "service": service},
                 "latitude": float(llh[i, 0]),
                 "longitude": float(llh[i, 1]),
                 "altitude": float(llh[i, 2]),
