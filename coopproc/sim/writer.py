@@ -3,7 +3,7 @@
 Layout of ``OUT``::
 
     session.toml, nav_<ID>.csv, ranges.csv, ref_<ID>.pos     (coopproc.io.write_session)
-    mcap/<name>.mcap                                          (with mcap=True)
+    mcap/<name>.mcap          (with mcap=True) the session as the files above hold it
     truth/traj_<ID>.csv        time, east, north, up, heading (true, nav rate)
     truth/distances.csv        time, pair, distance, error    (at every written range)
     truth/nlos_events.csv      pair, start, end, nominal_mean, realized_mean, epochs
@@ -22,13 +22,16 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shutil
 from pathlib import Path
 from typing import Any, Literal
 
+import numpy as np
 import pandas as pd
 import tomli_w
 
 from coopproc.io.outdir import atomic_output_dir, write_csv
+from coopproc.model import Session
 from coopproc.sim.params import SimParams, sparse_table
 from coopproc.sim.truth import (
     DISTANCE_COLUMNS,
@@ -42,7 +45,13 @@ from coopproc.sim.truth import (
     Truth,
 )
 
-__all__ = ["command_line", "describe_simulation", "write_simulation", "write_truth"]
+__all__ = [
+    "command_line",
+    "describe_simulation",
+    "session_as_written",
+    "write_simulation",
+    "write_truth",
+]
 
 
 def write_truth(
@@ -105,7 +114,9 @@ def write_simulation(
         if mcap:
             (tmp / "mcap").mkdir()
             target = tmp / "mcap" / f"{sim.scenario}.mcap"
-            written.append(write_mcap(sim.session, target, encoding=mcap_encoding))
+            as_files, llh = session_as_written(sim.session, tmp / "mcap" / "session")
+            mcap_file = write_mcap(as_files, target, encoding=mcap_encoding, reference_llh=llh)
+            written.append(mcap_file)
         header = {"scenario": sim.scenario, "seed": sim.seed}
         written.extend(write_truth(sim.truth, tmp / "truth", header=header))
         readme = tmp / "README.md"
@@ -114,6 +125,25 @@ def write_simulation(
         written.append(readme)
         relative = [Path(p).resolve().relative_to(tmp.resolve()) for p in written]
     return [out_dir / rel for rel in relative]
+
+
+def session_as_written(session: Session, scratch: Path) -> tuple[Session, dict[str, np.ndarray]]:
+    """The session as its written files give it back (every reference Q kept), and the
+    geodetic positions of its ``ref_<ID>.pos`` files.
+
+    This is what the MCAP holds: written from the in-memory session it would carry the
+    digits the CSV and .pos files round away (nav to 1 um, references to 1e-9 deg and
+    1 ms), and the two forms of one simulation would not give the same tables.
+    """
+    from coopproc.io import read_session, write_session
+    from coopproc.io.rtklib_pos import read_pos
+
+    every_q = dataclasses.replace(session.config, reference_quality=tuple(range(7)))
+    write_session(dataclasses.replace(session, config=every_q), scratch)
+    read = read_session(scratch)
+    llh = {pid: read_pos(scratch / f"ref_{pid}.pos", pid).position for pid in read.reference}
+    shutil.rmtree(scratch)
+    return dataclasses.replace(read, config=session.config, platforms=session.platforms), llh
 
 
 def _toml_value(value: Any) -> str:

@@ -19,6 +19,7 @@ from coopproc.cli import main
 from coopproc.io import read_session, write_mcap
 from coopproc.model import RangeTable
 from coopproc.sim import SCENARIOS, simulate, write_simulation
+from coopproc.sim.writer import session_as_written
 
 
 def _files(root: Path) -> dict[str, bytes]:
@@ -90,6 +91,7 @@ _SHORT = {
     "paper-table1": [],
     "anchors": ["--duration", "120"],
     "single-auxiliary": ["--duration", "120", "--set", "second_aux=true"],
+    "multi-auxiliary": ["--duration", "120"],
     "large": ["--duration", "300", "--platforms", "4"],
     "dr-faults": ["--duration", "120"],
     "noisy-leader": ["--duration", "120"],
@@ -178,7 +180,7 @@ def _same_json(one: bytes, two: bytes) -> bool:
     """Same keys in the same order, same values; floats equal to 1e-12 relative.
 
     numpy's sin/cos/arctan2 pick a SIMD kernel by CPU (AVX-512 or AVX2), and the kernels
-    can differ in the last bit; the JSON messages carry 15 digits, so the same simulation
+    can differ in the last bit; the JSON messages carry every digit, so the same simulation
     can differ there by ~1e-14 between machines. Any real change is far larger.
     """
     a, b = json.loads(one), json.loads(two)
@@ -224,7 +226,9 @@ def test_mcap_comparison_ignores_compression_sees_a_changed_range(tmp_path: Path
     write_simulation(other, tmp_path / "b", mcap=True)
     name = "mcap/paper-experiment.mcap"
     one, two = (_files(tmp_path / d)[name] for d in ("a", "b"))
-    lz4 = write_mcap(sim.session, tmp_path / "lz4.mcap", compression="lz4").read_bytes()
+    as_files, llh = session_as_written(sim.session, tmp_path / "scratch")
+    lz4_path = write_mcap(as_files, tmp_path / "lz4.mcap", compression="lz4", reference_llh=llh)
+    lz4 = lz4_path.read_bytes()
     assert lz4 != one and _same_file(name, one, lz4)
     assert not _same_file(name, one, two)
 
