@@ -21,6 +21,7 @@ import pandas as pd
 from coopproc.errors import ConfigError
 from coopproc.report.evaluation import EVALUATION_COLUMNS, check_alignments, evaluation
 from coopproc.report.formats import Format, render_table
+from coopproc.report.latex import LatexWidth
 from coopproc.report.methods import position_methods
 from coopproc.report.rpe import DEFAULT_SEGMENTS_M, RPE_COLUMNS, check_segments, rpe
 from coopproc.report.rundir import RunTables
@@ -52,7 +53,7 @@ for _axis, _tag in _AXIS_LABEL.items():
     _SPECS.update(
         {
             f"rms_{_axis}": MetricSpec(f"RMS {_tag}", "m"),
-            f"mean_{_axis}": MetricSpec(f"Bias {_tag}", "m", better="absmin"),
+            f"mean_{_axis}": MetricSpec(f"Bias {_tag}", "m", better="absmin", signed=True),
             f"std_{_axis}": MetricSpec(f"Std {_tag}", "m"),
             f"min_{_axis}": MetricSpec(f"Min {_tag}", "m", better=None),
             f"max_{_axis}": MetricSpec(f"Max {_tag}", "m", better=None),
@@ -211,12 +212,15 @@ def format_evaluation(
     segments_m: Sequence[float] = DEFAULT_SEGMENTS_M,
     metrics: Sequence[str] | None = None,
     platforms: Sequence[str] | None = None,
+    change: bool = True,
+    latex_width: LatexWidth = "single",
 ) -> str:
-    """The tables of :func:`evaluation_tables` in one format, separated by a blank line."""
+    """The tables of :func:`evaluation_tables` in one format, separated by a blank line
+    (``change``, ``latex_width``: as :func:`coopproc.report.formats.render_table`)."""
     tables = evaluation_tables(
         run, align=align, segments_m=segments_m, metrics=metrics, platforms=platforms
     )
-    return "\n".join(render_table(t, fmt) for t in tables)
+    return "\n".join(render_table(t, fmt, change=change, latex_width=latex_width) for t in tables)
 
 
 def evaluation_html(run: RunTables) -> str:

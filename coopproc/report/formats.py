@@ -1,39 +1,52 @@
 """Render the paper's tables as terminal text, CSV, Markdown, LaTeX (booktabs) or HTML.
 
-Every format shows the relative change against ``observed`` in % next to each value and
-marks the best value of each column within its group (pair or platform): ``*`` in the
-terminal, bold in Markdown / LaTeX / HTML, the ``best`` column in CSV.
+Every format shows the change against ``observed`` next to each value (in % for magnitudes,
+in the column's unit for signed statistics, dB and near-zero references:
+:mod:`coopproc.report.change`; ``change=False`` leaves it out) and marks the best value of
+each column within its group (pair or platform): ``*`` in the terminal, bold in Markdown /
+LaTeX / HTML, the ``best`` column in CSV. The LaTeX form is :mod:`coopproc.report.latex`.
 """
 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import html
 import io
 from collections.abc import Sequence
 from typing import Literal
 
 from coopproc.report.injected import injected_tables
+from coopproc.report.latex import LatexWidth, latex_table
 from coopproc.report.rundir import RunTables
-from coopproc.report.tables import METRIC_SPECS, MetricSpec, Row, Table, build_tables, method_label
+from coopproc.report.tables import (
+    METRIC_SPECS,
+    MetricSpec,
+    Row,
+    Table,
+    build_tables,
+    method_label,
+    number_text,
+)
 
-__all__ = ["Format", "format_tables", "render_table"]
+__all__ = ["CHANGE_NOTE", "Format", "format_tables", "render_table", "without_change"]
+
+#: What the change after a value means (the notes under the tables).
+CHANGE_NOTE = (
+    "change against Observed: in % for magnitudes, in the column's unit for signed values, "
+    "dB and values near zero"
+)
 
 Format = Literal["terminal", "csv", "md", "latex"]
 
 
 def _number(name: str, value: float) -> str:
-    spec = METRIC_SPECS.get(name, MetricSpec(name))
-    if value != value:  # NaN
-        return "-"
-    if value in (float("inf"), float("-inf")):
-        return "inf" if value > 0 else "-inf"
-    return f"{value:.{spec.decimals}f}"
+    return number_text(name, value)
 
 
 def _change(row: Row, name: str) -> str:
-    change = row.change_pct.get(name)
-    return "" if change is None else f"{change:+.1f}%"
+    change = row.change.get(name)
+    return "" if change is None else change.text()
 
 
 def _method(name: str) -> str:
@@ -44,7 +57,7 @@ def _note(table: Table, best_mark: str) -> str:
     what = table.group_label.lower()
     text = f"{best_mark} best of the column within each {what}"
     if table.has_change:
-        text += "; (+x.x%) relative change against Observed"
+        text += f"; in parentheses the {CHANGE_NOTE}"
     return text
 
 
@@ -82,7 +95,7 @@ def _csv(table: Table) -> str:
     for m in table.metrics:
         header.append(m)
         if table.has_change and m != "n":
-            header.append(f"{m}_change_pct")
+            header += [f"{m}_change", f"{m}_change_unit"]
     writer.writerow([*header, "best"])
     for row in table.rows:
         cells = [row.group, row.method]
@@ -91,8 +104,13 @@ def _csv(table: Table) -> str:
             integer = METRIC_SPECS.get(m, MetricSpec(m)).decimals == 0
             cells.append("" if value != value else (f"{value:.0f}" if integer else f"{value:.6f}"))
             if table.has_change and m != "n":
-                change = row.change_pct.get(m)
-                cells.append("" if change is None else f"{change:.2f}")
+                change = row.change.get(m)
+                if change is None:
+                    cells += ["", ""]
+                elif change.relative:
+                    cells += [f"{change.value:.2f}", change.unit]
+                else:
+                    cells += [f"{change.value:.6f}", change.unit]
         cells.append(";".join(m for m in table.metrics if m in row.best))
         writer.writerow(cells)
     return f"# {table.title}\n" + buf.getvalue()
@@ -113,55 +131,6 @@ def _markdown(table: Table) -> str:
             cells.append(f"{text} ({change})" if change else text)
         out.append("| " + " | ".join(cells) + " |")
     out += ["", f"*{_note(table, 'Bold:')}*"]
-    return "\n".join(out) + "\n"
-
-
-def _tex(text: str) -> str:
-    for char, repl in (("\\", r"\textbackslash{}"), ("_", r"\_"), ("%", r"\%"), ("&", r"\&")):
-        text = text.replace(char, repl)
-    return text.replace("#", r"\#")
-
-
-def _tex_number(text: str) -> str:
-    return f"$-${text[1:]}" if text.startswith("-") and text != "-" else text
-
-
-def _latex(table: Table) -> str:
-    header = [
-        table.group_label,
-        "Method",
-        *("$n$" if m == "n" else _tex(table.header(m)) for m in table.metrics),
-    ]
-    caption = _tex(table.title.split(". ", 1)[-1])
-    if table.has_change:
-        caption += r"; in parentheses the relative change against Observed (\%)"
-    caption += "; best of each column within each group in bold."
-    out = [
-        f"% {table.title} -- requires \\usepackage{{booktabs}}",
-        r"\begin{table}[htbp]",
-        r"\centering",
-        f"\\caption{{{caption}}}",
-        f"\\label{{tab:{table.key}}}",
-        r"\begin{tabular}{ll" + "r" * len(table.metrics) + "}",
-        r"\toprule",
-        " & ".join(header) + r" \\",
-        r"\midrule",
-    ]
-    previous = None
-    for row in table.rows:
-        if previous is not None and row.group != previous:
-            out.append(r"\midrule")
-        cells = [_tex(row.group) if row.group != previous else "", _tex(_method(row.method))]
-        previous = row.group
-        for m in table.metrics:
-            text = _tex_number(_number(m, row.values[m]))
-            text = f"\\textbf{{{text}}}" if m in row.best else text
-            change = row.change_pct.get(m)
-            if change is not None:
-                text += f" ({_tex_number(f'{change:+.1f}')}\\,\\%)"
-            cells.append(text)
-        out.append(" & ".join(cells) + r" \\")
-    out += [r"\bottomrule", r"\end{tabular}", r"\end{table}"]
     return "\n".join(out) + "\n"
 
 
@@ -195,13 +164,29 @@ _RENDERERS = {
     "terminal": _terminal,
     "csv": _csv,
     "md": _markdown,
-    "latex": _latex,
     "html": _html,
 }
 
 
-def render_table(table: Table, fmt: Format | Literal["html"]) -> str:
-    """One table in one format."""
+def without_change(table: Table) -> Table:
+    """``table`` without the changes against Observed (``--no-change``)."""
+    rows = tuple(dataclasses.replace(r, change={m: None for m in r.change}) for r in table.rows)
+    return dataclasses.replace(table, rows=rows, has_change=False)
+
+
+def render_table(
+    table: Table,
+    fmt: Format | Literal["html"],
+    *,
+    change: bool = True,
+    latex_width: LatexWidth = "single",
+) -> str:
+    """One table in one format; ``change=False``: without the changes against Observed;
+    ``latex_width``: the page layout the LaTeX form fits (:mod:`coopproc.report.latex`)."""
+    if not change:
+        table = without_change(table)
+    if fmt == "latex":
+        return latex_table(table, latex_width)
     return _RENDERERS[fmt](table)
 
 
@@ -212,15 +197,18 @@ def format_tables(
     metrics: Sequence[str] | None = None,
     pairs: Sequence[str] | None = None,
     platforms: Sequence[str] | None = None,
+    change: bool = True,
+    latex_width: LatexWidth = "single",
 ) -> str:
     """Table 2, Table 3, the NLOS scores (and, for an injected session, the injected-NLOS
     table) of a run in one format, separated by a blank line.
 
-    See :func:`coopproc.report.tables.build_tables` for the filters. CSV output holds one
-    block per table, each headed by a ``# title`` line.
+    See :func:`coopproc.report.tables.build_tables` for the filters and
+    :func:`render_table` for ``change`` and ``latex_width``. CSV output holds one block per
+    table, each headed by a ``# title`` line.
     """
     if fmt not in ("terminal", "csv", "md", "latex"):
         raise ValueError(f"unknown table format {fmt!r}")
     tables = build_tables(run, metrics=metrics, pairs=pairs, platforms=platforms)
     tables += injected_tables(run, metrics=metrics, pairs=pairs)  # a run of `coopproc inject`
-    return "\n".join(render_table(t, fmt) for t in tables)
+    return "\n".join(render_table(t, fmt, change=change, latex_width=latex_width) for t in tables)

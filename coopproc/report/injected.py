@@ -62,10 +62,10 @@ INJECTED_SCORE_COLUMNS: tuple[str, ...] = (
 _SPECS: dict[str, MetricSpec] = {
     "injected_mean": MetricSpec("Injected", "m", 4, None),
     "estimated": MetricSpec("Estimated", "m", 4, None),
-    "error": MetricSpec("Error", "m", 4, "absmin"),
+    "error": MetricSpec("Error", "m", 4, "absmin", signed=True),
     "error_pct": MetricSpec("Error", "%", 2, "min"),
     "detected": MetricSpec("Detected", "", 0, "max"),
-    "delay": MetricSpec("Delay", "s", 2, "absmin"),
+    "delay": MetricSpec("Delay", "s", 2, "absmin", signed=True),
 }
 for _name, _spec in _SPECS.items():
     METRIC_SPECS.setdefault(_name, _spec)
@@ -162,7 +162,7 @@ def injected_table(
                     group=f"{event} {rec['pair']}",
                     method=str(rec["method"]),
                     values={m: float(rec[m]) for m in metrics},
-                    change_pct={m: None for m in metrics},
+                    change={m: None for m in metrics},
                     best=frozenset(m for m in metrics if i in best[m]),
                 )
             )

@@ -1,15 +1,17 @@
 """The paper's tables as data: Table 2 (pair x method), Table 3 (platform x method), NLOS scores.
 
-A :class:`Table` holds the numbers, the relative change against ``observed`` in % (as the
-text of paper 000 quotes it) and which cell is the best of its column within each group
+A :class:`Table` holds the numbers, the change against ``observed`` (relative in % for
+magnitudes, absolute for signed statistics, dB and near-zero references: the rule of
+:mod:`coopproc.report.change`) and which cell is the best of its column within each group
 (pair or platform); :mod:`coopproc.report.formats` renders it as terminal text, CSV,
 Markdown, LaTeX or HTML. Rows are the methods of the metrics tables, in the run's method
 order when one is given (:mod:`coopproc.report.methods`); a method without a display name
 in :data:`METHOD_LABELS` is shown by its own name (:func:`method_label`).
 
-Relative change of a method's value v against the observed value o of the same group:
-``100 (v - o) / |o|``; for the signed ``mean`` it compares magnitudes,
-``100 (|v| - |o|) / |o|`` (paper 000: "the mean error ... fell by 17.07%").
+The ``mean`` of Table 2 (signed distance errors) is a signed statistic, so its change is
+absolute (paper 000's text compares magnitudes in %, "the mean error ... fell by 17.07%",
+which for a mean near zero prints thousands of %); Table 3's ``mean`` (of horizontal
+errors) is a magnitude.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import pandas as pd
 
 from coopproc.errors import ConfigError
 from coopproc.model import METRICS_COLUMNS
+from coopproc.report.change import Change, change_of
 from coopproc.report.methods import method_order, nlos_methods, position_methods, range_methods
 from coopproc.report.metrics import POSITION_METRICS_EXTRA_COLUMNS
 from coopproc.report.rundir import RunTables
@@ -39,6 +42,7 @@ __all__ = [
     "distance_table",
     "method_label",
     "nlos_table",
+    "number_text",
     "position_table",
     "run_method_orders",
 ]
@@ -59,6 +63,16 @@ def method_label(method: str) -> str:
     return METHOD_LABELS.get(method, method)
 
 
+def number_text(name: str, value: float) -> str:
+    """A statistic's value as the tables print it: the decimals of its :class:`MetricSpec`,
+    ``-`` for NaN, ``inf`` / ``-inf``."""
+    if value != value:  # NaN
+        return "-"
+    if value in (float("inf"), float("-inf")):
+        return "inf" if value > 0 else "-inf"
+    return f"{value:.{METRIC_SPECS.get(name, MetricSpec(name)).decimals}f}"
+
+
 @dataclass(frozen=True)
 class MetricSpec:
     """How one statistic is shown: header label, unit, decimals, which value is best."""
@@ -68,6 +82,8 @@ class MetricSpec:
     decimals: int = 4
     #: min / max: smallest / largest; absmin: smallest magnitude; one: closest to 1.
     better: Better | None = "min"
+    #: The statistic can be negative (a bias): its change against Observed is absolute.
+    signed: bool = False
 
 
 METRIC_SPECS: dict[str, MetricSpec] = {
@@ -97,12 +113,12 @@ _NLOS_DEFAULT = ("precision", "recall", "f1", "events", "estimate_mae")
 
 @dataclass(frozen=True)
 class Row:
-    """One method of one group: values, % change vs observed (None: not shown), best cells."""
+    """One method of one group: values, change vs observed (None: not shown), best cells."""
 
     group: str
     method: str
     values: dict[str, float]
-    change_pct: dict[str, float | None]
+    change: dict[str, Change | None]
     best: frozenset[str]
 
 
@@ -124,14 +140,17 @@ class Table:
         return f"{spec.label} ({spec.unit})" if spec.unit else spec.label
 
 
-def _change(name: str, value: float, observed: float) -> float | None:
-    if not (np.isfinite(value) and np.isfinite(observed)) or observed == 0 or name == "n":
+def _change(name: str, value: float, observed: float, signed: Sequence[str]) -> Change | None:
+    spec = METRIC_SPECS.get(name, MetricSpec(name))
+    if name == "n" or spec.better is None:
         return None
-    if METRIC_SPECS.get(name, MetricSpec(name)).better is None:
-        return None
-    if name == "mean":
-        return 100.0 * (abs(value) - abs(observed)) / abs(observed)
-    return 100.0 * (value - observed) / abs(observed)
+    return change_of(
+        value,
+        observed,
+        unit=spec.unit,
+        decimals=spec.decimals,
+        signed=spec.signed or name in signed,
+    )
 
 
 def _best(name: str, values: list[float]) -> set[int]:
@@ -158,6 +177,7 @@ def _build(
     group_label: str,
     with_change: bool,
     order: Sequence[str] = (),
+    signed: Sequence[str] = (),
 ) -> Table:
     rows: list[Row] = []
     for group, block in frame.groupby(group_col, sort=True):
@@ -168,15 +188,15 @@ def _build(
         best = {m: _best(m, [float(r[m]) for r in records]) for m in metrics}
         for i, rec in enumerate(records):
             values = {m: float(rec[m]) for m in metrics}
-            change: dict[str, float | None] = {m: None for m in metrics}
+            change: dict[str, Change | None] = {m: None for m in metrics}
             if with_change and observed is not None and rec["method"] != "observed":
-                change = {m: _change(m, values[m], float(observed[m])) for m in metrics}
+                change = {m: _change(m, values[m], float(observed[m]), signed) for m in metrics}
             rows.append(
                 Row(
                     group=str(group),
                     method=str(rec["method"]),
                     values=values,
-                    change_pct=change,
+                    change=change,
                     best=frozenset(m for m in metrics if i in best[m]),
                 )
             )
@@ -212,6 +232,7 @@ def distance_table(
         group_label="Pair",
         with_change=True,
         order=order,
+        signed=("mean",),  # of signed distance errors
     )
 
 

@@ -1,4 +1,5 @@
-"""The paper's tables in every format: golden files, % change as the paper quotes, filters.
+"""The paper's tables in every format: golden files, the change against Observed (% as the
+paper quotes it for magnitudes, absolute for the signed mean and dB), filters.
 
 Regenerate the golden files after an intended change with
 ``COOPPROC_UPDATE_GOLDEN=1 pytest tests/report/test_report_tables.py``.
@@ -13,6 +14,7 @@ import pytest
 from report_synth import paper_run
 
 from coopproc.errors import ConfigError
+from coopproc.report.change import Change
 from coopproc.report.formats import format_tables
 from coopproc.report.tables import build_tables
 
@@ -34,15 +36,24 @@ def _row(table_key: str, group: str, method: str):  # type: ignore[no-untyped-de
     return next(r for r in tables[table_key].rows if r.group == group and r.method == method)
 
 
+def _pct(change: Change | None) -> float:
+    assert change is not None and change.unit == "%"
+    return change.value
+
+
 def test_relative_change_matches_the_papers_text() -> None:
-    # paper 000 section 4.4: A-C RN-Based max +2.45 %; DI-Based max -40.27 %, mean -17.07 %,
-    # RMSE -37.44 %, SNR +7.41 %, smoothness -20.32 % ("improved by 20.32 %").
+    # paper 000 section 4.4: A-C RN-Based max +2.45 %; DI-Based max -40.27 %,
+    # RMSE -37.44 %, smoothness -20.32 % ("improved by 20.32 %").
     rn = _row("table2", "A-C", "rn")
-    assert rn.change_pct["max"] == pytest.approx(2.45, abs=0.01)
+    assert _pct(rn.change["max"]) == pytest.approx(2.45, abs=0.01)
     di = _row("table2", "A-C", "di")
-    expected = {"max": -40.27, "mean": -17.07, "rmse": -37.44, "snr_db": 7.41, "smoothness": -20.32}
+    expected = {"max": -40.27, "rmse": -37.44, "smoothness": -20.32}
     for name, value in expected.items():
-        assert di.change_pct[name] == pytest.approx(value, abs=0.01), name
+        assert _pct(di.change[name]) == pytest.approx(value, abs=0.01), name
+    # the paper's "mean -17.07 %" (of magnitudes) and "SNR +7.41 %" are absolute changes
+    # here: the signed mean in m (0.0034 - 0.0041), the SNR in dB (55.5046 - 51.6731)
+    assert di.change["mean"] == Change(pytest.approx(-0.0007), "m", 4)  # type: ignore[arg-type]
+    assert di.change["snr_db"] == Change(pytest.approx(3.8315), "dB", 2)  # type: ignore[arg-type]
     # Table 3 text: mean error of A and C reduced by 27.05 / 29.39 % (RN), 35.76 / 40.62 % (DI)
     for platform, method, value in (
         ("A", "rn", -27.05),
@@ -50,7 +61,9 @@ def test_relative_change_matches_the_papers_text() -> None:
         ("A", "di", -35.76),
         ("C", "di", -40.62),
     ):
-        assert _row("table3", platform, method).change_pct["mean"] == pytest.approx(value, abs=0.01)
+        assert _pct(_row("table3", platform, method).change["mean"]) == pytest.approx(
+            value, abs=0.01
+        )
 
 
 def test_best_marks() -> None:
@@ -65,12 +78,12 @@ def test_filters_and_metric_choice() -> None:
     text = format_tables(paper_run(), "csv", metrics=["rmse", "f1"], pairs=["B-C"], platforms=["C"])
     blocks = text.split("\n\n")
     assert blocks[0].splitlines()[1:] == [
-        "pair,method,rmse,rmse_change_pct,best",
-        "B-C,observed,0.143800,,",
-        "B-C,rn,0.060800,-57.72,",
-        "B-C,di,0.040400,-71.91,rmse",
+        "pair,method,rmse,rmse_change,rmse_change_unit,best",
+        "B-C,observed,0.143800,,,",
+        "B-C,rn,0.060800,-57.72,%,",
+        "B-C,di,0.040400,-71.91,%,rmse",
     ]
-    assert "C,di,0.144000,-40.62,rmse" in blocks[1]  # rmse = 1.2 x mean
+    assert "C,di,0.144000,-40.62,%,rmse" in blocks[1]  # rmse = 1.2 x mean
     assert "A-B" not in text and "\nA," not in text
     assert blocks[2].splitlines()[1] == "pair,method,f1,best"
 
