@@ -19,6 +19,7 @@ from matplotlib.colors import Normalize
 
 from coopproc.model import FloatArray
 from coopproc.report.decimate import decimate, envelope_indices
+from coopproc.report.gaps import break_gaps
 from coopproc.report.methods import position_methods, primary_method
 from coopproc.report.rundir import RunTables
 from coopproc.report.style import method_style
@@ -104,7 +105,8 @@ def plot_error_track(
     norm: Normalize | None = None,
 ) -> PathCollection | None:
     """The track of ``method`` in the east-north plane, each epoch a dot coloured by its
-    horizontal error, over the reference as a thin black line (equal axes).
+    horizontal error, over the reference as a thin black line (equal axes) that breaks at
+    the reference's gaps (:func:`~coopproc.report.gaps.break_gaps`).
 
     ``norm``: the colour scale (default :func:`error_norm` of these errors); returns the
     dots (for a colour bar), None when the method has no epoch with an error.
@@ -114,8 +116,9 @@ def plot_error_track(
     ref = by_method.get("reference", empty).sort_values("time", kind="stable")
     if len(ref):
         style = method_style("reference")
+        # no chord across a gap of the reference (float epochs, outages): NaN breaks
         _, ref_east, ref_north = decimate(
-            _values(ref, "time"), _values(ref, "east"), _values(ref, "north")
+            *break_gaps(_values(ref, "time"), _values(ref, "east"), _values(ref, "north"))
         )
         ax.plot(
             ref_east,

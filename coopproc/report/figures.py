@@ -46,6 +46,7 @@ from coopproc.report.evaluation_plots import (
     plot_error_track,
     track_method,
 )
+from coopproc.report.gaps import line_gap_limit_s, pair_gaps, platform_gaps
 from coopproc.report.methods import position_methods, primary_method, range_methods
 from coopproc.report.pages import FigureOptions, page_ranges, page_stem
 from coopproc.report.panels import (
@@ -138,11 +139,14 @@ def _distance_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels 
         events = events[events["method"] == primary]
     events_by_pair = groups(events, "pair")
     no_events = events.iloc[:0]
+    gaps = pair_gaps(g.ranges())
 
     def draw(ax: Axes, i: int) -> None:
         pair = pairs[i]
         rows, shaded = by_pair[pair], events_by_pair.get(pair, no_events)
-        plot_distance_errors(ax, rows, shaded, methods=methods, time_origin_s=t0)
+        plot_distance_errors(
+            ax, rows, shaded, methods=methods, time_origin_s=t0, gaps=gaps.get(pair)
+        )
 
     return Panels(pairs, pairs, stack_layout(opts.style), draw, _time_finish(t0))
 
@@ -155,9 +159,10 @@ def _di_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None
     if not pairs:
         return None
     t0 = run.time_origin_s
+    gaps = pair_gaps(g.ranges())
 
     def draw(ax: Axes, i: int) -> None:
-        plot_di_errors(ax, by_pair[pairs[i]], time_origin_s=t0)
+        plot_di_errors(ax, by_pair[pairs[i]], time_origin_s=t0, gaps=gaps.get(pairs[i]))
 
     return Panels(pairs, pairs, stack_layout(opts.style), draw, _time_finish(t0))
 
@@ -186,10 +191,12 @@ def _position_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels 
     if not platforms:
         return None
     t0 = run.time_origin_s
+    gaps = platform_gaps(_platform_rows(g, opts, methods, error=False))
 
     def draw(ax: Axes, i: int) -> None:
         rows = by_platform[platforms[i]]
-        plot_position_errors(ax, rows, methods=methods, time_origin_s=t0)
+        gap = gaps.get(platforms[i])
+        plot_position_errors(ax, rows, methods=methods, time_origin_s=t0, gaps=gap)
 
     titles = [f"Platform {p}" for p in platforms]
     return Panels(platforms, titles, stack_layout(opts.style), draw, _time_finish(t0))
@@ -201,9 +208,13 @@ def _nlos_convergence(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels
     if not panels:
         return None
 
+    ranges = g.ranges()
+
     def draw(ax: Axes, i: int) -> None:
         _, rows, bias = panels[i]
-        plot_nlos_convergence(ax, rows, reference_bias_m=bias)
+        pair = ranges.get(str(rows["pair"].iloc[0])) if len(rows) else None
+        limit = None if pair is None else line_gap_limit_s(pair["time"].to_numpy(float))
+        plot_nlos_convergence(ax, rows, reference_bias_m=bias, gap_limit_s=limit)
 
     titles = [title for title, _, _ in panels]
     return Panels(titles, titles, grid_layout(1.55, opts.style), draw)

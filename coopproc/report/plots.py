@@ -8,10 +8,12 @@ drawn are the given ``methods`` (the run's, :mod:`coopproc.report.methods`), by 
 those found in the rows themselves.
 
 Nothing is drawn across a gap: a time-series line breaks (a NaN is inserted) where
-consecutive samples are further apart than the gap rule of
-:meth:`~coopproc.model.Trajectory.interpolate_within` (:func:`~coopproc.model.gap_limit_s`).
-A line of more than :data:`~coopproc.report.style.MAX_LINE_POINTS` samples is drawn from
-its min/max envelope (:mod:`coopproc.report.decimate`: spikes and gaps stay visible).
+consecutive samples are further apart than the figures' gap rule
+(:func:`~coopproc.report.gaps.line_gap_limit_s`: 2.5 times the 90th percentile of the
+series' steps), and the spans without data given as ``gaps`` (UWB outages, no reference:
+:class:`~coopproc.report.gaps.GapSpans`) are shaded under the data. A line of more than
+:data:`~coopproc.report.style.MAX_LINE_POINTS` samples is drawn from its min/max envelope
+(:mod:`coopproc.report.decimate`: spikes and gaps stay visible, every break is kept).
 """
 
 from __future__ import annotations
@@ -23,8 +25,8 @@ import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.ticker import MaxNLocator
 
-from coopproc.model import gap_limit_s
 from coopproc.report.decimate import decimate
+from coopproc.report.gaps import GapSpans, break_gaps, shade_gaps
 from coopproc.report.methods import position_methods_of, range_methods_of
 from coopproc.report.style import DI_STYLES, NLOS_SPAN, method_style
 from coopproc.report.trajectory_plots import plot_trajectory  # moved; re-exported
@@ -44,13 +46,10 @@ def _values(frame: pd.DataFrame, column: str) -> np.ndarray:
 
 def _break_gaps(time_s: np.ndarray, *series: np.ndarray) -> tuple[np.ndarray, ...]:
     """``time_s`` and ``series`` with a NaN inserted in every gap of ``time_s`` (sorted),
-    so that a line plot draws nothing across it, then decimated for drawing."""
-    limit = gap_limit_s(np.unique(time_s))
-    at = np.flatnonzero(np.diff(time_s) > limit) + 1
-    if at.size:
-        time_s, *rest = (np.insert(v, at, np.nan) for v in (time_s, *series))
-        series = tuple(rest)
-    return decimate(time_s, *series)
+    so that a line plot draws nothing across it, then decimated for drawing (the
+    decimation keeps every NaN)."""
+    time_s, *rest = break_gaps(time_s, *series)
+    return decimate(time_s, *rest)
 
 
 def _by_method(frame: pd.DataFrame) -> dict[str, pd.DataFrame]:
@@ -65,11 +64,13 @@ def plot_distance_errors(
     *,
     methods: Sequence[str] | None = None,
     time_origin_s: float = 0.0,
+    gaps: GapSpans | None = None,
 ) -> Axes:
     """Distance error (method - reference) over time per method, NLOS events shaded.
 
     Paper 000 fig. 9 and 11. Epochs without a reference are left out; ``pair_events``
-    (rows of ``nlos_events`` for this pair, any method) are shaded from start to end.
+    (rows of ``nlos_events`` for this pair, any method) are shaded from start to end,
+    ``gaps`` (the pair's outages and no-reference spans, run times) too.
     ``methods`` default: the range method columns of ``pair_ranges``.
     """
     if methods is None:
@@ -95,15 +96,24 @@ def plot_distance_errors(
                 label="NLOS detected" if i == 0 else "_nolegend_",
                 **NLOS_SPAN,
             )
+    if gaps is not None:  # after the lines: listed after them in the legend
+        shade_gaps(ax, gaps.shifted(time_origin_s))
     ax.axhline(0.0, color="0.3", linewidth=0.5, zorder=0)
     ax.set_ylabel("Distance error (m)")
     return ax
 
 
-def plot_di_errors(ax: Axes, pair_di: pd.DataFrame, *, time_origin_s: float = 0.0) -> Axes:
+def plot_di_errors(
+    ax: Axes,
+    pair_di: pd.DataFrame,
+    *,
+    time_origin_s: float = 0.0,
+    gaps: GapSpans | None = None,
+) -> Axes:
     """DI error against the reference DI: dead reckoning, cooperative positioning, smoothed.
 
-    Paper 000 fig. 8 (the distance increments of eq. (1) and the filter of eq. (4)-(7)).
+    Paper 000 fig. 8 (the distance increments of eq. (1) and the filter of eq. (4)-(7));
+    ``gaps`` (the pair's outages and no-reference spans, run times) shaded.
     """
     rows = pair_di.sort_values("time", kind="stable")
     t = _values(rows, "time") - time_origin_s
@@ -113,6 +123,8 @@ def plot_di_errors(ax: Axes, pair_di: pd.DataFrame, *, time_origin_s: float = 0.
         keep = np.isfinite(err)
         x, y = _break_gaps(t[keep], err[keep])
         ax.plot(x, y, gid=column, **style.kwargs(t[keep].size))
+    if gaps is not None:
+        shade_gaps(ax, gaps.shifted(time_origin_s))
     ax.axhline(0.0, color="0.3", linewidth=0.5, zorder=0)
     ax.set_ylabel("DI error (m)")
     return ax
@@ -124,10 +136,12 @@ def plot_position_errors(
     *,
     methods: Sequence[str] | None = None,
     time_origin_s: float = 0.0,
+    gaps: GapSpans | None = None,
 ) -> Axes:
     """Horizontal position error over time per method (paper 000 fig. 12).
 
-    ``methods`` default: the position methods of the rows (not ``nav`` / ``reference``).
+    ``methods`` default: the position methods of the rows (not ``nav`` / ``reference``);
+    ``gaps`` (the platform's outages and no-reference spans, run times) shaded.
     """
     if methods is None:
         methods = position_methods_of(platform_positions)
@@ -143,25 +157,38 @@ def plot_position_errors(
         t = _values(rows, "time") - time_origin_s
         x, y = _break_gaps(t[keep], err[keep])
         ax.plot(x, y, gid=method, **method_style(method).kwargs(t[keep].size))
+    if gaps is not None:
+        shade_gaps(ax, gaps.shifted(time_origin_s))
     ax.set_ylabel("Horizontal error (m)")
     ax.set_ylim(bottom=0.0)
     return ax
 
 
 def plot_nlos_convergence(
-    ax: Axes, event_estimates: pd.DataFrame, *, reference_bias_m: float | None = None
+    ax: Axes,
+    event_estimates: pd.DataFrame,
+    *,
+    reference_bias_m: float | None = None,
+    gap_limit_s: float | None = None,
 ) -> Axes:
     """NLOS estimate after each step of eq. (11) per method (paper 000 fig. 10).
 
     ``event_estimates``: rows of ``nlos_estimates`` for one event (one or several methods);
-    ``reference_bias_m``: the mean of observed - reference over the event, drawn dotted.
+    ``reference_bias_m``: the mean of observed - reference over the event, drawn dotted;
+    ``gap_limit_s``: the line breaks between steps further apart in ``time`` (an outage
+    inside the event), e.g. the pair's :func:`~coopproc.report.gaps.line_gap_limit_s`.
     """
     for method, rows in event_estimates.groupby("method", sort=False):
         rows = rows.sort_values("step", kind="stable")
         style = method_style(str(method))
+        steps, estimates = _values(rows, "step"), _values(rows, "estimate")
+        if gap_limit_s is not None and "time" in rows.columns:
+            _, steps, estimates = break_gaps(
+                _values(rows, "time"), steps, estimates, limit_s=gap_limit_s
+            )
         ax.plot(
-            _values(rows, "step"),
-            _values(rows, "estimate"),
+            steps,
+            estimates,
             gid=str(method),
             marker="o",
             markersize=2.2,

@@ -1,0 +1,226 @@
+"""Where the figures' time series have no data: the gap rule, line breaks and shaded spans.
+
+A line plot joins consecutive samples, so a hole in the data (a UWB outage, reference
+epochs dropped as float) would be drawn as a straight line, as if there were data. The
+figures therefore break every time-series line at its gaps and shade the spans where data
+are missing:
+
+- **Gap rule** (:func:`line_gap_limit_s`): a step between consecutive (distinct) sample
+  times is a gap when it is longer than :data:`~coopproc.model.GAP_FACTOR` (2.5) times the
+  series' *typical* step, the :data:`STEP_PERCENTILE` (90th) percentile of its steps. The
+  percentile, not the median: a platform's epochs are the range epochs of all its pairs,
+  which come in bursts (A-B at .013 s, A-C at .034 s, then nothing until the next second),
+  so its median step is the short step inside a burst and 2.5 times it would cut the line
+  at every burst. A step taken by at least one sample in ten is never a gap; a gap is
+  rarer than that by nature (one step per outage, however long).
+- **Breaks** (:func:`break_gaps`): a NaN inserted in every gap, so the line stops there;
+  :mod:`coopproc.report.decimate` keeps every NaN, so no decimated line bridges a gap.
+- **Spans** (:func:`series_gaps`): *UWB outages*, gaps of a pair's range epochs (or of a
+  platform's epochs, which are its range epochs), and *no reference*, gaps of the epochs
+  that have a reference (outside the outages), each from the last sample before to the
+  first after. A stretch missing at the start or the end of the run (``bounds``) counts
+  when longer than the limit. :func:`shade_gaps` draws them under the data: outages light
+  grey (``gid`` ``uwb_outage``, legend "UWB outage"), no reference grey-hatched
+  (``no_reference``, "No reference").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from matplotlib.axes import Axes
+
+from coopproc.model import GAP_FACTOR, FloatArray
+
+__all__ = [
+    "NO_REFERENCE_SPAN",
+    "OUTAGE_SPAN",
+    "STEP_PERCENTILE",
+    "GapSpans",
+    "break_gaps",
+    "gap_spans",
+    "line_gap_limit_s",
+    "pair_gaps",
+    "platform_gaps",
+    "series_gaps",
+    "shade_gaps",
+]
+
+#: Percentile of a series' steps taken as its typical step (see the module docstring).
+STEP_PERCENTILE = 90.0
+#: ``axvspan`` styles of the spans: light grey, and grey hatching, both under the data.
+OUTAGE_SPAN: dict[str, Any] = {"facecolor": "0.88", "edgecolor": "none", "zorder": 0.4}
+NO_REFERENCE_SPAN: dict[str, Any] = {
+    "facecolor": "none",
+    "edgecolor": "0.72",
+    "hatch": "////",
+    "linewidth": 0.0,
+    "zorder": 0.45,
+}
+_EMPTY = np.empty((0, 2), dtype=np.float64)
+
+
+def line_gap_limit_s(time_s: FloatArray) -> float:
+    """The longest step between samples that is not a gap, s: ``GAP_FACTOR`` times the
+    :data:`STEP_PERCENTILE` percentile of the steps between the distinct finite times of
+    ``time_s`` (in any order); infinite with fewer than two distinct times."""
+    t = np.unique(np.asarray(time_s, dtype=np.float64))
+    t = t[np.isfinite(t)]
+    if t.shape[0] < 2:
+        return float("inf")
+    return GAP_FACTOR * float(np.percentile(np.diff(t), STEP_PERCENTILE))
+
+
+def break_gaps(
+    time_s: FloatArray, *series: FloatArray, limit_s: float | None = None
+) -> tuple[FloatArray, ...]:
+    """``time_s`` (sorted) and ``series`` with a NaN inserted in every step longer than
+    ``limit_s`` (default :func:`line_gap_limit_s` of ``time_s``)."""
+    t = np.asarray(time_s, dtype=np.float64)
+    values = tuple(np.asarray(s, dtype=np.float64) for s in series)
+    limit = line_gap_limit_s(t) if limit_s is None else limit_s
+    at = np.flatnonzero(np.diff(t) > limit) + 1
+    if not at.size:
+        return (t, *values)
+    return tuple(np.insert(v, at, np.nan) for v in (t, *values))
+
+
+def gap_spans(
+    time_s: FloatArray,
+    *,
+    limit_s: float | None = None,
+    bounds: tuple[float, float] | None = None,
+) -> FloatArray:
+    """(k, 2) start and end of every step of the distinct finite ``time_s`` longer than
+    ``limit_s`` (default :func:`line_gap_limit_s`); with ``bounds`` (first, last time of
+    the run) also the stretches before the first and after the last sample when longer.
+    Without samples, the whole of ``bounds`` (nothing without bounds)."""
+    t = np.unique(np.asarray(time_s, dtype=np.float64))
+    t = t[np.isfinite(t)]
+    if not t.size:
+        return _EMPTY.copy() if bounds is None else np.array([bounds], dtype=np.float64)
+    limit = line_gap_limit_s(t) if limit_s is None else limit_s
+    at = np.flatnonzero(np.diff(t) > limit)
+    spans = [np.column_stack([t[at], t[at + 1]])]
+    if bounds is not None:
+        lo, hi = bounds
+        if t[0] - lo > limit:
+            spans.insert(0, np.array([[lo, t[0]]]))
+        if hi - t[-1] > limit:
+            spans.append(np.array([[t[-1], hi]]))
+    return np.concatenate(spans).astype(np.float64)
+
+
+def _subtract(spans: FloatArray, cut: FloatArray, min_s: float) -> FloatArray:
+    """The parts of ``spans`` outside every span of ``cut`` that are longer than ``min_s``."""
+    out: list[tuple[float, float]] = []
+    for start, end in spans:
+        pieces = [(float(start), float(end))]
+        for lo, hi in cut:
+            pieces = [
+                part
+                for a, b in pieces
+                for part in ((a, min(b, lo)), (max(a, hi), b))
+                if part[1] > part[0]
+            ]
+        out.extend(p for p in pieces if p[1] - p[0] > min_s)
+    return np.array(out, dtype=np.float64).reshape(-1, 2)
+
+
+@dataclass(frozen=True)
+class GapSpans:
+    """Spans without data of one pair or platform, (k, 2) start and end times, s."""
+
+    #: No ranges (a pair's UWB outage; for a platform: none of its pairs ranged).
+    outages: FloatArray
+    #: Epochs present but without a reference (float or missing reference epochs).
+    no_reference: FloatArray
+
+    def shifted(self, origin_s: float) -> GapSpans:
+        """The spans with ``origin_s`` subtracted (times as drawn)."""
+        return GapSpans(self.outages - origin_s, self.no_reference - origin_s)
+
+
+def series_gaps(
+    time_s: FloatArray,
+    has_reference: np.ndarray,
+    *,
+    bounds: tuple[float, float] | None = None,
+) -> GapSpans:
+    """The outages and no-reference spans of a series of epochs ``time_s`` of which
+    ``has_reference`` have a reference (see the module docstring). The no-reference spans
+    use the limit of the epochs with a reference (the one that breaks their lines)."""
+    t = np.asarray(time_s, dtype=np.float64)
+    ok = np.asarray(has_reference, dtype=bool) & np.isfinite(t)
+    outages = gap_spans(t, bounds=bounds)
+    ref_t = t[ok]
+    if not ref_t.size:
+        span = np.unique(t[np.isfinite(t)])
+        missing = np.array([[span[0], span[-1]]]) if span.size > 1 else _EMPTY
+        return GapSpans(outages, _subtract(missing, outages, 0.0))
+    limit = line_gap_limit_s(ref_t)
+    within = (float(np.nanmin(t)), float(np.nanmax(t)))
+    missing = gap_spans(ref_t, limit_s=limit, bounds=within)
+    # what an outage leaves of a no-reference gap shows when it is itself a gap
+    return GapSpans(outages, _subtract(missing, outages, limit))
+
+
+def _bounds(frames: Mapping[str, pd.DataFrame]) -> tuple[float, float] | None:
+    times = [f["time"].to_numpy(dtype=np.float64) for f in frames.values() if len(f)]
+    if not times:
+        return None
+    return min(float(np.nanmin(t)) for t in times), max(float(np.nanmax(t)) for t in times)
+
+
+def pair_gaps(ranges_by_pair: Mapping[str, pd.DataFrame]) -> dict[str, GapSpans]:
+    """The spans of each pair from its rows of ``ranges.csv`` (every range, with or without
+    a reference; ``reference`` gives the no-reference spans); the run's bounds are those
+    of all the pairs' ranges."""
+    bounds = _bounds(ranges_by_pair)
+    return {
+        pair: series_gaps(
+            rows["time"].to_numpy(dtype=np.float64),
+            rows["reference"].notna().to_numpy(),
+            bounds=bounds,
+        )
+        for pair, rows in ranges_by_pair.items()
+    }
+
+
+def platform_gaps(positions_by_platform: Mapping[str, pd.DataFrame]) -> dict[str, GapSpans]:
+    """The spans of each platform from its rows of ``positions.csv`` (those of the methods
+    drawn; an epoch has a reference when one of them has an ``error_h``); the bounds are
+    those of all the rows given."""
+    bounds = _bounds(positions_by_platform)
+    return {
+        platform: series_gaps(
+            rows["time"].to_numpy(dtype=np.float64),
+            rows["error_h"].notna().to_numpy(),
+            bounds=bounds,
+        )
+        for platform, rows in positions_by_platform.items()
+        if len(rows)
+    }
+
+
+def shade_gaps(ax: Axes, gaps: GapSpans | None) -> None:
+    """Shade ``gaps`` (times as drawn) on ``ax`` under the data, each kind labelled once."""
+    if gaps is None:
+        return
+    kinds = (
+        (gaps.outages, "uwb_outage", "UWB outage", OUTAGE_SPAN),
+        (gaps.no_reference, "no_reference", "No reference", NO_REFERENCE_SPAN),
+    )
+    for spans, gid, label, style in kinds:
+        for i, (start, end) in enumerate(spans):
+            ax.axvspan(
+                float(start),
+                float(end),
+                gid=gid,
+                label=label if i == 0 else "_nolegend_",
+                **style,
+            )

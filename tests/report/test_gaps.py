@@ -1,0 +1,130 @@
+"""The figures' gap rule, line breaks (also after decimation) and shaded spans."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from matplotlib.figure import Figure
+
+from coopproc.model import gap_limit_s
+from coopproc.report.gaps import (
+    GapSpans,
+    break_gaps,
+    gap_spans,
+    line_gap_limit_s,
+    series_gaps,
+    shade_gaps,
+)
+from coopproc.report.plots import plot_nlos_convergence, plot_position_errors
+from coopproc.report.style import MAX_LINE_POINTS
+
+
+def bursts(n_cycles: int, offsets: tuple[float, ...] = (0.013, 0.034)) -> np.ndarray:
+    """A platform's epochs: the ranges of its pairs, a few ms apart, once a second."""
+    return (np.arange(n_cycles)[:, None] + np.array(offsets)[None, :]).ravel()
+
+
+def test_limit_is_the_typical_step_not_the_burst_step() -> None:
+    regular = np.arange(600.0)
+    assert line_gap_limit_s(regular) == pytest.approx(2.5)
+    three_pairs = bursts(600, (0.013, 0.034, 0.055))
+    # the median step is the 21 ms inside a burst: 2.5 x it would cut every second
+    assert gap_limit_s(three_pairs) == pytest.approx(2.5 * 0.021)
+    assert line_gap_limit_s(three_pairs) == pytest.approx(2.5 * 0.958)
+    assert not np.isnan(break_gaps(three_pairs, three_pairs)[1]).any()
+    # order and repeats do not matter; one time is no series
+    assert line_gap_limit_s(np.concatenate([regular, regular])[::-1]) == pytest.approx(2.5)
+    assert line_gap_limit_s(np.array([5.0, 5.0])) == np.inf
+
+
+def test_break_gaps_puts_a_nan_in_each_gap() -> None:
+    t = np.concatenate([np.arange(100.0), np.arange(130.0, 200.0), np.arange(203.0, 300.0)])
+    x, y = break_gaps(t, t * 2.0)
+    cut = np.flatnonzero(np.isnan(x))
+    assert cut.tolist() == [100, 171]  # after 99 and after 199 (3 s > 2.5 s)
+    assert np.isnan(y[cut]).all() and x[cut - 1].tolist() == [99.0, 199.0]
+    assert x[cut + 1].tolist() == [130.0, 203.0]
+    assert break_gaps(t, t, limit_s=40.0)[0].size == t.size
+
+
+def test_gap_spans_with_run_bounds() -> None:
+    t = np.concatenate([np.arange(10.0, 100.0), np.arange(130.0, 190.0)])
+    spans = gap_spans(t, bounds=(0.0, 200.0))
+    assert spans.tolist() == [[0.0, 10.0], [99.0, 130.0], [189.0, 200.0]]
+    assert gap_spans(t).tolist() == [[99.0, 130.0]]
+    assert gap_spans(np.array([]), bounds=(0.0, 5.0)).tolist() == [[0.0, 5.0]]
+    assert gap_spans(np.array([])).shape == (0, 2)
+
+
+def test_no_reference_spans_leave_out_the_outages() -> None:
+    t = np.concatenate([np.arange(0.0, 100.0), np.arange(130.0, 300.0)])  # outage 99-130
+    has = ~((t > 90.0) & (t < 160.0)) & ~((t > 200.0) & (t < 220.0))
+    gaps = series_gaps(t, has)
+    assert gaps.outages.tolist() == [[99.0, 130.0]]
+    # float 91..159 around the outage: what is left on either side, and 201..219
+    assert gaps.no_reference.tolist() == [[90.0, 99.0], [130.0, 160.0], [200.0, 220.0]]
+    late = series_gaps(t, t > 250.0)
+    assert late.no_reference.tolist() == [[0.0, 99.0], [130.0, 251.0]]
+    none = series_gaps(t, np.zeros(t.size, dtype=bool))
+    assert none.no_reference.tolist() == [[0.0, 99.0], [130.0, 299.0]]
+
+
+def test_spans_are_shaded_under_the_data_once_in_the_legend() -> None:
+    ax = Figure().subplots()
+    ax.plot([0.0, 1.0], [0.0, 1.0])
+    spans = np.array([[1.0, 2.0], [5.0, 6.0]])
+    shade_gaps(ax, GapSpans(spans, spans + 10.0).shifted(1.0))
+    outage = [p for p in ax.patches if p.get_gid() == "uwb_outage"]
+    assert [(p.get_x(), p.get_width()) for p in outage] == [(0.0, 1.0), (4.0, 1.0)]  # type: ignore[attr-defined]
+    assert len([p for p in ax.patches if p.get_gid() == "no_reference"]) == 2
+    _, labels = ax.get_legend_handles_labels()
+    assert labels.count("UWB outage") == 1 and labels.count("No reference") == 1
+    assert all(p.get_zorder() < ax.get_lines()[0].get_zorder() for p in ax.patches)
+
+
+def test_decimated_position_line_keeps_the_gap_and_the_bursts_joined() -> None:
+    """A long series drawn from its envelope: the 30 s outage stays a break, and the
+    bursty epochs (two pairs) are one line, not thousands of pieces."""
+    t = bursts(15_000)
+    t = t[(t < 5000.0) | (t > 5030.0)]
+    assert t.size > MAX_LINE_POINTS
+    rows = pd.DataFrame(
+        {
+            "time": t,
+            "platform": "A",
+            "method": "di",
+            "error_h": 0.1 + 0.05 * np.sin(t / 50.0),
+        }
+    )
+    gaps = series_gaps(t, np.ones(t.size, dtype=bool))
+    ax = Figure().subplots()
+    plot_position_errors(ax, rows, methods=["di"], gaps=gaps)
+    (line,) = [ln for ln in ax.get_lines() if ln.get_gid() == "di"]
+    x = np.asarray(line.get_xdata(), dtype=np.float64)
+    assert x.size <= MAX_LINE_POINTS + 10  # decimated
+    cut = np.flatnonzero(np.isnan(x))
+    assert cut.size == 1
+    assert x[cut - 1][0] < 5000.0 and x[cut + 1][0] > 5030.0
+    shaded = [p for p in ax.patches if p.get_gid() == "uwb_outage"]
+    assert len(shaded) == 1 and shaded[0].get_x() < 5000.0  # type: ignore[attr-defined]
+
+
+def test_convergence_line_breaks_where_the_steps_are_far_apart_in_time() -> None:
+    rows = pd.DataFrame(
+        {
+            "pair": "A-B",
+            "method": "di",
+            "event": 1,
+            "step": [1, 2, 3, 4, 5],
+            "time": [100.0, 101.0, 102.0, 140.0, 141.0],
+            "estimate": [0.6, 0.5, 0.45, 0.44, 0.44],
+        }
+    )
+    ax = Figure().subplots()
+    plot_nlos_convergence(ax, rows, gap_limit_s=2.5)
+    y = np.asarray(ax.get_lines()[0].get_ydata(), dtype=np.float64)
+    assert np.flatnonzero(np.isnan(y)).tolist() == [3]
+    ax = Figure().subplots()
+    plot_nlos_convergence(ax, rows)
+    assert not np.isnan(np.asarray(ax.get_lines()[0].get_ydata(), dtype=np.float64)).any()
