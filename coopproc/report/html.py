@@ -27,6 +27,7 @@ from coopproc.report.stochastic_figures import stochastic_section
 from coopproc.report.tables import (
     POSITION_ALL,
     distance_table,
+    method_label,
     nlos_table,
     position_table,
     run_method_orders,
@@ -53,15 +54,35 @@ body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1100px; 
 h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 2em; border-bottom: 1px solid #ccc; }
 table { border-collapse: collapse; margin: 1em 0; font-size: 0.85em; }
 caption { text-align: left; font-weight: bold; padding-bottom: 0.4em; }
-th, td { padding: 0.2em 0.7em; border-bottom: 1px solid #e5e5e5; }
+th, td { padding: 0.2em 0.7em; border-bottom: 1px solid #e5e5e5; white-space: nowrap; }
+div.wide { overflow-x: auto; } ul.notes { margin: 0; padding-left: 1.2em; }
 thead th { border-bottom: 2px solid #444; text-align: right; }
 thead th:first-child, thead th:nth-child(2) { text-align: left; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; }
 .chg { color: #777; font-size: 0.9em; } .note { color: #555; font-size: 0.8em; }
-figure { margin: 1.5em 0; } figure img { max-width: 100%; border: 1px solid #eee; }
+figure { margin: 1.5em 0; }
+figure img { max-width: 100%; height: auto; border: 1px solid #eee; }
 figcaption { color: #444; font-size: 0.9em; } dt { font-weight: bold; }
 figure a img { display: block; margin-bottom: 0.3em; }
 """
+
+
+#: Display names of the columns of the NLOS events table (nlos_event_scores.csv).
+EVENT_HEADERS: dict[str, str] = {
+    "pair": "Pair",
+    "method": "Method",
+    "start": "Start (s)",
+    "end": "End (s)",
+    "epochs": "Epochs",
+    "estimate": "Estimate (m)",
+    "reference_bias": "Reference bias (m)",
+    "error": "Error (m)",
+}
+
+
+def _number(value: Any, digits: int) -> str:
+    """A float at ``digits`` decimals, anything else as it is."""
+    return f"{value:.{digits}f}" if isinstance(value, float) else str(value)
 
 
 def _facts(info: Mapping[str, Any]) -> str:
@@ -83,18 +104,22 @@ def _facts(info: Mapping[str, Any]) -> str:
         parts = []
         for pair, value in sorted(sigma.items()):
             if isinstance(value, Mapping):
-                parts.append(f"{pair}: {value.get('sigma_m')} m ({value.get('source', '')})")
+                sigma_m = _number(value.get("sigma_m"), 4)
+                parts.append(f"{pair}: {sigma_m} m ({value.get('source', '')})")
             else:
-                parts.append(f"{pair}: {value} m")
+                parts.append(f"{pair}: {_number(value, 4)} m")
         items.append(("UWB sigma", "; ".join(parts)))
     timings = info.get("timings_s")
     if isinstance(timings, Mapping) and timings:
-        items.append(("Stage times (s)", "; ".join(f"{k}: {v}" for k, v in timings.items())))
-    notes = info.get("notes")
-    if isinstance(notes, list) and notes:
-        items.append(("Notes", " | ".join(str(n) for n in notes)))
+        items.append(
+            ("Stage times (s)", "; ".join(f"{k}: {_number(v, 2)}" for k, v in timings.items()))
+        )
     out = ["<dl>"]
     out += [f"<dt>{html.escape(k)}</dt><dd>{html.escape(v)}</dd>" for k, v in items]
+    notes = info.get("notes")
+    if isinstance(notes, list) and notes:  # one item a note: they are sentences of their own
+        listed = "".join(f"<li>{html.escape(str(n))}</li>" for n in notes)
+        out.append(f'<dt>Notes</dt><dd><ul class="notes">{listed}</ul></dd>')
     out.append("</dl>")
     inputs = info.get("inputs")
     if isinstance(inputs, list) and inputs:
@@ -123,17 +148,45 @@ def _event_table(run: RunTables) -> str:
     if frame is None or not len(frame):
         return ""
     cols = list(NLOS_EVENT_SCORE_COLUMNS)
+    t0 = run.time_origin_s
     out = ['<table class="nlos_events"><caption>NLOS events against the reference</caption>']
-    out.append("<thead><tr>" + "".join(f"<th>{c}</th>" for c in cols) + "</tr></thead><tbody>")
+    head = "".join(f"<th>{html.escape(EVENT_HEADERS[c])}</th>" for c in cols)
+    out.append(f"<thead><tr>{head}</tr></thead><tbody>")
     for rec in frame[cols].to_dict("records"):
-        cells = []
-        for c in cols:
+        cells = [
+            f"<td>{html.escape(str(rec['pair']))}</td>",
+            f"<td>{html.escape(method_label(str(rec['method'])))}</td>",
+        ]
+        for c in cols[2:]:
             v = rec[c]
-            text = f"{v:.4f}" if isinstance(v, float) else html.escape(str(v))
+            if c in ("start", "end"):
+                v = float(v) - t0
+                text = f"{v:.1f}"
+            else:
+                text = html.escape(_number(v, 4))
             cells.append(f'<td class="num">{text}</td>')
         out.append("<tr>" + "".join(cells) + "</tr>")
     out.append("</tbody></table>")
+    out.append(
+        f'<p class="note">Start and end in s since t0 = {t0:.3f} s (as in the figures); '
+        "reference bias: mean of observed - reference over the event; error: estimate - "
+        "reference bias.</p>"
+    )
     return "\n".join(out)
+
+
+def _wide(block: str) -> str:
+    """A table (and its note) that scrolls sideways on a narrow page instead of wrapping."""
+    return f'<div class="wide">{block}</div>' if block else ""
+
+
+#: The Figures section of a page written without figures (``coopproc run --no-figures``).
+NO_FIGURES = (
+    '<h2>Figures</h2>\n<p class="note">No figures: the run was made without them '
+    "(<code>coopproc run --no-figures</code>, or <code>[run] figures = false</code>). "
+    "<code>coopproc report OUT --plots --html</code> draws them and writes this page again "
+    "with them.</p>"
+)
 
 
 def render_html(
@@ -141,6 +194,8 @@ def render_html(
     run: RunTables,
     stochastic: StochasticReport | None = None,
     options: FigureOptions | None = None,
+    *,
+    figures: bool = True,
 ) -> str:
     """The page as a string (see :func:`write_html`)."""
     session = run.info.get("session")
@@ -155,18 +210,24 @@ def render_html(
         "<h2>Run</h2>",
         _facts(run.info),
         "<h2>Tables</h2>",
-        render_table(distance_table(run.metrics, order=order["table2"]), "html"),
-        render_table(
-            position_table(run.position_metrics, POSITION_ALL, order=order["table3"]), "html"
+        _wide(render_table(distance_table(run.metrics, order=order["table2"]), "html")),
+        _wide(
+            render_table(
+                position_table(run.position_metrics, POSITION_ALL, order=order["table3"]), "html"
+            )
         ),
     ]
     if run.nlos_scores is not None and len(run.nlos_scores):
-        parts.append(render_table(nlos_table(run.nlos_scores, order=order["nlos"]), "html"))
-    parts.append(_event_table(run))
+        parts.append(_wide(render_table(nlos_table(run.nlos_scores, order=order["nlos"]), "html")))
+    parts.append(_wide(_event_table(run)))
     # a run of a `coopproc inject` session: the injected NLOS against each method's estimate
-    parts.extend(render_table(t, "html") for t in injected_tables(run))
-    parts.append(evaluation_html(run))  # 3-D / vertical errors and RPE (evaluation.csv, rpe.csv)
-    parts.append(figures_section(Path(out_dir), run, options, FIGURE_CAPTIONS))
+    parts.extend(_wide(render_table(t, "html")) for t in injected_tables(run))
+    # 3-D / vertical errors and RPE (evaluation.csv, rpe.csv)
+    parts.append(_wide(evaluation_html(run)))
+    if figures:
+        parts.append(figures_section(Path(out_dir), run, options, FIGURE_CAPTIONS))
+    else:
+        parts.append(NO_FIGURES)
     if stochastic is not None:  # coopproc report OUT --stochastic --html
         parts.append(stochastic_section(stochastic))
     parts.append("</body></html>")
@@ -178,10 +239,14 @@ def write_html(
     run: RunTables,
     stochastic: StochasticReport | None = None,
     options: FigureOptions | None = None,
+    *,
+    figures: bool = True,
 ) -> Path:
     """Write ``out_dir/report.html`` and return its path; ``stochastic`` adds the
     stochastic-analysis section (:mod:`coopproc.report.stochastic`); ``options``: the
-    pairs, platforms and panels per page of the figures (as given to ``write_figures``)."""
+    pairs, platforms and panels per page of the figures (as given to ``write_figures``);
+    ``figures=False``: no figures, the section says so (``coopproc run --no-figures``)."""
     path = Path(out_dir) / "report.html"
-    path.write_text(render_html(Path(out_dir), run, stochastic, options), encoding="utf-8")
+    page = render_html(Path(out_dir), run, stochastic, options, figures=figures)
+    path.write_text(page, encoding="utf-8")
     return path

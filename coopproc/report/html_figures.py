@@ -11,6 +11,11 @@ chunk; files without one are taken as they are), else rendered in memory from th
   links; a note says so. A page with no file is rendered at 150 dpi and embedded while
   the embedded images stay under the limit, else left out with a note.
 
+Every image is shown at one scale, :data:`DISPLAY_PX_PER_IN` CSS pixels per inch of the
+figure (its width in pixels over the resolution its PNG records), so text and lines have
+the same size in every figure, one journal column wide or the full text width (narrower
+screens shrink them all alike).
+
 The section also says which pairs and platforms the figures leave out (``--pairs``,
 ``--platforms``) and how a figure of many panels is split into pages.
 """
@@ -30,7 +35,7 @@ from coopproc.report.pages import FigureOptions, panel_letter, selection_note
 from coopproc.report.rundir import RunTables
 from coopproc.report.style import RC
 
-__all__ = ["EMBED_LIMIT_BYTES", "THUMBNAIL_WIDTH_PX", "figures_section"]
+__all__ = ["DISPLAY_PX_PER_IN", "EMBED_LIMIT_BYTES", "THUMBNAIL_WIDTH_PX", "figures_section"]
 
 #: Most bytes of PNG embedded in report.html (base64 adds a third).
 EMBED_LIMIT_BYTES = 3_000_000
@@ -38,6 +43,11 @@ EMBED_LIMIT_BYTES = 3_000_000
 THUMBNAIL_WIDTH_PX = 1000
 #: Resolution of pages rendered in memory (no file in OUT/figures).
 _RENDER_DPI = 150
+#: CSS pixels per inch of figure in the page: the widest figure style (7.16 in) fits the
+#: page's 1100 px; a one-column figure (3.5 in) is shown half as wide, at the same scale.
+DISPLAY_PX_PER_IN = 150
+#: Resolution assumed for a PNG that records none (matplotlib's savefig records it).
+_DEFAULT_DPI = 300.0
 
 
 def _file_panels(path: Path) -> tuple[str, ...] | None:
@@ -83,9 +93,22 @@ def _render(page: FigurePage) -> bytes:
     return buf.getvalue()
 
 
-def _img(alt: str, png: bytes, href: str | None = None) -> str:
+def _width_in(png: bytes) -> float:
+    """The figure's width in inches: pixels over the PNG's recorded resolution."""
+    from PIL import Image
+
+    with Image.open(io.BytesIO(png)) as image:
+        dpi = image.info.get("dpi")
+        width = image.width
+    x_dpi = float(dpi[0]) if isinstance(dpi, tuple) and dpi and float(dpi[0]) > 0 else 0.0
+    return width / (x_dpi or _DEFAULT_DPI)
+
+
+def _img(alt: str, png: bytes, href: str | None = None, *, width_in: float) -> str:
+    """An embedded image shown :data:`DISPLAY_PX_PER_IN` per inch of figure."""
     data = base64.b64encode(png).decode("ascii")
-    img = f'<img alt="{alt}" src="data:image/png;base64,{data}">'
+    width = round(width_in * DISPLAY_PX_PER_IN)
+    img = f'<img alt="{alt}" src="data:image/png;base64,{data}" width="{width}">'
     return f'<a href="{html.escape(href)}">{img}</a>' if href else img
 
 
@@ -150,14 +173,15 @@ def figures_section(
             if page.stem in usable:
                 png = files[page.stem].read_bytes()
                 if embed_all:
-                    body.append(_img(page.stem, png))
+                    body.append(_img(page.stem, png, width_in=_width_in(png)))
                 elif page.index == 0:
-                    body.append(_img(page.stem, _thumbnail(png), f"figures/{page.stem}.png"))
+                    small, href = _thumbnail(png), f"figures/{page.stem}.png"
+                    body.append(_img(page.stem, small, href, width_in=_width_in(png)))
                 continue
             png = _render(page)
             if embed_all or embedded + len(png) <= EMBED_LIMIT_BYTES:
                 embedded += len(png)
-                body.append(_img(page.stem, png))
+                body.append(_img(page.stem, png, width_in=_width_in(png)))
             else:
                 left_out.append(page.stem)
         if len(fig_pages) > 1:

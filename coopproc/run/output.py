@@ -174,7 +174,6 @@ def write_run(
         ]
         timings["write tables"] = clock() - since
         figures: list[Path] = []
-        html = None
         info["summary"] = dict(summary or {})
         if config.run.figures:
             phase("figures")
@@ -184,13 +183,17 @@ def write_run(
             )
             timings["figures"] = clock() - since
             info["figures"] = [str(p.relative_to(tmp)) for p in figures]
-            phase("html")
-            since = clock()
-            # the tables already made (evaluation and RPE are not computed again)
-            html = write_html(
-                tmp, dataclasses.replace(run, info=dict(info)), options=figure_options
-            )
-            timings["html"] = clock() - since
+        # report.html also without figures (--no-figures): the page says it has none
+        phase("html")
+        since = clock()
+        # the tables already made (evaluation and RPE are not computed again)
+        html = write_html(
+            tmp,
+            dataclasses.replace(run, info=dict(info)),
+            options=figure_options,
+            figures=config.run.figures,
+        )
+        timings["html"] = clock() - since
         info["figures"] = [str(p.relative_to(tmp)) for p in figures]
         finished = dt.datetime.now(dt.UTC)
         info["duration_s"] = round((finished - started).total_seconds(), 3)
@@ -203,7 +206,7 @@ def write_run(
         out_dir=final,
         tables=tuple(final / p.name for p in tables),
         figures=tuple(final / p.relative_to(tmp) for p in figures),
-        html=None if html is None else final / html.name,
+        html=final / html.name,
         run_json=final / "run.json",
     )
 

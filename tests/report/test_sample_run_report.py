@@ -3,6 +3,7 @@ the report.html of the run reads as a page (notes, method names, no figures when
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import matplotlib as mpl
@@ -93,3 +94,16 @@ def test_an_event_beside_the_primary_ones_gets_its_own_panel(sample_run: Path) -
     panels = convergence_panels(moved)
     assert panels[0][0].startswith("A-B, RN-Based event 9 (t = 70 s)")
     assert set(panels[0][1]["method"]) == {"rn"} and len(panels) == 6
+
+
+def test_no_figures_still_writes_the_page(sample_run: Path) -> None:
+    """`coopproc run --no-figures`: no figures/, but report.html with the tables, no image
+    and a Figures section saying why."""
+    assert not (sample_run / "figures").exists()
+    page = (sample_run / "report.html").read_text(encoding="utf-8")
+    assert "<caption>Table 3. Horizontal position errors per platform and method</caption>" in (
+        page
+    )
+    assert "<img" not in page and "data:image/png" not in page
+    assert "No figures: the run was made without them" in page
+    assert re.search(r"<li>[^<]*ref_A\.pos: 101 of 3001 epochs", page)  # the run's notes
