@@ -224,7 +224,12 @@ def test_fixed_layout_cdr_reads_equal_the_ros2_decoder(tmp_path: Path, kit: Any)
     raw = scan_mcap(write_mcap(kit.make_session(), tmp_path / "r.mcap", encoding="ros2"))
     paths = {
         "nav_msgs/msg/Odometry": ["pose.pose.position.x", "pose.covariance", "header.stamp.sec"],
-        "sensor_msgs/msg/NavSatFix": ["latitude", "position_covariance", "status.status"],
+        "sensor_msgs/msg/NavSatFix": [
+            "latitude",
+            "position_covariance",
+            "status.status",
+            "status.service",
+        ],
         "coopproc_msgs/msg/UwbRange": ["from_id", "to_id", "range", "sigma"],
     }
     for ch in raw.channels.values():
