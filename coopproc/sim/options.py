@@ -40,6 +40,7 @@ RANGE_ERROR_OPTIONS = (
     "outages",
     "aux2_bias_m",
     "aux2_noise_m",
+    "aux3_tail_m",
 )
 
 
@@ -63,9 +64,23 @@ def _float_noise(p: SimParams) -> str | None:
 
 
 def _second_auxiliary(p: SimParams) -> str | None:
-    if p.second_aux or p.platforms == 3:
+    if p.second_aux or p.platforms >= 3:
         return None
     return "without the second auxiliary A2 (second_aux = true or --platforms 3)"
+
+
+def _third_auxiliary(p: SimParams) -> str | None:
+    if p.platforms >= 4:
+        return None
+    return "without the third auxiliary A3 (--platforms 4)"
+
+
+def _aux1_moves(p: SimParams) -> str | None:
+    if p.aux_static:
+        return "with aux_static = true (A1 never moves)"
+    if p.aux1_moves_at_s < p.duration_s:
+        return None
+    return f"at or after the session end ({p.duration_s:g} s)"
 
 
 def _random_nlos(p: SimParams) -> str | None:
@@ -91,6 +106,8 @@ NEEDS: dict[str, Callable[[SimParams], str | None]] = {
     ),
     "aux2_bias_m": _second_auxiliary,
     "aux2_noise_m": _second_auxiliary,
+    "aux3_tail_m": _third_auxiliary,
+    "aux1_moves_at_s": _aux1_moves,
     "float_fraction": _float_segments,
     "float_sigma_m": _float_noise,
     "random_nlos_per_pair_hour": _random_nlos,

@@ -171,6 +171,21 @@ class SimParams:
     second_aux: bool = _f(False, "single-auxiliary: add a second auxiliary A2 with bad ranging")
     aux2_bias_m: float = _f(0.6, "single-auxiliary: A2 peak-shift (bias) of its ranges, m")
     aux2_noise_m: float = _f(0.25, "single-auxiliary: A2 Laplace noise scale of its ranges, m")
+    aux_distance_m: float = _f(
+        60.0,
+        "multi-auxiliary: distance of the auxiliaries' loop centres from the target's, m",
+        sparse=True,
+    )
+    aux1_moves_at_s: float = _f(
+        0.0,
+        "multi-auxiliary: A1 stands still until this time (s from the start), then drives",
+        sparse=True,
+    )
+    aux3_tail_m: float = _f(
+        0.15,
+        "multi-auxiliary: A3 heavy-tailed ranging, scale of its Student-t (2 dof) noise, m",
+        sparse=True,
+    )
 
     def __post_init__(self) -> None:
         positive = ("duration_s", "nav_rate_hz", "range_rate_hz", "ref_rate_hz")
@@ -181,6 +196,7 @@ class SimParams:
             "speed_mps", "distance_rate_mps", "uwb_noise_m", "nlos_sigma_m", "gross_error_m",
             "odo_noise_m", "init_error_m", "leader_sigma_m", "ref_sigma_m",
             "heading_drift_dpm", "slip_rate_per_hour", "leader_white_m", "leader_vel_sigma_mps",
+            "aux_distance_m", "aux1_moves_at_s", "aux3_tail_m",
         )  # fmt: skip
         for name in nonneg:
             if getattr(self, name) < 0:

@@ -8,15 +8,15 @@ links and the NLOS events / outages (seconds from the session start). The engine
 
 from __future__ import annotations
 
-import zlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
 from coopproc.errors import ConfigError
 from coopproc.model import FloatArray
+from coopproc.sim.aux_worlds import multi_auxiliary, single_auxiliary
 from coopproc.sim.formation import (
     Terrain,
     formation_positions,
@@ -26,37 +26,10 @@ from coopproc.sim.formation import (
 )
 from coopproc.sim.params import NavGapSpec, NlosSpec, OutageSpec, SimParams
 from coopproc.sim.paths import rounded_polygon, rounded_rectangle
+from coopproc.sim.scenario_types import Actor, World, named_rng
 from coopproc.sim.uwb import PairModel
 
 __all__ = ["SCENARIOS", "Actor", "Scenario", "World", "named_rng"]
-
-NavKind = Literal["dr", "gnss", "none"]
-
-
-def named_rng(seed: int, name: str) -> np.random.Generator:
-    """An independent random stream per (seed, name): adding a platform leaves others alone."""
-    return np.random.default_rng([seed, zlib.crc32(name.encode())])
-
-
-@dataclass(frozen=True, eq=False)
-class Actor:
-    """One platform of a world: its role, how it navigates, and its true positions."""
-
-    id: str
-    role: Literal["follower", "leader", "anchor"]
-    nav: NavKind
-    truth_enu_m: FloatArray  # (n, 3) on the world's time grid
-    #: True: the nav file is in the platform's own frame (start 0, initial heading 0).
-    own_frame: bool = False
-
-
-@dataclass(frozen=True, eq=False)
-class World:
-    """True motion and ranging layout of one scenario run."""
-
-    time_rel_s: FloatArray
-    actors: tuple[Actor, ...]
-    links: tuple[PairModel, ...]
 
 
 @dataclass(frozen=True)
@@ -133,56 +106,6 @@ def _large(params: SimParams, seed: int, t: FloatArray) -> World:
     return _formation_world(ids, (400.0, 200.0, 20.0), params, seed, t)
 
 
-def _loop_positions(
-    path_size: tuple[float, float, float],
-    centre: tuple[float, float],
-    speed: float,
-    s0: float,
-    terrain: Terrain,
-    t: FloatArray,
-    rng: np.random.Generator,
-) -> FloatArray:
-    path = rounded_rectangle(*path_size, centre_m=centre)
-    return path_positions(path, speed_profile_s(t, speed, rng, s0_m=s0), terrain)
-
-
-def _single_auxiliary(params: SimParams, seed: int, t: FloatArray) -> World:
-    # paper 004 section 5: the target car T drives a closed loop around the site; the
-    # auxiliary trolley A1 (GNSS) moves inside it (or stands still: unobservable case);
-    # an optional second auxiliary A2 has peak-shifted, non-Gaussian ranging (5.2).
-    second = params.second_aux or params.platforms == 3
-    if params.platforms not in (2, 3):
-        raise ConfigError(
-            "single-auxiliary: platforms must be 2 (T, A1) or 3 (T, A1, A2), "
-            f"found {params.platforms}"
-        )
-    terrain = Terrain(params.height_amplitude_m, named_rng(seed, "terrain"))
-    target = _loop_positions(
-        (80.0, 60.0, 10.0), (0.0, 0.0), params.speed_mps, 0.0, terrain, t, named_rng(seed, "T")
-    )
-    if params.aux_static:
-        rest = np.array([[6.0, 4.0]])
-        aux1 = np.column_stack(
-            (np.repeat(rest, t.shape[0], axis=0), terrain.up(rest).repeat(t.shape[0]))
-        )
-    else:
-        aux1 = _loop_positions(
-            (30.0, 30.0, 14.99), (0.0, 0.0), 0.6, 20.0, terrain, t, named_rng(seed, "A1")
-        )
-    actors = [
-        Actor("T", "follower", "dr", target, own_frame=True),
-        Actor("A1", "leader", "gnss", aux1),
-    ]
-    links = [PairModel("A1", "T")]
-    if second:
-        aux2 = _loop_positions(
-            (16.0, 16.0, 7.99), (-18.0, 8.0), 0.5, 5.0, terrain, t, named_rng(seed, "A2")
-        )
-        actors.append(Actor("A2", "leader", "gnss", aux2))
-        links.append(PairModel("A2", "T", bias_m=params.aux2_bias_m, laplace_m=params.aux2_noise_m))
-    return World(time_rel_s=t, actors=tuple(actors), links=tuple(links))
-
-
 _ANCHOR_SITES = (
     (-20.0, -15.0), (20.0, -15.0), (20.0, 15.0), (-20.0, 15.0),
     (0.0, -15.0), (0.0, 15.0), (-20.0, 0.0), (20.0, 0.0),
@@ -249,8 +172,10 @@ _LEADER_OPTIONS = (
 )
 #: The options of paper 004's auxiliaries (single-auxiliary only).
 _AUX_OPTIONS = ("aux_static", "second_aux", "aux2_bias_m", "aux2_noise_m")
+#: The options of the multi-auxiliary layout (issue 17).
+_MULTI_OPTIONS = ("aux_distance_m", "aux1_moves_at_s", "aux3_tail_m")
 
-_NO_AUX = dict.fromkeys(_AUX_OPTIONS, "no auxiliary A1/A2")
+_NO_AUX = dict.fromkeys(_AUX_OPTIONS + _MULTI_OPTIONS, "no auxiliary A1/A2")
 _ANCHORS_UNUSED = {
     **_NO_AUX,
     **dict.fromkeys(
@@ -308,9 +233,33 @@ SCENARIOS: dict[str, Scenario] = {
         "single-auxiliary",
         "paper 004 section 5: target T with dead reckoning in its own frame (unknown start "
         "and azimuth), moving GNSS auxiliary A1; options aux_static, second_aux (A2, biased)",
-        _single_auxiliary,
+        single_auxiliary,
         {"duration_s": 300.0, "platforms": 2, "speed_mps": 1.0, "distance_rate_mps": 0.0},
-        unused={"distance_rate_mps": "no formation: T, A1 and A2 drive loops of their own"},
+        unused={
+            "distance_rate_mps": "no formation: T, A1 and A2 drive loops of their own",
+            **dict.fromkeys(
+                _MULTI_OPTIONS, "a fixed layout of A1 and A2; the multi-auxiliary one has these"
+            ),
+        },
+    ),
+    "multi-auxiliary": Scenario(
+        "multi-auxiliary",
+        "issue 17 / paper 004 sec. 5.2: target T (own-frame dead reckoning, 2 % odometer "
+        "scale fault) on a 24 x 16 m loop; A1 (good), A2 (peak-shifted Laplace) and A3 "
+        "(heavy-tailed Student t) on 8 m loops 60 m away (aux_distance_m), UWB noise 0.1 m",
+        multi_auxiliary,
+        {
+            "duration_s": 300.0,
+            "platforms": 4,
+            "speed_mps": 1.0,
+            "distance_rate_mps": 0.0,
+            "uwb_noise_m": 0.1,
+            "odo_scale_fault": (0.02, 0.02),
+        },
+        unused={
+            "distance_rate_mps": "no formation: T and the auxiliaries drive loops of their own",
+            "second_aux": "the auxiliaries are set by the platform count (2-4)",
+        },
     ),
     "large": Scenario(
         "large",

@@ -6,9 +6,10 @@ offset inside the ranging period (the DW1000 polls pairs one after another). A r
     range = |p_i(t) - p_j(t)| + n + b_pair + nlos + gross,    rounded to the millimetre
 
 with n ~ N(0, uwb_noise^2) (or Laplace for a pair with non-Gaussian ranging, paper 004
-section 5.2), and during an NLOS event on the pair every epoch gets nlos ~ N(mu, 0.1^2)
-(paper 000 section 4.3), clipped at 0 because a blocked path is never shorter; an event
-with ``wander_m`` has a slowly varying mean mu(t) instead (:func:`nlos_mean_m`). Epochs
+section 5.2, or Student t for a heavy-tailed one), and during an NLOS event on the pair
+every epoch gets nlos ~ N(mu, 0.1^2) (paper 000 section 4.3), clipped at 0 because a
+blocked path is never shorter; an event with ``wander_m`` has a slowly varying mean
+mu(t) instead (:func:`nlos_mean_m`). Epochs
 are then dropped at random (dropouts) and during outages (paper 003 section 3.4).
 With ``exact_ranges`` a range is the true distance itself (not even rounded).
 """
@@ -38,6 +39,8 @@ class PairModel:
     bias_m: float = 0.0
     #: Laplace scale of the noise instead of the Gaussian uwb_noise_m; 0: Gaussian.
     laplace_m: float = 0.0
+    #: Scale of Student-t (2 dof) noise instead of the Gaussian: heavy tails; 0: Gaussian.
+    student_t_m: float = 0.0
 
     @property
     def pair(self) -> str:
@@ -126,6 +129,8 @@ def simulate_ranges(
         )
         if link.laplace_m > 0:
             error = rng.laplace(0.0, link.laplace_m, size=n)
+        elif link.student_t_m > 0:
+            error = link.student_t_m * rng.standard_t(2.0, size=n)
         else:
             error = rng.normal(0.0, params.uwb_noise_m, size=n)
         error = error + link.bias_m

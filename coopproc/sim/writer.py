@@ -263,7 +263,7 @@ def describe_simulation(
                 f"| {row.value:g} |"
             )
     use = f"coopproc run {out_name} -o out/{out_name}"
-    if sim.scenario == "single-auxiliary":
+    if sim.scenario in ("single-auxiliary", "multi-auxiliary"):
         aux = ",".join(pid for pid in session.platform_ids if pid != "T")
         use = f"coopproc locate {out_name} --target T --aux {aux} -o out/{out_name}"
     lines += ["", "## Use it", "", "```", f"coopproc validate {out_name}", use]

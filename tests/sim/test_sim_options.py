@@ -27,6 +27,7 @@ _BASE: dict[str, dict[str, Any]] = {
     "paper-table1": {"duration_s": 240.0},
     "anchors": {"duration_s": 120.0},
     "single-auxiliary": {"duration_s": 120.0},
+    "multi-auxiliary": {"duration_s": 120.0},
     "large": {"duration_s": 120.0, "platforms": 3},
     "dr-faults": {"duration_s": 120.0},
     "noisy-leader": {"duration_s": 120.0},
@@ -98,18 +99,29 @@ _CHANGE: dict[str, Value] = {
     "second_aux": _flip("second_aux"),
     "aux2_bias_m": lambda sim: 1.0,
     "aux2_noise_m": lambda sim: 0.5,
+    "aux_distance_m": lambda sim: 30.0,
+    "aux1_moves_at_s": lambda sim: 30.0,
+    "aux3_tail_m": lambda sim: 0.4,
 }
 
-#: What a parameter needs to act (set in both runs where it applies).
+
+def _single_only(value: Any) -> Value:
+    """``value`` in single-auxiliary, not set elsewhere (multi-auxiliary has A2 already)."""
+    return lambda sim: value if sim.scenario == "single-auxiliary" else None
+
+
+#: What a parameter needs to act (set in both runs where it applies; None: not set).
 _NEEDS: dict[str, dict[str, Value]] = {
     "leader_vel_sigma_mps": {"leader_velocity": lambda sim: True},
     "gross_error_m": {"gross_error_rate": lambda sim: 0.05},
     "nlos_sigma_m": {"nlos_events": _CHANGE["nlos_events"]},
-    "aux2_bias_m": {"second_aux": lambda sim: True},
-    "aux2_noise_m": {"second_aux": lambda sim: True},
+    "aux2_bias_m": {"second_aux": _single_only(True)},
+    "aux2_noise_m": {"second_aux": _single_only(True)},
 }
 
 _AUX = ("aux_static", "second_aux", "aux2_bias_m", "aux2_noise_m")
+_MULTI = ("aux_distance_m", "aux1_moves_at_s", "aux3_tail_m")
+_AUX_SCENARIOS = ("single-auxiliary", "multi-auxiliary")
 _LEADER = (
     "leader_sigma_m", "leader_sigma_up_m", "leader_corr_s", "leader_white_m",
     "leader_velocity", "leader_vel_sigma_mps",
@@ -117,11 +129,25 @@ _LEADER = (
 #: (parameter, scenario) -> what the refusal says besides the parameter's name
 _REFUSED: dict[tuple[str, str], str] = {
     **{
-        (o, s): "applies to: single-auxiliary"
+        (o, s): "applies to: single-auxiliary, multi-auxiliary"
         for o in _AUX
+        for s in SCENARIOS
+        if s not in _AUX_SCENARIOS and o != "second_aux"
+    },
+    **{
+        ("second_aux", s): "applies to: single-auxiliary"
         for s in SCENARIOS
         if s != "single-auxiliary"
     },
+    ("second_aux", "multi-auxiliary"): "set by the platform count",
+    **{
+        (o, s): "applies to: multi-auxiliary"
+        for o in _MULTI
+        for s in SCENARIOS
+        if s != "multi-auxiliary"
+    },
+    ("distance_rate_mps", "multi-auxiliary"): "no formation",
+    ("platforms", "multi-auxiliary"): "must be 2..4",
     **{(o, "anchors"): "no GNSS/INS platform" for o in _LEADER},
     ("distance_rate_mps", "anchors"): "no formation",
     ("distance_rate_mps", "single-auxiliary"): "no formation",
@@ -207,6 +233,7 @@ def test_option_acts_or_is_refused(option: str, scenario: str) -> None:
         assert refusal in message and "\n" not in message
         return
     needs = {key: make(plain) for key, make in _NEEDS.get(option, {}).items()}
+    needs = {key: value for key, value in needs.items() if value is not None}
     changed = _content(_run(scenario, {**needs, option: value}))
     base = _base_content(scenario, needs)
     assert changed != base, f"{option}={value!r} changes nothing in {scenario}"
@@ -305,6 +332,9 @@ def test_given_events_outages_and_gaps_outside_the_session_are_refused() -> None
         ("large", {"duration_s": 100.0, "random_nlos_per_pair_hour": 5.0}, "120 s or more"),
         ("dr-faults", {"duration_s": 20.0, "slip_rate_per_hour": 50.0}, "more than 20 s"),
         ("single-auxiliary", {"nlos_sigma_m": 0.2}, "without NLOS events"),
+        ("multi-auxiliary", {"platforms": 3, "aux3_tail_m": 0.3}, "without the third auxiliary"),
+        ("multi-auxiliary", {"aux_static": True, "aux1_moves_at_s": 50.0}, "aux_static = true"),
+        ("multi-auxiliary", {"aux1_moves_at_s": 400.0}, "at or after the session end"),
         ("paper-experiment", {"nlos_events": [], "nlos_sigma_m": 0.2}, "without NLOS events"),
     ],
 )
@@ -340,7 +370,7 @@ def test_cli_refuses_in_one_line_and_takes_duration_from_set(tmp_path: Path) -> 
     assert refused.exit_code == 1
     assert refused.output.strip().splitlines() == [
         "error: simulation parameter 'aux_static' does nothing in scenario 'paper-experiment' "
-        "(no auxiliary A1/A2); it applies to: single-auxiliary"
+        "(no auxiliary A1/A2); it applies to: single-auxiliary, multi-auxiliary"
     ]
     both = runner.invoke(
         main,

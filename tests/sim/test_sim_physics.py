@@ -209,6 +209,7 @@ def test_bad_parameters_are_one_line_config_errors() -> None:
         "paper-table1",
         "anchors",
         "single-auxiliary",
+        "multi-auxiliary",
         "large",
         "dr-faults",
         "noisy-leader",
