@@ -6,7 +6,7 @@ neighbours: slow, and no more readable than a few thousand well-chosen points. T
 samples, the sample with the smallest and the one with the largest value of every
 series, in their original order, so that a spike (an NLOS jump, an outlier) drawn from
 one sample still shows at its full height. Buckets never span a gap: NaN samples (the
-line breaks inserted by :func:`coopproc.report.plots._break_gaps`) are all kept, and so
+line breaks inserted by :func:`coopproc.report.gaps.break_gaps`) are all kept, and so
 are the first and last sample of every run between them, so a line still stops and
 starts where the data do. A series of at most ``max_points`` samples is returned as is.
 
