@@ -172,7 +172,7 @@ def test_sample_lines_do_not_bridge_the_reference_gaps(sample_run: RunTables) ->
     figures = make_figures(sample_run)
     assert set(figures) == set(FIGURE_NAMES)
     assert _check_no_bridges(figures) >= 3 * 3 * 3  # 3 figures x 3 panels x 3 lines
-    # sample_logs' own reference gaps (ref_A.pos misses 06:07:47-06:08:09, ...) are shaded
+    # sample_logs' own float reference epochs (ref_A.pos: Q != 1 from +468 to +488 s) shaded
     ax = _panel(figures["position_errors"], "A")
     assert _covered(_spans(ax, "no_reference"), 468.0, 488.0)
     assert not _spans(ax, "uwb_outage")
