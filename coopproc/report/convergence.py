@@ -10,7 +10,10 @@ steps. Every event with estimates is drawn:
 - an event of another method joins the primary panel of its pair whose span overlaps its
   own the most (one event per method and panel, as a panel draws one series per method);
 - an event that overlaps none, or whose panel already holds an event of its method, gets
-  a panel of its own, titled with its method's name.
+  a panel of its own.
+
+A panel is titled with the pair, method and number of its first event and the event's
+start since t0, e.g. ``A-B, DI-Based event 2 (t = 381 s)``.
 
 Estimates whose steps lie in no event's span (tables written without their events) keep
 the span of their own step times. Grouped once: the estimates and events per (pair,
@@ -150,9 +153,9 @@ def convergence_panels(
         groups_in_time = sorted([*members, *([e] for e in alone)], key=lambda g: g[0].start)
         for group in groups_in_time:
             head = group[0]
-            name = "" if head.method == primary else f"{method_label(head.method)} "
+            name = method_label(head.method)
             title = (
-                f"{pair}, {name}event {head.number} (t = {head.start - run.time_origin_s:.0f} s)"
+                f"{pair}, {name} event {head.number} (t = {head.start - run.time_origin_s:.0f} s)"
             )
             bias = _reference_bias(ranges.get(pair), head)
             panels.append((title, pd.concat([e.rows for e in group]), bias))
