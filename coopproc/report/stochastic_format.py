@@ -15,11 +15,20 @@ import csv
 import html
 import io
 import math
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from coopproc.report.allan import allan_frame, imu_toml
+from coopproc.report.latex_layout import (
+    Grid,
+    LatexWidth,
+    number_cell,
+    render_grid,
+    tex_escape,
+    text_cell,
+)
 from coopproc.report.stochastic import PairStochastics, StochasticReport
 
 __all__ = ["STOCHASTIC_CAPTIONS", "format_stochastic", "stochastic_html", "uwb_toml"]
@@ -154,30 +163,35 @@ def _markdown(t: _Table) -> str:
     return "\n".join(out) + "\n"
 
 
-def _tex(text: str) -> str:
-    for char, repl in (("\\", r"\textbackslash{}"), ("_", r"\_"), ("%", r"\%"), ("&", r"\&")):
-        text = text.replace(char, repl)
-    return text.replace("#", r"\#")
-
-
-def _latex(t: _Table) -> str:
-    def num(text: str) -> str:
-        return f"$-${text[1:]}" if text.startswith("-") and text != "-" else _tex(text)
-
-    out = [
-        f"% {t.title} -- requires \\usepackage{{booktabs}}",
-        r"\begin{table}[htbp]",
-        r"\centering",
-        f"\\caption{{{_tex(t.title)}.}}",
-        f"\\label{{tab:{t.key.replace('_', '-')}}}",
-        r"\begin{tabular}{" + "".join("l" if c.decimals < 0 else "r" for c in t.cols) + "}",
-        r"\toprule",
-        " & ".join(_tex(c.header) for c in t.cols) + r" \\",
-        r"\midrule",
-    ]
-    out += [" & ".join(num(_cell(c, r[c.key])) for c in t.cols) + r" \\" for r in t.rows]
-    out += [r"\bottomrule", r"\end{tabular}", r"\end{table}"]
-    return "\n".join(out) + "\n"
+def _latex(t: _Table, width: LatexWidth = "single") -> str:
+    """``t`` as LaTeX fitting ``width`` (:mod:`coopproc.report.latex_layout`): the header
+    "Mean (m)" as "Mean" over "(m)", the leading text columns repeated if it is split."""
+    tops, units = [], []
+    for c in t.cols:
+        found = re.match(r"^(.*?) \((.*)\)$", c.header)
+        label, unit = (found.group(1), f"({found.group(2)})") if found else (c.header, "")
+        tops.append(text_cell(label))
+        units.append(text_cell(unit))
+    if not any(u.plain for u in units):
+        tops, units = [text_cell("")] * len(tops), tops
+    lines = tuple(
+        tuple(
+            text_cell(str(r[c.key])) if c.decimals < 0 else number_cell(_cell(c, r[c.key]))
+            for c in t.cols
+        )
+        for r in t.rows
+    )
+    grid = Grid(
+        key=t.key.replace("_", "-"),
+        title=t.title,
+        caption=f"{tex_escape(t.title)}.",
+        align="".join("l" if c.decimals < 0 else "r" for c in t.cols),
+        tops=tuple(tops),
+        units=tuple(units),
+        lines=lines,
+        stub=sum(1 for c in t.cols if c.decimals < 0),
+    )
+    return render_grid(grid, width)
 
 
 def _html_table(t: _Table) -> str:
@@ -232,10 +246,16 @@ def _toml(report: StochasticReport) -> str:
     return "\n".join(p for p in parts if p)
 
 
-def format_stochastic(report: StochasticReport, fmt: str) -> str:
-    """The tables and the session.toml snippets in ``fmt`` (terminal, csv, md, latex)."""
-    render = {"terminal": _terminal, "csv": _csv, "md": _markdown, "latex": _latex}[fmt]
-    text = "\n".join(render(t) for t in _tables(report))
+def format_stochastic(
+    report: StochasticReport, fmt: str, *, latex_width: LatexWidth = "single"
+) -> str:
+    """The tables and the session.toml snippets in ``fmt`` (terminal, csv, md, latex; the
+    LaTeX fits ``latex_width``: :mod:`coopproc.report.latex_layout`)."""
+    if fmt == "latex":
+        text = "\n".join(_latex(t, latex_width) for t in _tables(report))
+    else:
+        render = {"terminal": _terminal, "csv": _csv, "md": _markdown}[fmt]
+        text = "\n".join(render(t) for t in _tables(report))
     toml = _toml(report)
     if not toml:
         return text

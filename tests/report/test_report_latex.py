@@ -8,18 +8,22 @@ import dataclasses
 import re
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
 from latex_measure import DOCUMENTS, compile_tables, pdflatex
-from report_synth import chain_run, paper_run
+from report_synth import chain_run, make_run, paper_run
 
 from coopproc.cli import main
+from coopproc.report.allan import imu_allan
 from coopproc.report.change import Change, change_of
 from coopproc.report.evaluation_tables import format_evaluation
 from coopproc.report.formats import format_tables
 from coopproc.report.latex import COLUMN_PT, SINGLE_PT, SPAN_PT, latex_table, tex_escape
 from coopproc.report.rundir import RunTables, load_run
+from coopproc.report.stochastic import StochasticReport, uwb_stochastics
+from coopproc.report.stochastic_format import format_stochastic
 from coopproc.report.tables import POSITION_ALL, build_tables, position_table
 
 SAMPLE = Path(__file__).resolve().parents[2] / "sample_logs"
@@ -179,6 +183,26 @@ def _all_tables(run: RunTables, width: str, evaluation: bool) -> str:
     return "\n".join(parts)
 
 
+def stochastic() -> StochasticReport:
+    """The UWB residual table (13 columns) and the gyro / accelerometer Allan tables."""
+    rng = np.random.default_rng(3)
+    pairs, _ = uwb_stochastics(make_run().ranges)
+    t = np.arange(0.0, 120.0, 0.01)
+    gyro = rng.normal(0.0, 0.001, (t.size, 3))
+    accel = rng.normal(0.0, 0.01, (t.size, 3)) + np.array([0.0, 0.0, 9.80665])
+    return StochasticReport(tuple(pairs), (imu_allan("A", "synthetic", t, gyro, accel),))
+
+
+def test_stochastic_tables_are_split_to_fit() -> None:
+    text = format_stochastic(stochastic(), "latex")
+    assert len(_environments(text)) >= 4 and all(w <= SINGLE_PT for w in _widths(text))
+    assert r"\label{tab:stochastic-2}" in text
+    # the pair column starts every part; headers "Mean (m)" as "Mean" over "(m)"
+    parts = text.split(r"\begin{tabular}")[1:3]
+    assert all("\\toprule\nPair & " in p for p in parts)
+    assert "Mean" in parts[0] and " & (m) & " in parts[0]
+
+
 def _check(tex: str, width: str) -> None:
     count = len(_environments(tex))
     for name in FITS[width]:
@@ -200,6 +224,12 @@ def _check(tex: str, width: str) -> None:
 @pytest.mark.parametrize("width", ["single", "double"])
 def test_sample_run_tables_compile_and_fit(sample_run: RunTables, width: str) -> None:
     _check(_all_tables(sample_run, width, evaluation=True), width)
+
+
+@needs_pdflatex
+@pytest.mark.parametrize("width", ["single", "double"])
+def test_stochastic_tables_compile_and_fit(width: str) -> None:
+    _check(format_stochastic(stochastic(), "latex", latex_width=width), width)  # type: ignore[arg-type]
 
 
 @needs_pdflatex
