@@ -65,7 +65,15 @@ def test_cli_formats_filters_and_output_file(out_dir: Path, tmp_path: Path) -> N
     assert result.exit_code == 0, result.output
     assert result.output == f"wrote {target}\n"
     tex = target.read_text()
-    assert r"\toprule" in tex and "Max (m) & RMSE (m)" in tex and "B-C" not in tex
+    assert r"\toprule" in tex and " & Max & RMSE \\" in tex and "B-C" not in tex
+    assert "Method & (m) & (m) \\" in tex and r"\begin{table}" in tex
+    # --latex-width double, --no-change: one column of a two-column page, no change rows
+    narrow = ["--metrics", "max,rmse", "--pairs", "A-B", "--latex-width", "double"]
+    CliRunner().invoke(main, [*args, *narrow, "--no-change"])
+    tex = target.read_text()
+    table2 = tex.split("% Table 3")[0]
+    assert r"\begin{table}" in table2 and "one column of a two-column" in table2
+    assert r"\%" not in table2.split(r"\begin{tabular}")[1]
 
 
 def test_cli_errors_are_one_line(out_dir: Path, tmp_path: Path) -> None:
