@@ -5,8 +5,9 @@ size, hours x platforms) two figures, each the median of ``--repeat`` runs after
 warm-up run: the simulation alone (``coopproc.sim.simulate`` in this process: the
 model, no files) and the command a user runs, ``coopproc simulate OUT --scenario S
 --force`` as a new process (simulation + writing every file + start-up), with the
-child's peak RSS. ``--mcap`` adds ``--mcap`` (the session once more as one MCAP file).
-No target: the numbers are what docs/simulator.md and docs/benchmarks.md quote.
+child's peak RSS; first, the start-up alone (a new process importing what the command
+imports: scipy.signal is most of it). ``--mcap`` adds ``--mcap`` (the session once
+more as one MCAP file). No target: docs/simulator.md and docs/benchmarks.md quote the numbers.
 
     python benchmarks/simulate.py
     python benchmarks/simulate.py --scenarios paper-experiment,large --large 1x10,1x20 --mcap
@@ -18,6 +19,8 @@ import argparse
 import datetime
 import shutil
 import statistics
+import subprocess
+import sys
 import tempfile
 from pathlib import Path
 
@@ -58,6 +61,14 @@ def _engine(name: str, options: list[str], repeat: int) -> tuple[float, list[flo
     return median_seconds(run, repeat=repeat)
 
 
+def _imports(repeat: int) -> tuple[float, list[float]]:
+    """Seconds of a new process that only imports what ``coopproc simulate`` imports."""
+    code = "import coopproc.cli.simulate, coopproc.sim.engine, coopproc.io"
+    return median_seconds(
+        lambda: subprocess.run([sys.executable, "-P", "-c", code], check=True), repeat=repeat
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenarios", default=",".join(SCENARIOS), help="comma separated")
@@ -71,6 +82,8 @@ def main() -> None:
         parser.error(f"unknown scenario(s) {unknown}; expected some of {list(SCENARIOS)}")
     now = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
     print(f"== simulate.py {now} ({load()}; median of {args.repeat} after 1 warm-up)")
+    start, start_times = _imports(args.repeat)
+    print(f"python start + imports of coopproc simulate: {start:.2f} s ({spread(start_times)})")
     print(f"{'scenario':<24} {'simulation':>10} {'coopproc simulate':>18} {'peak RSS':>9}")
     root = Path(tempfile.mkdtemp(prefix="coopproc-bench-sim-"))
     try:
