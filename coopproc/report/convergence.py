@@ -12,8 +12,9 @@ steps. Every event with estimates is drawn:
 - an event that overlaps none, or whose panel already holds an event of its method, gets
   a panel of its own.
 
-A panel is titled with the pair, method and number of its first event and the event's
-start since t0, e.g. ``A-B, DI-Based event 2 (t = 381 s)``.
+A panel is titled with the pair and number of its first event and the event's start
+since t0, e.g. ``A-B, event 2 (t = 381 s)``, and the event's method when it is not the
+primary one (``B-C, RN-Based event 3 (t = 485 s)``).
 
 Estimates whose steps lie in no event's span (tables written without their events) keep
 the span of their own step times. Grouped once: the estimates and events per (pair,
@@ -153,10 +154,10 @@ def convergence_panels(
         groups_in_time = sorted([*members, *([e] for e in alone)], key=lambda g: g[0].start)
         for group in groups_in_time:
             head = group[0]
-            name = method_label(head.method)
-            title = (
-                f"{pair}, {name} event {head.number} (t = {head.start - run.time_origin_s:.0f} s)"
-            )
+            # the primary method's panels unnamed: the titles fit a third of the text width
+            name = "" if head.method == primary else f"{method_label(head.method)} "
+            at = head.start - run.time_origin_s
+            title = f"{pair}, {name}event {head.number} (t = {at:.0f} s)"
             bias = _reference_bias(ranges.get(pair), head)
             panels.append((title, pd.concat([e.rows for e in group]), bias))
     return panels

@@ -41,7 +41,9 @@ FIGURE_CAPTIONS: dict[str, str] = {
     "di_errors": "Distance-increment error of dead reckoning, cooperative positioning and "
     "the smoothed DI against the reference DI (paper 000 fig. 8).",
     "position_errors": "Horizontal position error per platform and method (paper 000 fig. 12).",
-    "nlos_convergence": "NLOS estimate after each step of eq. (11) per event (paper 000 fig. 10).",
+    "nlos_convergence": "NLOS estimate after each step of eq. (11) per event (paper 000 fig. "
+    "10): a panel per event of the primary method, other methods' events in the panel they "
+    "overlap, else in a panel of their own named by their method.",
     "trajectories": "Tracks in the east-north plane with the reference.",
     "error_cdf": "Cumulative distribution of the horizontal error per platform, methods "
     "overlaid (dotted: 50 % and 95 %, i.e. CEP50 and CEP95).",
@@ -50,11 +52,11 @@ FIGURE_CAPTIONS: dict[str, str] = {
 }
 
 _CSS = """
-body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1100px; color: #222; }
+body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1200px; color: #222; }
 h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 2em; border-bottom: 1px solid #ccc; }
 table { border-collapse: collapse; margin: 1em 0; font-size: 0.85em; }
 caption { text-align: left; font-weight: bold; padding-bottom: 0.4em; }
-th, td { padding: 0.2em 0.7em; border-bottom: 1px solid #e5e5e5; white-space: nowrap; }
+th, td { padding: 0.2em 0.6em; border-bottom: 1px solid #e5e5e5; white-space: nowrap; }
 div.wide { overflow-x: auto; } ul.notes { margin: 0; padding-left: 1.2em; }
 thead th { border-bottom: 2px solid #444; text-align: right; }
 thead th:first-child, thead th:nth-child(2) { text-align: left; }

@@ -44,7 +44,7 @@ THUMBNAIL_WIDTH_PX = 1000
 #: Resolution of pages rendered in memory (no file in OUT/figures).
 _RENDER_DPI = 150
 #: CSS pixels per inch of figure in the page: the widest figure style (7.16 in) fits the
-#: page's 1100 px; a one-column figure (3.5 in) is shown half as wide, at the same scale.
+#: page's 1200 px; a one-column figure (3.5 in) is shown half as wide, at the same scale.
 DISPLAY_PX_PER_IN = 150
 #: Resolution assumed for a PNG that records none (matplotlib's savefig records it).
 _DEFAULT_DPI = 300.0

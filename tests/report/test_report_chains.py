@@ -328,7 +328,7 @@ def test_without_di_the_last_processed_method_is_primary() -> None:
     assert spans == {"A-B": 1, "A-C": 0, "B-C": 0}
     panels = figures["nlos_convergence"].axes
     assert [ax.get_title(loc="left") for ax in panels] == [
-        "(a) A-B, smooth event 1 (t = 31 s)",
+        "(a) A-B, event 1 (t = 31 s)",
         "(b) B-C, RN-Based event 1 (t = 51 s)",
     ]
     assert {ln.get_gid() for ln in panels[0].get_lines()} >= {"smooth", "rn"}

@@ -78,10 +78,10 @@ def test_an_event_beside_the_primary_ones_gets_its_own_panel(sample_run: Path) -
     run = load_run(sample_run)
     titles = [title for title, _, _ in convergence_panels(run)]
     assert titles == [
-        "A-B, DI-Based event 1 (t = 120 s)",
-        "A-B, DI-Based event 2 (t = 381 s)",
-        "B-C, DI-Based event 1 (t = 230 s)",
-        "B-C, DI-Based event 2 (t = 470 s)",
+        "A-B, event 1 (t = 120 s)",
+        "A-B, event 2 (t = 381 s)",
+        "B-C, event 1 (t = 230 s)",
+        "B-C, event 2 (t = 470 s)",
         "B-C, RN-Based event 3 (t = 485 s)",
     ]
     assert run.nlos_estimates is not None
