@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from coopproc.cli.options import config_option, output_option, session_argument
+from coopproc.cli.options import config_option, output_option, session_argument, style_option
 from coopproc.errors import ConfigError
 
 __all__ = ["locate"]
@@ -41,6 +41,7 @@ def _read_config(path: Path | None) -> dict[str, object]:
     help="Random seed, 0 or more (overrides the config).",
 )
 @click.option("--no-figures", is_flag=True, help="Write the tables only.")
+@style_option()
 def locate(
     session: Path,
     target: str,
@@ -50,6 +51,7 @@ def locate(
     force: bool,
     seed: int | None,
     no_figures: bool,
+    figure_style: str | None,
 ) -> None:
     """Localize TARGET (dead reckoning only, unknown start and azimuth) from its UWB
     ranges to one or more moving auxiliaries (paper 004): AACOPF, standard PF and EKF.
@@ -71,6 +73,7 @@ def locate(
     from coopproc.io import read_session
     from coopproc.io.outdir import write_csv
     from coopproc.report.locate_figures import write_locate_figures
+    from coopproc.report.style import STYLES
     from coopproc.stages.particle import (
         LOCATE_COLUMNS,
         LOCATE_SUMMARY_COLUMNS,
@@ -91,7 +94,7 @@ def locate(
         write_csv(result.summary, tmp / "locate_summary.csv", LOCATE_SUMMARY_COLUMNS)
         write_csv(observability_table(result), tmp / "observability.csv")
         if not no_figures:
-            write_locate_figures(result, tmp / "figures")
+            write_locate_figures(result, tmp / "figures", style=STYLES[figure_style or "default"])
     for row in result.summary.to_dict("records"):
         az_err = float(row["azimuth_error"])
         rmse = float(row["rmse_h"])

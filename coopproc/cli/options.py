@@ -14,6 +14,7 @@ __all__ = [
     "max_panels_option",
     "output_option",
     "session_argument",
+    "style_option",
 ]
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -61,4 +62,21 @@ def max_panels_option() -> Callable[[F], F]:
         metavar="N",
         help="Most panels per figure page (default 24); more go on further pages "
         "(distance_errors.png, distance_errors_2.png, ...).",
+    )
+
+
+#: The names of ``--style`` (:data:`coopproc.report.style.STYLES`; kept here so that the
+#: CLI does not import matplotlib to list them; a test checks they agree).
+STYLE_CHOICES = ("default", "single-column", "double-column")
+
+
+def style_option(default_help: str = "default") -> Callable[[F], F]:
+    """``--style NAME``: figure sizes and fonts (None: not given)."""
+    return click.option(
+        "--style",
+        "figure_style",
+        type=click.Choice(STYLE_CHOICES),
+        default=None,
+        help="Figure sizes and fonts: single-column (3.5 in wide, 8 pt), double-column "
+        f"(7.16 in, 9 pt; IEEE page widths) or default ({default_help}); docs/report.md.",
     )

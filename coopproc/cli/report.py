@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from coopproc.cli.options import comma_names, max_panels_option
+from coopproc.cli.options import comma_names, max_panels_option, style_option
 
 __all__ = ["report"]
 
@@ -65,20 +65,6 @@ def _alignments(value: str | None) -> list[str]:
     type=click.Path(path_type=Path, dir_okay=False),
     help="Write the tables to FILE instead of standard output.",
 )
-@click.option(
-    "--latex-width",
-    type=click.Choice(["single", "double"]),
-    default="single",
-    show_default=True,
-    help="Page the LaTeX tables fit: single (one-column article) or double (one column of a "
-    "two-column article, else table* across both).",
-)
-@click.option(
-    "--no-change",
-    "no_change",
-    is_flag=True,
-    help="Leave out the change against Observed (every format).",
-)
 @click.option("--metrics", help="Columns to show, comma separated (e.g. max,rmse,snr_db).")
 @click.option(
     "--pairs", help="Pairs to show in Table 2 and the figures, comma separated (e.g. A-B,B-C)."
@@ -95,6 +81,7 @@ def _alignments(value: str | None) -> list[str]:
     help="Resolution of PNG figures.",
 )
 @max_panels_option()
+@style_option()
 @click.option("--html", "make_html", is_flag=True, help="Write OUT/report.html.")
 @click.option(
     "--evaluate",
@@ -134,8 +121,6 @@ def report(
     show_table: bool,
     fmt: str | None,
     output: Path | None,
-    latex_width: str,
-    no_change: bool,
     metrics: str | None,
     pairs: str | None,
     platforms: str | None,
@@ -144,6 +129,7 @@ def report(
     svg: bool,
     dpi: int,
     max_panels: int | None,
+    figure_style: str | None,
     make_html: bool,
     evaluate: bool,
     align: str | None,
@@ -157,10 +143,10 @@ def report(
     \b
     coopproc report out --table                 Table 2 and Table 3 in the terminal
     coopproc report out --format latex -o t.tex LaTeX (booktabs) to a file
-    coopproc report out --format latex --latex-width double --no-change
     coopproc report out --metrics max,rmse --pairs A-B
     coopproc report out --plots --pdf --html    figures (PNG + PDF) and report.html
     coopproc report out --plots --pairs A-B,A-C figures of two pairs only
+    coopproc report out --plots --style single-column   one journal column wide
     coopproc report out --evaluate --align se3  3-D / vertical errors and RPE, evo-style
     coopproc report out --stochastic --plots    UWB noise model, IMU Allan deviation
     """
@@ -189,10 +175,14 @@ def report(
     figure_options = None
     if plots or make_html:  # the pairs / platforms drawn (unknown ones fail before any work)
         from coopproc.report.pages import check_selection
-        from coopproc.report.style import MAX_PANELS
+        from coopproc.report.style import MAX_PANELS, STYLES
 
         figure_options = check_selection(
-            run, comma_names(pairs), comma_names(platforms), max_panels or MAX_PANELS
+            run,
+            comma_names(pairs),
+            comma_names(platforms),
+            max_panels or MAX_PANELS,
+            STYLES[figure_style or "default"],
         )
     if plots or make_html or stochastic:
         check_writable_dir(out, out)
@@ -206,18 +196,9 @@ def report(
         if stoch is not None:  # the stochastic tables instead of Table 2 / Table 3
             from coopproc.report.stochastic_format import format_stochastic
 
-            text = format_stochastic(
-                stoch,
-                fmt or "terminal",
-                latex_width=latex_width,  # type: ignore[arg-type]
-            )
+            text = format_stochastic(stoch, fmt or "terminal")
             if show_table:  # both when asked: Table 2/3 first
-                tables = format_tables(
-                    run,
-                    fmt or "terminal",  # type: ignore[arg-type]
-                    change=not no_change,
-                    latex_width=latex_width,  # type: ignore[arg-type]
-                )
+                tables = format_tables(run, fmt or "terminal")  # type: ignore[arg-type]
                 text = f"{tables}\n{text}"
         elif evaluate:  # the evaluation tables instead of Table 2 / Table 3
             from coopproc.report.evaluation_tables import format_evaluation
@@ -229,8 +210,6 @@ def report(
                 segments_m=lengths,
                 metrics=comma_names(metrics),
                 platforms=comma_names(platforms),
-                change=not no_change,
-                latex_width=latex_width,  # type: ignore[arg-type]
             )
         else:
             text = format_tables(
@@ -239,8 +218,6 @@ def report(
                 metrics=comma_names(metrics),
                 pairs=comma_names(pairs),
                 platforms=comma_names(platforms),
-                change=not no_change,
-                latex_width=latex_width,  # type: ignore[arg-type]
             )
         if output is not None:
             write_text_atomic(output, text)

@@ -15,6 +15,7 @@ from coopproc.cli.options import (
     max_panels_option,
     output_option,
     session_argument,
+    style_option,
 )
 
 if TYPE_CHECKING:
@@ -40,6 +41,7 @@ __all__ = ["run"]
 @click.option("--pairs", help="Pairs to draw in the figures, comma separated (e.g. A-B,B-C).")
 @click.option("--platforms", help="Platforms to draw in the figures, comma separated.")
 @max_panels_option()
+@style_option("the config's [run] figure_style, else default")
 @click.option(
     "--format",
     "table_format",
@@ -60,6 +62,7 @@ def run(
     pairs: str | None,
     platforms: str | None,
     max_panels: int | None,
+    figure_style: str | None,
     table_format: str | None,
     quiet: bool,
 ) -> None:
@@ -114,7 +117,9 @@ def run(
     with PhaseProgress(total, bar=show_bar, log=None if quiet else note, prefix="run") as phases:
         phases.start("read")
         data = read_session(session)
-        figure_options = _figure_options(data, pairs, platforms, max_panels)  # checked early
+        figure_options = _figure_options(
+            data, pairs, platforms, max_panels, figure_style or config.run.figure_style
+        )  # checked early
         check_output_dir(out_dir, force=force, protect=[data.root, *data.inputs])
         note(
             f"session {data.name}: {len(data.platforms)} platforms, "
@@ -157,12 +162,16 @@ def run(
 
 
 def _figure_options(
-    data: Session, pairs: str | None, platforms: str | None, max_panels: int | None
+    data: Session,
+    pairs: str | None,
+    platforms: str | None,
+    max_panels: int | None,
+    style: str = "default",
 ) -> FigureOptions:
     """--pairs / --platforms / --max-panels checked against the session's pairs and
-    platforms (an unknown one is a one-line error listing them)."""
+    platforms (an unknown one is a one-line error listing them); --style."""
     from coopproc.report.pages import FigureOptions, check_names
-    from coopproc.report.style import MAX_PANELS
+    from coopproc.report.style import MAX_PANELS, figure_style
 
     chosen_pairs = comma_names(pairs)
     chosen_platforms = comma_names(platforms)
@@ -174,4 +183,5 @@ def _figure_options(
         if chosen_platforms is None
         else check_names(chosen_platforms, sorted(data.platforms), "platform"),
         max_panels=max_panels or MAX_PANELS,
+        style=figure_style(style),
     )

@@ -171,7 +171,7 @@ STYLES: dict[str, FigureStyle] = {
     "single-column": FigureStyle(
         "single-column", 3.5, 3.5, 2, 8.0, 8.0, row_scale=0.8, two_columns_share=1.0
     ),
-    "double-column": FigureStyle("double-column", 7.16, 7.16, 3, 9.0, 8.0),
+    "double-column": FigureStyle("double-column", 7.16, 7.16, 3, 9.0, 8.0, two_columns_share=1.0),
 }
 STYLE_NAMES: tuple[str, ...] = tuple(STYLES)
 DEFAULT_STYLE = STYLES["default"]

@@ -52,6 +52,13 @@ class RunParams:
         },
     )
     figures: bool = field(default=True, metadata={"help": "write figures/ and report.html"})
+    figure_style: Literal["default", "single-column", "double-column"] = field(
+        default="default",
+        metadata={
+            "help": "figure sizes and fonts: 'single-column' (3.5 in wide, 8 pt), "
+            "'double-column' (7.16 in, 9 pt) or 'default'; --style overrides it"
+        },
+    )
     format: Literal["csv", "parquet"] = field(
         default="csv",
         metadata={

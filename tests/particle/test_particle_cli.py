@@ -154,3 +154,19 @@ def test_biased_second_auxiliary_from_the_simulator(tmp_path) -> None:
             worst[method].append(np.max(err[int(0.6 * err.size) :]))
     assert np.mean(rmse["aacopf"]) < np.mean(rmse["pf"])
     assert max(worst["aacopf"]) < 3.0 < max(worst["pf"])
+
+
+def test_locate_figures_follow_the_style(session_dir, config_file, tmp_path) -> None:
+    """--style single-column: the run figures' sizes and fonts, start/end/auxiliary markers."""
+    from PIL import Image
+
+    out = tmp_path / "out"
+    code, _, stderr = _run(
+        "locate", str(session_dir), "--target", "T", "--aux", "A1", "-o", str(out),
+        "--config", str(config_file), "--style", "single-column",
+    )  # fmt: skip
+    assert code == 0, stderr
+    for name in ("locate_trajectories", "locate_errors", "locate_particles"):
+        with Image.open(out / "figures" / f"{name}.png") as image:
+            assert image.width == round(3.5 * 300), name  # one column at 300 dpi
+            assert "Software" not in image.info
