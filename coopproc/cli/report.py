@@ -65,6 +65,20 @@ def _alignments(value: str | None) -> list[str]:
     type=click.Path(path_type=Path, dir_okay=False),
     help="Write the tables to FILE instead of standard output.",
 )
+@click.option(
+    "--latex-width",
+    type=click.Choice(["single", "double"]),
+    default="single",
+    show_default=True,
+    help="Page the LaTeX tables fit: single (one-column article) or double (one column of a "
+    "two-column article, else table* across both).",
+)
+@click.option(
+    "--no-change",
+    "no_change",
+    is_flag=True,
+    help="Leave out the change against Observed (every format).",
+)
 @click.option("--metrics", help="Columns to show, comma separated (e.g. max,rmse,snr_db).")
 @click.option(
     "--pairs", help="Pairs to show in Table 2 and the figures, comma separated (e.g. A-B,B-C)."
@@ -121,6 +135,8 @@ def report(
     show_table: bool,
     fmt: str | None,
     output: Path | None,
+    latex_width: str,
+    no_change: bool,
     metrics: str | None,
     pairs: str | None,
     platforms: str | None,
@@ -143,6 +159,7 @@ def report(
     \b
     coopproc report out --table                 Table 2 and Table 3 in the terminal
     coopproc report out --format latex -o t.tex LaTeX (booktabs) to a file
+    coopproc report out --format latex --latex-width double --no-change
     coopproc report out --metrics max,rmse --pairs A-B
     coopproc report out --plots --pdf --html    figures (PNG + PDF) and report.html
     coopproc report out --plots --pairs A-B,A-C figures of two pairs only
@@ -196,9 +213,18 @@ def report(
         if stoch is not None:  # the stochastic tables instead of Table 2 / Table 3
             from coopproc.report.stochastic_format import format_stochastic
 
-            text = format_stochastic(stoch, fmt or "terminal")
+            text = format_stochastic(
+                stoch,
+                fmt or "terminal",
+                latex_width=latex_width,  # type: ignore[arg-type]
+            )
             if show_table:  # both when asked: Table 2/3 first
-                tables = format_tables(run, fmt or "terminal")  # type: ignore[arg-type]
+                tables = format_tables(
+                    run,
+                    fmt or "terminal",  # type: ignore[arg-type]
+                    change=not no_change,
+                    latex_width=latex_width,  # type: ignore[arg-type]
+                )
                 text = f"{tables}\n{text}"
         elif evaluate:  # the evaluation tables instead of Table 2 / Table 3
             from coopproc.report.evaluation_tables import format_evaluation
@@ -210,6 +236,8 @@ def report(
                 segments_m=lengths,
                 metrics=comma_names(metrics),
                 platforms=comma_names(platforms),
+                change=not no_change,
+                latex_width=latex_width,  # type: ignore[arg-type]
             )
         else:
             text = format_tables(
@@ -218,6 +246,8 @@ def report(
                 metrics=comma_names(metrics),
                 pairs=comma_names(pairs),
                 platforms=comma_names(platforms),
+                change=not no_change,
+                latex_width=latex_width,  # type: ignore[arg-type]
             )
         if output is not None:
             write_text_atomic(output, text)
@@ -228,7 +258,7 @@ def report(
         from coopproc.run.stochastic import write_stochastic
 
         kinds = ["png", *(["pdf"] if pdf else []), *(["svg"] if svg else [])] if plots else []
-        for path in write_stochastic(out, stoch, formats=kinds, dpi=dpi):
+        for path in write_stochastic(out, stoch, formats=kinds, dpi=dpi, options=figure_options):
             click.echo(f"wrote {path}", err=True)
         for note in stoch.notes:
             click.echo(f"note: {note}", err=True)
