@@ -37,7 +37,11 @@ __all__ = ["run"]
 @click.option("--force", is_flag=True, help="Replace an existing output directory.")
 @click.option("--pdf", is_flag=True, help="Also write figures as PDF.")
 @click.option("--svg", is_flag=True, help="Also write figures as SVG.")
-@click.option("--no-figures", is_flag=True, help="Write the tables only (no figures/ or HTML).")
+@click.option(
+    "--no-figures",
+    is_flag=True,
+    help="Draw no figures (no figures/); report.html is written without them.",
+)
 @click.option("--pairs", help="Pairs to draw in the figures, comma separated (e.g. A-B,B-C).")
 @click.option("--platforms", help="Platforms to draw in the figures, comma separated.")
 @max_panels_option()
@@ -112,8 +116,8 @@ def run(
 
         require_pyarrow()  # before the work
     show_bar = not quiet and sys.stderr.isatty()
-    # read, prepare, the chain's steps, metrics, summary, tables (, figures, html)
-    total = len(resolve(config.pipeline)) + 5 + (2 if config.run.figures else 0)
+    # read, prepare, the chain's steps, metrics, summary, tables, (figures,) html
+    total = len(resolve(config.pipeline)) + 6 + (1 if config.run.figures else 0)
     with PhaseProgress(total, bar=show_bar, log=None if quiet else note, prefix="run") as phases:
         phases.start("read")
         data = read_session(session)

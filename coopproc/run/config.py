@@ -51,7 +51,10 @@ class RunParams:
             "navigation rate (dead reckoning between range updates)"
         },
     )
-    figures: bool = field(default=True, metadata={"help": "write figures/ and report.html"})
+    figures: bool = field(
+        default=True,
+        metadata={"help": "write figures/ (report.html is written either way, without them)"},
+    )
     figure_style: Literal["default", "single-column", "double-column"] = field(
         default="default",
         metadata={
