@@ -9,11 +9,15 @@
   noisiest axis, the bias instability level, and each minimum marked.
 
 Panels in a grid of up to 3 columns; the same fixed metadata as
-:mod:`coopproc.report.figures`, so the same run gives the same files.
+:mod:`coopproc.report.figures`, so the same run gives the same files. A
+:class:`~coopproc.report.pages.FigureOptions` (``--pairs`` / ``--platforms`` / ``--style``)
+keeps the panels of the chosen pairs (the pooled ``all`` panel only without a choice of
+pairs or platforms) and IMU platforms, in the chosen figure style.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import math
 from collections.abc import Sequence
@@ -26,12 +30,13 @@ from matplotlib.figure import Figure
 from coopproc.errors import ConfigError
 from coopproc.report.allan import FLICKER_FACTOR, G_MPS2, ImuAllan
 from coopproc.report.figures import _METADATA, FORMATS
+from coopproc.report.pages import FigureOptions
 from coopproc.report.pages import panel_label as _label
 from coopproc.report.panels import grid as _grid
 from coopproc.report.panels import legend as _legend
 from coopproc.report.stochastic import PairStochastics, StochasticReport
 from coopproc.report.stochastic_format import stochastic_html
-from coopproc.report.style import RC, WIDE_WIDTH_IN
+from coopproc.report.style import DEFAULT_STYLE, FigureStyle
 
 __all__ = [
     "STOCHASTIC_FIGURE_NAMES",
@@ -40,6 +45,7 @@ __all__ = [
     "plot_allan",
     "plot_residual_pdf",
     "render_stochastic_figures",
+    "select_stochastic",
     "stochastic_figures",
     "stochastic_section",
     "uwb_acf_figure",
@@ -94,11 +100,13 @@ def plot_residual_pdf(ax: Axes, pair: PairStochastics) -> Axes:
     return ax
 
 
-def _uwb_figure(pairs: Sequence[PairStochastics], kind: str) -> Figure | None:
+def _uwb_figure(
+    pairs: Sequence[PairStochastics], kind: str, style: FigureStyle = DEFAULT_STYLE
+) -> Figure | None:
     if not pairs:
         return None
-    fig, axes = _grid(len(pairs), 1.6)
-    ncols = min(len(pairs), 3)
+    fig, axes = _grid(len(pairs), 1.6, style=style)
+    ncols = min(len(pairs), style.max_columns)
     for i, (ax, pair) in enumerate(zip(axes, pairs, strict=True)):
         if kind == "acf":
             plot_acf(ax, pair)
@@ -113,14 +121,14 @@ def _uwb_figure(pairs: Sequence[PairStochastics], kind: str) -> Figure | None:
     return fig
 
 
-def uwb_acf_figure(report: StochasticReport) -> Figure | None:
+def uwb_acf_figure(report: StochasticReport, style: FigureStyle = DEFAULT_STYLE) -> Figure | None:
     """One ACF panel per pair."""
-    return _uwb_figure(report.uwb, "acf")
+    return _uwb_figure(report.uwb, "acf", style)
 
 
-def uwb_pdf_figure(report: StochasticReport) -> Figure | None:
+def uwb_pdf_figure(report: StochasticReport, style: FigureStyle = DEFAULT_STYLE) -> Figure | None:
     """One histogram panel per pair."""
-    return _uwb_figure(report.uwb, "pdf")
+    return _uwb_figure(report.uwb, "pdf", style)
 
 
 def plot_allan(ax: Axes, res: ImuAllan, sensor: str) -> Axes:
@@ -166,12 +174,13 @@ def plot_allan(ax: Axes, res: ImuAllan, sensor: str) -> Axes:
     return ax
 
 
-def allan_figure(report: StochasticReport) -> Figure | None:
+def allan_figure(report: StochasticReport, style: FigureStyle = DEFAULT_STYLE) -> Figure | None:
     """Per platform: gyro and accelerometer Allan deviation, side by side."""
     results = report.imu
     if not results:
         return None
-    fig = Figure(figsize=(WIDE_WIDTH_IN * 0.8, 0.5 + 2.1 * len(results)), layout="constrained")
+    width = style.wide_width_in * (0.8 if style.max_columns > 2 else 1.0)
+    fig = Figure(figsize=(width, 0.5 + 2.1 * len(results)), layout="constrained")
     axes = list(fig.subplots(len(results), 2, squeeze=False).ravel())
     for i, res in enumerate(results):  # a row per platform: gyro, accelerometer
         for j, sensor in enumerate(("gyro", "accel")):
@@ -184,23 +193,44 @@ def allan_figure(report: StochasticReport) -> Figure | None:
     return fig
 
 
-def stochastic_figures(report: StochasticReport) -> dict[str, Figure]:
-    """Every figure the report's data allow, by name (:data:`STOCHASTIC_FIGURE_NAMES`)."""
+def select_stochastic(report: StochasticReport, options: FigureOptions) -> StochasticReport:
+    """The pairs and IMU platforms ``options`` keeps (the pooled ``all`` pair only when
+    nothing is chosen: it pools pairs that were not chosen)."""
+    if not options.selects:
+        return report
+    return dataclasses.replace(
+        report,
+        uwb=tuple(p for p in report.uwb if p.pair != "all" and options.keep_pair(p.pair)),
+        imu=tuple(r for r in report.imu if options.keep_platform(r.platform)),
+    )
+
+
+def stochastic_figures(
+    report: StochasticReport, options: FigureOptions | None = None
+) -> dict[str, Figure]:
+    """Every figure the report's data allow, by name (:data:`STOCHASTIC_FIGURE_NAMES`),
+    of the pairs and platforms ``options`` keeps, in its style."""
+    opts = options or FigureOptions()
+    report = select_stochastic(report, opts)
     out = {}
-    with mpl.rc_context(RC):
+    with mpl.rc_context(opts.style.rc):
         for name, build in (
             ("uwb_acf", uwb_acf_figure),
             ("uwb_pdf", uwb_pdf_figure),
             ("allan", allan_figure),
         ):
-            fig = build(report)
+            fig = build(report, opts.style)
             if fig is not None:
                 out[name] = fig
     return out
 
 
 def render_stochastic_figures(
-    report: StochasticReport, *, formats: Sequence[str] = ("png",), dpi: int = 300
+    report: StochasticReport,
+    *,
+    formats: Sequence[str] = ("png",),
+    dpi: int = 300,
+    options: FigureOptions | None = None,
 ) -> dict[str, bytes]:
     """Every stochastic figure in every format, as ``{"<name>.<format>": bytes}`` (in
     order), for the caller to write (atomically) into ``OUT/figures``."""
@@ -208,8 +238,8 @@ def render_stochastic_figures(
     if bad:
         raise ConfigError(f"unknown figure format {bad[0]!r}; expected one of {', '.join(FORMATS)}")
     out: dict[str, bytes] = {}
-    with mpl.rc_context(RC):
-        for name, fig in stochastic_figures(report).items():
+    with mpl.rc_context((options or FigureOptions()).style.rc):
+        for name, fig in stochastic_figures(report, options).items():
             for fmt in formats:
                 buf = io.BytesIO()
                 fig.savefig(buf, format=fmt, dpi=dpi, metadata=_METADATA[fmt])

@@ -22,6 +22,7 @@ from coopproc.errors import InputError, OutputError
 from coopproc.io.imu_csv import find_imu_files, imu_platform, read_imu_csv
 from coopproc.io.outdir import check_output_file, csv_text, write_text_atomic
 from coopproc.report.allan import ALLAN_COLUMNS, ImuAllan, allan_frame, imu_allan
+from coopproc.report.pages import FigureOptions
 from coopproc.report.rundir import RunTables
 from coopproc.report.stochastic import (
     MIN_EPOCHS,
@@ -123,8 +124,10 @@ def write_stochastic(
     *,
     formats: Sequence[str] = (),
     dpi: int = 300,
+    options: FigureOptions | None = None,
 ) -> list[Path]:
-    """Write ``stochastic.csv``, ``allan.csv`` and (``formats``) the figures into OUT."""
+    """Write ``stochastic.csv``, ``allan.csv`` and (``formats``) the figures into OUT;
+    the tables cover every pair and platform, the figures those ``options`` keep."""
     out = Path(out_dir)
     written = []
     if report.uwb:
@@ -134,7 +137,7 @@ def write_stochastic(
         text = _csv_text(allan_frame(report.imu), ALLAN_COLUMNS)
         written.append(write_text_atomic(out / "allan.csv", text))
     if formats:
-        figures = render_stochastic_figures(report, formats=formats, dpi=dpi)
+        figures = render_stochastic_figures(report, formats=formats, dpi=dpi, options=options)
         if figures:
             try:
                 (out / "figures").mkdir(exist_ok=True)

@@ -217,3 +217,23 @@ def test_run_config_figure_style() -> None:
     assert config.run.figure_style == "double-column"
     with pytest.raises(ConfigError, match="figure_style"):
         run_config_from_toml({"run": {"figure_style": "ieee"}})
+
+
+def test_stochastic_figures_follow_pairs_and_style(run: RunTables) -> None:
+    from coopproc.report.stochastic import StochasticReport, uwb_stochastics
+    from coopproc.report.stochastic_figures import stochastic_figures
+
+    pairs, _ = uwb_stochastics(run.ranges)
+    report = StochasticReport(tuple(pairs))
+
+    def titles(fig: Figure) -> list[str]:
+        return [ax.get_title(loc="left") for ax in fig.axes if ax.get_title(loc="left")]
+
+    every = stochastic_figures(report)
+    assert [t.split(":")[0] for t in titles(every["uwb_acf"])][-1] == "(d) all"
+    chosen = FigureOptions(pairs=("B-C",), style=STYLES["single-column"])
+    figs = stochastic_figures(report, chosen)
+    assert set(figs) == {"uwb_acf", "uwb_pdf"}
+    for fig in figs.values():
+        assert [t[:7] for t in titles(fig)] == ["(a) B-C"]  # no other pair, no pooled 'all'
+        assert fig.get_figwidth() == pytest.approx(3.5)
