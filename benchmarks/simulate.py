@@ -2,7 +2,7 @@
 
 For each scenario (its default duration and platforms; ``large`` at each ``--large``
 size, hours x platforms) two figures, each the median of ``--repeat`` runs after one
-warm-up run: the simulation alone (``coopproc.sim.simulate`` in this process: the
+warm-up run: the simulation alone (``coopproc.sim.simulate`` in a child process: the
 model, no files) and the command a user runs, ``coopproc simulate OUT --scenario S
 --force`` as a new process (simulation + writing every file + start-up), with the
 child's peak RSS; first, the start-up alone (a new process importing what the command
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import json
 import shutil
 import statistics
 import subprocess
@@ -26,7 +27,7 @@ from pathlib import Path
 
 from _common import load, median_seconds, run_cli, spread
 
-from coopproc.sim import SCENARIOS, simulate
+from coopproc.sim import SCENARIOS
 
 
 def _shapes(text: str) -> list[tuple[float, int]]:
@@ -52,13 +53,32 @@ def _cases(names: list[str], large: list[tuple[float, int]]) -> list[tuple[str, 
     return cases
 
 
+_ENGINE = """
+import json, sys, time
+from coopproc.sim import simulate
+scenario, repeat, kwargs = sys.argv[1], int(sys.argv[2]), json.loads(sys.argv[3])
+simulate(scenario, seed=0, **kwargs)
+times = []
+for _ in range(repeat):
+    start = time.perf_counter()
+    simulate(scenario, seed=0, **kwargs)
+    times.append(time.perf_counter() - start)
+print(json.dumps(times))
+"""
+
+
 def _engine(name: str, options: list[str], repeat: int) -> tuple[float, list[float]]:
+    """``simulate()`` alone, timed in a child process: this process stays small, so the
+    children's peak RSS (inherited across fork on Linux) is the command's own."""
     kwargs: dict[str, float | int] = {}
     if options:
         kwargs = {"duration_s": float(options[1]), "platforms": int(options[3])}
-    scenario = name.split()[0]
-    run = lambda: simulate(scenario, seed=0, **kwargs)  # type: ignore[arg-type]  # noqa: E731
-    return median_seconds(run, repeat=repeat)
+    args = [name.split()[0], str(repeat), json.dumps(kwargs)]
+    out = subprocess.run(
+        [sys.executable, "-P", "-c", _ENGINE, *args], check=True, capture_output=True, text=True
+    )
+    times = [float(t) for t in json.loads(out.stdout)]
+    return statistics.median(times), times
 
 
 def _imports(repeat: int) -> tuple[float, list[float]]:
