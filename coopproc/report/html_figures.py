@@ -100,8 +100,9 @@ def _width_in(png: bytes) -> float:
     with Image.open(io.BytesIO(png)) as image:
         dpi = image.info.get("dpi")
         width = image.width
-    x_dpi = float(dpi[0]) if isinstance(dpi, tuple) and dpi and float(dpi[0]) > 0 else 0.0
-    return width / (x_dpi or _DEFAULT_DPI)
+    # PNG stores dots per metre: 300 dpi reads back as 299.9994, so whole dpi
+    x_dpi = round(float(dpi[0])) if isinstance(dpi, tuple) and dpi else 0
+    return width / (x_dpi if x_dpi > 0 else _DEFAULT_DPI)
 
 
 def _img(alt: str, png: bytes, href: str | None = None, *, width_in: float) -> str:

@@ -129,7 +129,7 @@ def test_cells_do_not_wrap_and_tables_scroll(run: tuple[Path, RunTables]) -> Non
 def _png_width_in(src: str) -> float:
     png = base64.b64decode(src.split(",", 1)[1])
     with Image.open(io.BytesIO(png)) as image:
-        return image.width / float(image.info["dpi"][0])
+        return image.width / round(float(image.info["dpi"][0]))  # PNG keeps dots per metre
 
 
 def test_every_figure_at_one_scale(run: tuple[Path, RunTables]) -> None:
@@ -146,3 +146,25 @@ def test_a_page_without_figures_says_so(run: tuple[Path, RunTables]) -> None:
     page = render_html(run[0], run[1], figures=False)
     assert not parse(page).images and "<img" not in page
     assert "<h2>Figures</h2>" in page and "coopproc run --no-figures" in page
+
+
+def test_linked_thumbnails_keep_the_scale(
+    run: tuple[Path, RunTables], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A reduced copy (linked figures) is shown as wide as its full figure would be."""
+    from coopproc.report import html_figures
+    from coopproc.report.figures import write_figures
+
+    out = write_run_dir(make_run(n=80), tmp_path / "out")
+    files = write_figures(load_run(out), out / "figures", dpi=60)
+    monkeypatch.setattr(html_figures, "EMBED_LIMIT_BYTES", 1)
+    monkeypatch.setattr(html_figures, "THUMBNAIL_WIDTH_PX", 100)
+    page = parse(render_html(out, load_run(out)))
+    assert len(page.images) == len(files)
+    for img, path in zip(page.images, files, strict=True):
+        with Image.open(path) as image:
+            full_px = image.width
+        small = base64.b64decode(img["src"].split(",", 1)[1])
+        with Image.open(io.BytesIO(small)) as image:
+            assert image.width == 100 < full_px  # the reduced copy ...
+        assert int(img["width"]) == round(full_px / 60.0 * DISPLAY_PX_PER_IN)  # ... full scale
