@@ -11,8 +11,8 @@ the others; :func:`plot_trajectory` therefore draws, on the Axes it is given:
   as triangles named by their ids;
 - a zoomed inset (``gid`` ``zoom``) when the methods' errors are small against the size of
   the track (95th percentile below :data:`ZOOM_FRACTION` of it): a square window around
-  the epoch where the methods' horizontal errors are largest, placed beside the track
-  (never on it), its width written in it.
+  the epoch where the methods' horizontal errors differ most, placed beside the track
+  (never on it), its width in metres written in it.
 
 No line is drawn across a gap: a track breaks where consecutive epochs are further
 apart than :func:`~coopproc.model.gap_limit_s`. Long tracks are drawn from their min/max
@@ -144,6 +144,10 @@ def mark_anchors(ax: Axes, anchors: Mapping[str, tuple[float, float]]) -> None:
     east = np.array([anchors[n][0] for n in names])
     north = np.array([anchors[n][1] for n in names])
     ax.plot(east, north, gid="anchors", **ANCHOR_MARKER)
+    # room under each anchor for its name (the frame would cut it at the edge)
+    box = ax.dataLim
+    pad = 0.08 * max(box.width, box.height) if np.isfinite(box.width) else 0.0
+    ax.update_datalim(np.column_stack([east, north - pad]))
     for name, e, n in zip(names, east, north, strict=True):
         ax.annotate(
             name,
@@ -228,7 +232,7 @@ def _inset(
     inset.text(
         0.04,
         0.96,
-        f"{2 * half:.2g} m wide",
+        f"{2 * half:.2g} m",
         transform=inset.transAxes,
         fontsize="x-small",
         va="top",
