@@ -11,6 +11,7 @@ from typing import Any
 
 import pandas as pd
 
+from coopproc.report.change import change_of
 from coopproc.run.pipeline import PipelineOutput
 
 __all__ = ["RunSummary", "summarize"]
@@ -22,22 +23,19 @@ class RunSummary:
     facts: dict[str, Any] = field(default_factory=dict)
 
 
-#: Below this magnitude (m) a value is near zero: its change is given in metres, not in
-#: percent (a percent of a few millimetres is noise; the report tables use the same rule).
-NEAR_ZERO_M = 0.01
+#: Decimals of the values in metres the summary prints.
+_DECIMALS_M = 3
 
 
 def _change(new: float, old: float) -> str:
-    """The change from ``old`` to ``new`` (magnitudes in m): percent of ``old``, or the
-    absolute change in m when ``|old|`` is below :data:`NEAR_ZERO_M`; "no change" when it
+    """The change from ``old`` to ``new`` (magnitudes in m) by the report tables' rule
+    (:mod:`coopproc.report.change`): percent of ``old``, or the absolute change in m when
+    ``|old|`` is near zero (under 0.010 m at the printed 3 decimals); "no change" when it
     rounds to zero at the printed digits (no "+0.0%" / "-0.0%")."""
-    if not (math.isfinite(new) and math.isfinite(old)):
+    change = change_of(new, old, unit="m", decimals=_DECIMALS_M, signed=False)
+    if change is None:
         return "n/a"
-    if abs(old) < NEAR_ZERO_M:
-        delta = round(new - old, 3)
-        return "no change" if delta == 0 else f"{delta:+.3f} m"
-    pct = round(100.0 * (new - old) / abs(old), 1)
-    return "no change" if pct == 0 else f"{pct:+.1f}%"
+    return "no change" if float(change.number) == 0.0 else change.text()
 
 
 def _count(n: int, noun: str) -> str:
