@@ -65,6 +65,7 @@ def locate(
     check_output_dir(out_dir, force=force, protect=[session])
 
     import math
+    import sys
 
     import matplotlib
 
@@ -82,11 +83,17 @@ def locate(
         with_seed,
     )
     from coopproc.stages.particle import locate as run_locate
+    from coopproc.stages.particle.progress import EpochProgress
 
     params = with_seed(locate_params(_read_config(config_path), f"{config_path} [locate]"), seed)
     aux_ids = [a.strip() for a in aux.split(",") if a.strip()]
     data = read_session(session)
-    result = run_locate(data, target, aux_ids, params)
+    # progress on stderr: a bar per method on a terminal, else a line per tenth of it
+    progress = EpochProgress(bar=sys.stderr.isatty(), log=lambda text: click.echo(text, err=True))
+    try:
+        result = run_locate(data, target, aux_ids, params, progress=progress)
+    finally:
+        progress.close()
     for warning in result.warnings:
         click.echo(f"warning: {warning}", err=True)
     with atomic_output_dir(out_dir, force=force, protect=[session]) as tmp:

@@ -52,105 +52,64 @@ from coopproc.stages.particle.core import (
     propagate,
 )
 from coopproc.stages.particle.inputs import LocateInputs
+from coopproc.stages.particle.modekeep import (
+    cancel_cross_mode,
+    geometry_separates,
+    jitter_by_mode,
+    resample_by_mode,
+)
+from coopproc.stages.particle.modes import find_modes
+from coopproc.stages.particle.monitor import AuxMonitor, ring_auxiliary
 from coopproc.stages.particle.params import LocateParams
 from coopproc.stages.particle.pf import systematic_resample
+from coopproc.stages.particle.progress import ProgressFn
 
-__all__ = ["AuxMonitor", "run_aacopf"]
-
-
-class AuxMonitor:
-    """Step 3: per-auxiliary residual windows and the reject / down-weight decision."""
-
-    def __init__(self, n_aux: int, params: LocateParams) -> None:
-        self.window = params.residual_window
-        self.buf = np.full((n_aux, self.window), np.nan)
-        self.count = np.zeros(n_aux, dtype=np.int64)
-        self.omega1 = params.Omega1
-        self.omega2 = params.Omega2
-        #: Auxiliaries whose last decision was made on a full window next to another one.
-        self.judged = np.zeros(n_aux, dtype=bool)
-        #: The reference auxiliary (smallest D[rho]), -1 before the first decision.
-        self.ref = -1
-        #: Eliminated auxiliaries; one stays out until its window is clean again.
-        self.out = np.zeros(n_aux, dtype=bool)
-
-    def add(self, j: int, residual_m: float) -> None:
-        self.buf[j, self.count[j] % self.window] = residual_m
-        self.count[j] += 1
-
-    def decide(self, nominal_var_m2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(use (J,) bool, inflate_m (J,)) from the current residual windows.
-
-        Only auxiliaries with a full window are judged, and only when at least two are:
-        a lone auxiliary is never rejected (the filter would be blind). The auxiliary
-        with the smallest residual variance is the reference and is always used as is.
-        Another one is rejected when |mean| > Omega1 and variance > Omega2 (paper); if
-        kept, its likelihood sigma is widened by its excess variance and, when its
-        |mean| > Omega1, by its mean (down-weighting).
-        """
-        n_aux = self.buf.shape[0]
-        use = np.ones(n_aux, dtype=bool)
-        inflate = np.zeros(n_aux)
-        full = self.count >= self.window
-        self.judged = full if full.sum() >= 2 else np.zeros(n_aux, dtype=bool)
-        if full.sum() < 2:
-            return use, inflate
-        # buffer in time order, to difference successive residuals
-        order = (self.count[:, None] + np.arange(self.window)[None, :]) % self.window
-        buf = np.take_along_axis(np.where(full[:, None], self.buf, 0.0), order, axis=1)
-        mean = np.where(full, buf.mean(axis=1), 0.0)
-        # D[rho] from successive differences (var(diff) / 2): the slowly varying error of
-        # the estimate itself cancels, the auxiliary's own ranging noise stays
-        var = np.where(full, 0.5 * np.mean(np.diff(buf, axis=1) ** 2, axis=1), 0.0)
-        # the reference changes only to an auxiliary at least twice as consistent
-        cand = int(np.argmin(np.where(full, var, np.inf)))
-        if self.ref < 0 or not full[self.ref] or var[cand] < 0.5 * var[self.ref]:
-            self.ref = cand
-        ref = self.ref
-        biased = full & (np.abs(mean) > self.omega1)
-        noisy = full & (var > self.omega2)
-        # E[rho] > Omega1 & D[rho] > Omega2 eliminates; back only once both are below
-        self.out = (self.out & (biased | noisy)) | (biased & noisy)
-        self.out[ref] = False
-        reject = self.out.copy()
-        excess = np.where(full, np.maximum(var - nominal_var_m2, 0.0), 0.0)
-        inflate = np.sqrt(excess + np.where(biased, mean**2, 0.0))
-        inflate[ref] = 0.0
-        return ~reject, np.where(reject, 0.0, inflate)
+__all__ = ["AuxMonitor", "run_aacopf"]  # AuxMonitor: see monitor.py
 
 
-def run_aacopf(inputs: LocateInputs, params: LocateParams, seed: int) -> Track:
+def run_aacopf(
+    inputs: LocateInputs, params: LocateParams, seed: int, progress: ProgressFn | None = None
+) -> Track:
     """Run the AACOPF over all epochs of ``inputs``; returns its track."""
     rng = np.random.default_rng(seed)
-    cloud = init_cloud(inputs, params, rng)
-    builder = TrackBuilder("aacopf", inputs, params, rng)
     n_e, n_j = inputs.range_m.shape
+    # several auxiliaries: the ring and the first reference from the quietest (issue 17)
+    j_ring = ring_auxiliary(inputs) if n_j > 1 else 0
+    cloud = init_cloud(inputs, params, rng, ring=j_ring if n_j > 1 else None)
+    builder = TrackBuilder("aacopf", inputs, params, rng)
     rejected = np.zeros((n_e, n_j), dtype=bool)
-    monitor = AuxMonitor(n_j, params)
+    monitor = AuxMonitor(n_j, params, ref=j_ring if n_j > 1 else -1)
     # several auxiliaries: one that ranges badly must not remove hypotheses before its
     # residual window has judged it, so until then its likelihood gets an outlier floor
     outlier = params.outlier_sigmas if n_j > 1 and params.warmup == "floor" else 0.0
-    j_first = int(np.argmax(np.isfinite(inputs.range_m[0])))
     nominal_var = np.nanmedian(inputs.sigma_m, axis=0) ** 2 + params.likelihood_floor_m**2
-    cloud.log_w += log_likelihood(cloud, inputs, 0, params)
-    w = normalize_log(cloud.log_w)
-    builder.record(0, cloud, w)
-    for k in range(n_e - 1):
-        propagate(cloud, inputs, k, params, rng)  # step 2
-        t = k + 1
-        # step 3: residuals of each auxiliary against the predicted range
-        w_prior = normalize_log(cloud.log_w)
-        for j in range(n_j):
-            z = inputs.range_m[t, j]
-            if np.isfinite(z):
-                ax, ay = inputs.aux_en_m[t, j]
-                d_pred = float(w_prior @ np.hypot(cloud.east - ax, cloud.north - ay))
-                monitor.add(j, float(z - d_pred))
+    used = np.zeros((n_e, n_j), dtype=bool)
+    keeping = params.mode_keep
+    kept_until: float | None = None
+    min_particles = max(int(params.mode_min_fraction * cloud.size), 1)
+    for t in range(n_e):
+        for j_new in np.flatnonzero(np.isfinite(inputs.range_m[t])).tolist():
+            monitor.add_range(j_new, float(inputs.time_s[t]), float(inputs.range_m[t, j_new]))
+        if t > 0:
+            propagate(cloud, inputs, t - 1, params, rng)  # step 2
+            # step 3: residuals of each auxiliary against the predicted range, taken only
+            # while the cloud predicts that range to within judge_spread_m
+            w_prior = normalize_log(cloud.log_w)
+            for j in range(n_j):
+                z = inputs.range_m[t, j]
+                if np.isfinite(z):
+                    ax, ay = inputs.aux_en_m[t, j]
+                    d_hat = np.hypot(cloud.east - ax, cloud.north - ay)
+                    d_pred = float(w_prior @ d_hat)
+                    spread2 = float(w_prior @ (d_hat - d_pred) ** 2)
+                    if n_j == 1 or spread2 <= params.judge_spread_m**2:
+                        monitor.add(j, float(z - d_pred))
         use, inflate = monitor.decide(nominal_var)
-        if params.warmup == "first":
-            # until judged, only the auxiliary of the initial ring is used
-            use &= monitor.judged | (np.arange(n_j) == j_first)
+        if params.warmup == "first" and n_j > 1:
+            # until judged, only the ring's auxiliary is used (epoch 0 too: issue 17)
+            use &= monitor.judged | (np.arange(n_j) == j_ring)
         rejected[t] = ~use & np.isfinite(inputs.range_m[t])
+        used[t] = use & np.isfinite(inputs.range_m[t])
         # step 4: weights, eq. (12)-(13)
         cloud.log_w += log_likelihood(
             cloud,
@@ -164,7 +123,30 @@ def run_aacopf(inputs: LocateInputs, params: LocateParams, seed: int) -> Track:
         )
         w = normalize_log(cloud.log_w)
         builder.record(t, cloud, w)  # step 6, eq. (15)-(16)
-        if not (use & np.isfinite(inputs.range_m[t])).any():
+        if progress is not None:
+            progress("aacopf", t + 1, n_e)
+        if keeping and t % params.mode_every == 0:
+            # mode safety (issue 17): label the modes until the geometry, linearized at
+            # the heaviest mode, separates them (eq. (19) on the ranges used so far)
+            split = find_modes(
+                cloud.east, cloud.north, cloud.phi, w, params.mode_cell_m, params.mode_az_deg
+            )
+            top = split.modes[0]
+            if t > 0 and geometry_separates(
+                inputs,
+                used,
+                t,
+                float(top.phi_rad - builder.turned[t]),
+                top.east_m,
+                top.north_m,
+                params.observability_tol,
+            ):
+                keeping, cloud.mode = False, None
+                kept_until = float(inputs.time_s[t])
+            else:
+                labels = split.labels
+                cloud.mode = np.where(labels < params.mode_max, labels, -1)
+        if t == 0 or not used[t].any():
             continue  # no range used at this epoch: the weights did not change
         # step 5: ant colony resampling, eq. (14), then the moved particles share weights
         idx = aco_targets(
@@ -178,12 +160,26 @@ def run_aacopf(inputs: LocateInputs, params: LocateParams, seed: int) -> Track:
             params.aco_cell_m,
             params.aco_weight_gate,
         )
+        if cloud.mode is not None:
+            idx = cancel_cross_mode(idx, cloud.mode)
         w_before = w
         cloud.take(idx)
         w = share_weights(w, idx)
-        kernel_jitter(cloud, w_before, idx != np.arange(cloud.size), params, rng)
-        settled = n_j == 1 or bool(monitor.judged.all())
-        if settled and 1.0 / float(w @ w) < params.ess_min * cloud.size:
+        if cloud.mode is not None:
+            jitter_by_mode(cloud, w_before, idx != np.arange(cloud.size), params, rng)
+        else:
+            kernel_jitter(cloud, w_before, idx != np.arange(cloud.size), params, rng)
+        # every auxiliary used now is judged (or the ring's, alone in the warm-up)
+        settled = n_j == 1 or bool((monitor.judged | (np.arange(n_j) == j_ring))[used[t]].all())
+        if settled and cloud.mode is not None and 1.0 / float(w @ w) < params.ess_min * cloud.size:
+            # modes kept: each resampled on its own, none below min_particles
+            res, w_new = resample_by_mode(w, cloud.mode, min_particles, rng)
+            cloud.take(res)
+            dup = np.ones(cloud.size, dtype=bool)
+            dup[np.unique(res, return_index=True)[1]] = False
+            jitter_by_mode(cloud, w_new, dup, params, rng)
+            cloud.log_w = np.log(w_new)
+        elif settled and 1.0 / float(w @ w) < params.ess_min * cloud.size:
             # degeneracy guard (once every auxiliary is judged): systematic resampling,
             # weights 1 / (N x M) as step 5 says
             res = systematic_resample(w, float(rng.random()))
@@ -195,4 +191,8 @@ def run_aacopf(inputs: LocateInputs, params: LocateParams, seed: int) -> Track:
         else:
             with np.errstate(divide="ignore"):
                 cloud.log_w = np.log(w)
-    return builder.build(rejected=rejected)
+    w = normalize_log(cloud.log_w)
+    final = find_modes(
+        cloud.east, cloud.north, cloud.phi, w, params.mode_cell_m, params.mode_az_deg
+    )
+    return builder.build(rejected=rejected, modes=final.modes, modes_kept_until_s=kept_until)

@@ -15,6 +15,7 @@ import numpy as np
 from coopproc.model import FloatArray
 from coopproc.stages.particle.increments import wrap_pi
 from coopproc.stages.particle.inputs import LocateInputs
+from coopproc.stages.particle.modes import Mode
 from coopproc.stages.particle.params import LocateParams
 
 __all__ = [
@@ -41,6 +42,8 @@ class Cloud:
     phi0: FloatArray
     #: Odometer scale error k of each particle: a step moves (1 + k) Delta L (see propagate).
     scale: FloatArray
+    #: Mode label of each particle (modes.find_modes; -1 none), None when not tracked.
+    mode: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -53,6 +56,8 @@ class Cloud:
         self.phi = self.phi[idx]
         self.phi0 = self.phi0[idx]
         self.scale = self.scale[idx]
+        if self.mode is not None:
+            self.mode = self.mode[idx]
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,18 +81,32 @@ class Track:
     rejected: np.ndarray | None = None
     #: Eq. (16) literally: the initial azimuth of the heaviest particle's lineage (rad).
     initial_azimuth_eq16_rad: float | None = None
+    #: Modes of the final estimate, heaviest first (modes.find_modes; () not looked for).
+    modes: tuple[Mode, ...] = ()
+    #: Time until which the AACOPF kept every mode alive (None: not kept, or never
+    #: separated by the geometry; see modekeep.py).
+    modes_kept_until_s: float | None = None
 
 
-def init_cloud(inputs: LocateInputs, params: LocateParams, rng: np.random.Generator) -> Cloud:
+def init_cloud(
+    inputs: LocateInputs, params: LocateParams, rng: np.random.Generator, ring: int | None = None
+) -> Cloud:
     """Step 1: N positions on the ring d(1) +- delta_d around the aux, times M azimuths.
 
     Positions and azimuths are evenly spread with a seeded random offset in each slot
-    ("random generation" in the paper); weights uniform, 1 / (N x M).
+    ("random generation" in the paper); weights uniform, 1 / (N x M). The ring is
+    around the auxiliary of the first epoch's first range, or around auxiliary ``ring``
+    at its first range, widened by the target's dead-reckoned path since epoch 0.
     """
     n, m = params.N, params.M
     center, d1 = inputs.first_fix()
+    half = params.delta_d_m
+    if ring is not None:
+        k0 = int(np.argmax(np.isfinite(inputs.range_m[:, ring])))
+        center, d1 = inputs.aux_en_m[k0, ring], float(inputs.range_m[k0, ring])
+        half += float(inputs.increments.delta_l_m[:k0].sum())
     bearing = (np.arange(n) + rng.random(n)) * (2.0 * np.pi / n)
-    radius = np.maximum(d1 + rng.uniform(-params.delta_d_m, params.delta_d_m, n), 0.0)
+    radius = np.maximum(d1 + rng.uniform(-half, half, n), 0.0)
     azimuth = (np.arange(m) + rng.random(m)) * (2.0 * np.pi / m)
     east = np.repeat(center[0] + radius * np.cos(bearing), m)
     north = np.repeat(center[1] + radius * np.sin(bearing), m)
@@ -125,7 +144,12 @@ def propagate(
 
 
 def kernel_jitter(
-    cloud: Cloud, w: FloatArray, moved: np.ndarray, params: LocateParams, rng: np.random.Generator
+    cloud: Cloud,
+    w: FloatArray,
+    moved: np.ndarray,
+    params: LocateParams,
+    rng: np.random.Generator,
+    members: np.ndarray | None = None,
 ) -> None:
     """Regularized resampling: moved (copied) particles land near their source.
 
@@ -140,6 +164,9 @@ def kernel_jitter(
     variance at every resampling: without it that inflation balances the little
     information an epoch brings on the weakly observable rotation about the auxiliary,
     and the cloud stalls metres wide. Particles that did not move keep their paths.
+    ``members`` (bool, P): the covariance and mean of these particles only (one mode of
+    a multi-modal cloud, issue 17: the whole cloud's would throw the moved particles
+    between the modes).
     """
     count = int(moved.sum())
     if count == 0 or params.kernel_scale <= 0:
@@ -147,7 +174,10 @@ def kernel_jitter(
     d = 4
     h = params.kernel_scale * (4.0 / (cloud.size * (d + 2))) ** (1.0 / (d + 4))
     h = min(h, 0.99)
-    sel = np.flatnonzero(w > 1e-12 * w.max())
+    heavy = w > 1e-12 * w.max()
+    sel = np.flatnonzero(heavy if members is None else heavy & members)
+    if sel.size == 0:
+        return
     ws = w[sel] / w[sel].sum()
     phi_mean = _circular_mean(ws, cloud.phi[sel])
     x = np.vstack(
@@ -274,7 +304,12 @@ class TrackBuilder:
             pts = np.column_stack([cloud.east[self.snap_index], cloud.north[self.snap_index]])
             self.snapshots.append((float(self.inputs.time_s[k]), pts))
 
-    def build(self, rejected: np.ndarray | None = None) -> Track:
+    def build(
+        self,
+        rejected: np.ndarray | None = None,
+        modes: tuple[Mode, ...] = (),
+        modes_kept_until_s: float | None = None,
+    ) -> Track:
         return Track(
             method=self.method,
             time_s=self.inputs.time_s,
@@ -286,4 +321,6 @@ class TrackBuilder:
             initial_azimuth_eq16_rad=self.best_phi0,
             snapshots=tuple(self.snapshots),
             rejected=rejected,
+            modes=modes,
+            modes_kept_until_s=modes_kept_until_s,
         )

@@ -20,7 +20,9 @@ from coopproc.model import FloatArray
 from coopproc.stages.particle.core import Track
 from coopproc.stages.particle.increments import wrap_pi
 from coopproc.stages.particle.inputs import LocateInputs
+from coopproc.stages.particle.modes import modes_of_hypotheses
 from coopproc.stages.particle.params import LocateParams
+from coopproc.stages.particle.progress import ProgressFn
 
 __all__ = ["initial_hypotheses", "run_ekf"]
 
@@ -41,7 +43,9 @@ def initial_hypotheses(inputs: LocateInputs, params: LocateParams) -> tuple[Floa
     return x, np.repeat(p0[None], x.shape[0], axis=0)
 
 
-def run_ekf(inputs: LocateInputs, params: LocateParams) -> Track:
+def run_ekf(
+    inputs: LocateInputs, params: LocateParams, progress: ProgressFn | None = None
+) -> Track:
     """Run the EKF (bank) over all epochs of ``inputs``; returns its track."""
     n_e, n_j = inputs.range_m.shape
     x, p = initial_hypotheses(inputs, params)
@@ -87,8 +91,14 @@ def run_ekf(inputs: LocateInputs, params: LocateParams) -> Track:
             ikh = eye[None] - gain[:, :, None] * h[:, None, :]
             p = ikh @ p @ ikh.transpose(0, 2, 1) + r * gain[:, :, None] * gain[:, None, :]
         out[t] = x[int(np.argmax(loglik))]  # Joseph form above; the most likely EKF here
+        if progress is not None:
+            progress("ekf", t + 1, n_e)
     phi = wrap_pi(out[:, 2])
     init_track = wrap_pi(out[:, 2] - turned)
+    # the bank's modes: its EKFs weighted by their likelihoods, clustered like particles
+    final = modes_of_hypotheses(
+        x[:, 0], x[:, 1], x[:, 2], loglik, params.mode_cell_m, params.mode_az_deg
+    )
     return Track(
         method="ekf",
         time_s=inputs.time_s,
@@ -97,4 +107,5 @@ def run_ekf(inputs: LocateInputs, params: LocateParams) -> Track:
         phi_rad=phi,
         initial_azimuth_track_rad=init_track,
         initial_azimuth_rad=float(init_track[-1]),
+        modes=final.modes,
     )

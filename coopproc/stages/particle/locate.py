@@ -26,6 +26,7 @@ from coopproc.stages.particle.inputs import LocateInputs, gather_inputs
 from coopproc.stages.particle.observability import Observability, analyze
 from coopproc.stages.particle.params import LocateParams
 from coopproc.stages.particle.pf import run_pf
+from coopproc.stages.particle.progress import ProgressFn
 
 __all__ = [
     "LOCATE_COLUMNS",
@@ -45,6 +46,10 @@ LOCATE_SUMMARY_COLUMNS: tuple[str, ...] = (
     "converged_at",
     "rmse_h",
     "observable",
+    "unique",
+    "modes",
+    "runner_up_azimuth",
+    "runner_up_weight",
 )
 
 
@@ -126,19 +131,29 @@ def _converged_at(time_s: FloatArray, err: FloatArray, limit_m: float) -> float 
     return None if last_bad + 1 >= time_s.shape[0] else float(time_s[last_bad + 1])
 
 
-def locate(session: Session, target: str, aux: Sequence[str], params: LocateParams) -> LocateResult:
-    """Localize ``target`` from its ranges to ``aux`` with every method in ``params``."""
+def locate(
+    session: Session,
+    target: str,
+    aux: Sequence[str],
+    params: LocateParams,
+    progress: ProgressFn | None = None,
+) -> LocateResult:
+    """Localize ``target`` from its ranges to ``aux`` with every method in ``params``.
+
+    ``progress`` is called after every epoch of every method (method, done, total).
+    """
     inputs = gather_inputs(session, target, aux, params.range_sigma_m)
     runners = {
-        "aacopf": lambda: run_aacopf(inputs, params, params.seed),
-        "pf": lambda: run_pf(inputs, params, params.seed),
-        "ekf": lambda: run_ekf(inputs, params),
+        "aacopf": lambda: run_aacopf(inputs, params, params.seed, progress),
+        "pf": lambda: run_pf(inputs, params, params.seed, progress),
+        "ekf": lambda: run_ekf(inputs, params, progress),
     }
     tracks = {m: runners[m]() for m in params.methods}
     obs = _observability(inputs, tracks[params.methods[0]], params.observability_tol)
     ref_en, ref_init = _reference(session, inputs, params)
     rows = []
     summary = []
+    mode_notes: list[str] = []
     for method, tr in tracks.items():
         if ref_en is not None:
             err = np.hypot(tr.east_m - ref_en[:, 0], tr.north_m - ref_en[:, 1])
@@ -160,6 +175,17 @@ def locate(session: Session, target: str, aux: Sequence[str], params: LocatePara
         az_err = np.nan if ref_init is None else float(_wrap_deg(init_deg - ref_init))
         have = np.isfinite(err)
         conv = _converged_at(inputs.time_s, err, params.converge_m) if obs.observable else None
+        # mode safety (issue 17): the final estimate's modes, weights >= 1e-6 counted
+        modes = [m for m in tr.modes if m.weight >= 1e-6]
+        unique = len(modes) < 2 or modes[1].weight < params.unique_weight
+        runner = None if len(modes) < 2 else modes[1]
+        turned = float(inputs.increments.heading_own_rad()[-1] - inputs.increments.theta0_rad)
+        if runner is not None and not unique:
+            mode_notes.append(
+                f"locate: {method}: the solution is not unique: a second mode at initial "
+                f"azimuth {float(heading_deg(runner.phi_rad - turned)):.1f} deg holds "
+                f"{100 * runner.weight:.1f}% of the weight"
+            )
         summary.append(
             {
                 "method": method,
@@ -168,6 +194,12 @@ def locate(session: Session, target: str, aux: Sequence[str], params: LocatePara
                 "converged_at": np.nan if conv is None else conv,
                 "rmse_h": float(np.sqrt(np.mean(err[have] ** 2))) if have.any() else np.nan,
                 "observable": int(obs.observable),
+                "unique": int(unique) if tr.modes else np.nan,
+                "modes": len(modes) if tr.modes else np.nan,
+                "runner_up_azimuth": np.nan
+                if runner is None
+                else float(heading_deg(runner.phi_rad - turned)),
+                "runner_up_weight": np.nan if runner is None else runner.weight,
             }
         )
     warnings = []
@@ -178,6 +210,7 @@ def locate(session: Session, target: str, aux: Sequence[str], params: LocatePara
             f"{s2:.4g}, {s3:.4g}; eq. (19)): the auxiliary is static or keeps the same "
             "bearing, so position and azimuth are not determined"
         )
+    warnings += mode_notes
     if "aacopf" in tracks and tracks["aacopf"].rejected is not None:
         frac = tracks["aacopf"].rejected.mean(axis=0)
         for j, a in enumerate(inputs.aux):

@@ -62,6 +62,40 @@ class LocateParams:
         default=1.0,
         metadata={"help": "AACOPF, 2+ auxiliaries: likelihood outlier floor until judged, sigmas"},
     )
+    judge_spread_m: float = field(
+        default=0.5,
+        metadata={
+            "help": "step 3 takes an auxiliary's residual only while the cloud predicts its "
+            "range to within this (weighted 1-sigma), m"
+        },
+    )
+    mode_keep: bool = field(
+        default=False,
+        metadata={
+            "help": "AACOPF: keep every mode of the cloud alive until the observability "
+            "analysis of the ranges used so far separates them (measured worse: off)"
+        },
+    )
+    mode_every: int = field(
+        default=5, metadata={"help": "AACOPF: epochs between two searches for modes"}
+    )
+    mode_min_fraction: float = field(
+        default=0.005,
+        metadata={"help": "AACOPF: particles a kept mode holds at least, x N x M"},
+    )
+    mode_cell_m: float = field(
+        default=5.0, metadata={"help": "modes: grid cell in east and north, m"}
+    )
+    mode_az_deg: float = field(
+        default=30.0, metadata={"help": "modes: grid cell in azimuth, degrees"}
+    )
+    mode_max: int = field(
+        default=32, metadata={"help": "AACOPF: the heaviest modes kept alive (the rest free)"}
+    )
+    unique_weight: float = field(
+        default=0.01,
+        metadata={"help": "the solution is unique when the runner-up mode weighs less"},
+    )
     residual_window: int = field(
         default=16, metadata={"help": "epochs of residuals behind Omega1/Omega2 (step 3)"}
     )
@@ -157,9 +191,19 @@ class LocateParams:
             raise ValueError(f"lambda_ must be in [0, 1], found {self.lambda_}")
         if self.residual_window < 2:
             raise ValueError(f"residual_window must be >= 2, found {self.residual_window}")
+        if self.mode_every < 1:
+            raise ValueError(f"mode_every must be >= 1, found {self.mode_every}")
+        if self.mode_cell_m <= 0 or self.mode_az_deg <= 0:
+            raise ValueError(
+                f"mode_cell_m and mode_az_deg must be > 0, found {self.mode_cell_m}, "
+                f"{self.mode_az_deg}"
+            )
         if self.aco_cell_m <= 0:
             raise ValueError(f"aco_cell_m must be > 0, found {self.aco_cell_m}")
         nonneg = (
+            "judge_spread_m",
+            "mode_min_fraction",
+            "unique_weight",
             "delta_d_m",
             "odometer_scale_sigma",
             "step_sigma_m",

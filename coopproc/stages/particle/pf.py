@@ -19,7 +19,9 @@ from coopproc.stages.particle.core import (
     propagate,
 )
 from coopproc.stages.particle.inputs import LocateInputs
+from coopproc.stages.particle.modes import find_modes
 from coopproc.stages.particle.params import LocateParams
+from coopproc.stages.particle.progress import ProgressFn
 
 __all__ = ["run_pf", "systematic_resample"]
 
@@ -33,7 +35,9 @@ def systematic_resample(w: FloatArray, u: float) -> np.ndarray:
     return np.asarray(np.searchsorted(cdf, positions, side="right"), dtype=np.int64)
 
 
-def run_pf(inputs: LocateInputs, params: LocateParams, seed: int) -> Track:
+def run_pf(
+    inputs: LocateInputs, params: LocateParams, seed: int, progress: ProgressFn | None = None
+) -> Track:
     """Run the standard PF over all epochs of ``inputs``; returns its track."""
     rng = np.random.default_rng(seed)
     cloud = init_cloud(inputs, params, rng)
@@ -45,7 +49,13 @@ def run_pf(inputs: LocateInputs, params: LocateParams, seed: int) -> Track:
         cloud.log_w += log_likelihood(cloud, inputs, t, params)
         w = normalize_log(cloud.log_w)
         builder.record(t, cloud, w)
+        if progress is not None:
+            progress("pf", t + 1, n_e)
+        if t == n_e - 1:  # the modes of the final estimate (before its resampling)
+            final = find_modes(
+                cloud.east, cloud.north, cloud.phi, w, params.mode_cell_m, params.mode_az_deg
+            )
         idx = systematic_resample(w, float(rng.random()))
         cloud.take(idx)
         cloud.log_w = np.full(cloud.size, -np.log(cloud.size))
-    return builder.build()
+    return builder.build(modes=final.modes)
