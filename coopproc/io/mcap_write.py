@@ -128,12 +128,10 @@ def _json_values(column: pd.Series) -> list[str]:
 
 def json_lines(frame: pd.DataFrame) -> list[str]:
     """One flat JSON object per row, floats written exactly (they read back bit for bit)."""
-    keys = [json.dumps(str(c)) + ":" for c in frame.columns]
+    keys = (json.dumps(str(c)).replace("%", "%%") + ":%s" for c in frame.columns)
+    template = "{" + ",".join(keys) + "}"
     columns = [_json_values(frame[c]) for c in frame.columns]
-    return [
-        "{" + ",".join(k + v for k, v in zip(keys, row, strict=True)) + "}"
-        for row in zip(*columns, strict=True)
-    ]
+    return [template % row for row in zip(*columns, strict=True)]
 
 
 def _stamp(t: float) -> dict[str, int]:
