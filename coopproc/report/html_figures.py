@@ -48,6 +48,8 @@ _RENDER_DPI = 150
 DISPLAY_PX_PER_IN = 150
 #: Resolution assumed for a PNG that records none (matplotlib's savefig records it).
 _DEFAULT_DPI = 300.0
+#: Width, inches, given to a figure file PIL cannot read (the double-column style's).
+_FALLBACK_WIDTH_IN = 7.16
 
 
 def _file_panels(path: Path) -> tuple[str, ...] | None:
@@ -97,9 +99,12 @@ def _width_in(png: bytes) -> float:
     """The figure's width in inches: pixels over the PNG's recorded resolution."""
     from PIL import Image
 
-    with Image.open(io.BytesIO(png)) as image:
-        dpi = image.info.get("dpi")
-        width = image.width
+    try:
+        with Image.open(io.BytesIO(png)) as image:
+            dpi = image.info.get("dpi")
+            width = image.width
+    except (OSError, ValueError):  # not a PNG PIL reads: shown as wide as the widest style
+        return _FALLBACK_WIDTH_IN
     # PNG stores dots per metre: 300 dpi reads back as 299.9994, so whole dpi
     x_dpi = round(float(dpi[0])) if isinstance(dpi, tuple) and dpi else 0
     return width / (x_dpi if x_dpi > 0 else _DEFAULT_DPI)

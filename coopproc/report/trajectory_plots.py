@@ -15,8 +15,9 @@ the others; :func:`plot_trajectory` therefore draws, on the Axes it is given:
   (never on it), its width in metres written in it.
 
 No line is drawn across a gap: a track breaks where consecutive epochs are further
-apart than :func:`~coopproc.model.gap_limit_s`. Long tracks are drawn from their min/max
-envelope (:mod:`coopproc.report.decimate`).
+apart than :func:`~coopproc.report.gaps.line_gap_limit_s` (the rule of every time-series
+figure: a platform's epochs come in bursts, so the median step would break every burst).
+Long tracks are drawn from their min/max envelope (:mod:`coopproc.report.decimate`).
 """
 
 from __future__ import annotations
@@ -28,8 +29,9 @@ import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
 
-from coopproc.model import FloatArray, gap_limit_s
+from coopproc.model import FloatArray
 from coopproc.report.decimate import decimate
+from coopproc.report.gaps import break_gaps, line_gap_limit_s
 from coopproc.report.methods import position_methods_of
 from coopproc.report.rundir import RunTables
 from coopproc.report.style import method_style
@@ -100,13 +102,10 @@ def track_xy(
     limit_s: float | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """East and north of a track (sorted by time, finite) with a NaN in every time gap
-    (longer than ``limit_s``, default :func:`~coopproc.model.gap_limit_s` of ``time_s``),
+    (longer than ``limit_s``, default :func:`~coopproc.report.gaps.line_gap_limit_s`),
     so that a line plot draws no chord across it; decimated for drawing if ``reduce``."""
     if time_s.size > 1:
-        limit = gap_limit_s(np.unique(time_s)) if limit_s is None else limit_s
-        at = np.flatnonzero(np.diff(time_s) > limit) + 1
-        if at.size:
-            time_s, east, north = (np.insert(v, at, np.nan) for v in (time_s, east, north))
+        time_s, east, north = break_gaps(time_s, east, north, limit_s=limit_s)
     if reduce:
         _, east, north = decimate(time_s, east, north)
     return east, north
@@ -218,7 +217,7 @@ def _inset(
         near = (np.abs(east - ce) < 3 * half) & (np.abs(north - cn) < 3 * half)
         if not near.any():
             continue
-        limit = gap_limit_s(np.unique(time_s))  # the whole track's epochs
+        limit = line_gap_limit_s(time_s)  # the whole track's epochs
         x, y = track_xy(time_s[near], east[near], north[near], reduce=False, limit_s=limit)
         style = method_style(method).kwargs()
         style["label"] = "_nolegend_"
