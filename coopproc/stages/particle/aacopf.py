@@ -61,7 +61,7 @@ from coopproc.stages.particle.modekeep import (
 from coopproc.stages.particle.modes import find_modes
 from coopproc.stages.particle.monitor import AuxMonitor, ring_auxiliary
 from coopproc.stages.particle.params import LocateParams
-from coopproc.stages.particle.pf import systematic_resample
+from coopproc.stages.particle.pf import first_copies, systematic_resample
 from coopproc.stages.particle.progress import ProgressFn
 
 __all__ = ["AuxMonitor", "run_aacopf"]  # AuxMonitor: see monitor.py
@@ -92,6 +92,7 @@ def run_aacopf(
             monitor.add_range(j_new, float(inputs.time_s[t]), float(inputs.range_m[t, j_new]))
         if t > 0:
             propagate(cloud, inputs, t - 1, params, rng)  # step 2
+        if t > 0 and n_j > 1:  # a lone auxiliary is never judged: no residuals needed
             # step 3: residuals of each auxiliary against the predicted range, taken only
             # while the cloud predicts that range to within judge_spread_m
             w_prior = normalize_log(cloud.log_w)
@@ -102,7 +103,7 @@ def run_aacopf(
                     d_hat = np.hypot(cloud.east - ax, cloud.north - ay)
                     d_pred = float(w_prior @ d_hat)
                     spread2 = float(w_prior @ (d_hat - d_pred) ** 2)
-                    if n_j == 1 or spread2 <= params.judge_spread_m**2:
+                    if spread2 <= params.judge_spread_m**2:
                         monitor.add(j, float(z - d_pred))
         use, inflate = monitor.decide(nominal_var)
         if params.warmup == "first" and n_j > 1:
@@ -176,7 +177,7 @@ def run_aacopf(
             res, w_new = resample_by_mode(w, cloud.mode, min_particles, rng)
             cloud.take(res)
             dup = np.ones(cloud.size, dtype=bool)
-            dup[np.unique(res, return_index=True)[1]] = False
+            dup[np.unique(res, return_index=True)[1]] = False  # res not sorted here
             jitter_by_mode(cloud, w_new, dup, params, rng)
             cloud.log_w = np.log(w_new)
         elif settled and 1.0 / float(w @ w) < params.ess_min * cloud.size:
@@ -184,8 +185,8 @@ def run_aacopf(
             # weights 1 / (N x M) as step 5 says
             res = systematic_resample(w, float(rng.random()))
             cloud.take(res)
-            dup = np.ones(cloud.size, dtype=bool)
-            dup[np.unique(res, return_index=True)[1]] = False  # first copies stay exact
+            dup = first_copies(res)
+            np.logical_not(dup, out=dup)  # first copies stay exact
             kernel_jitter(cloud, w, dup, params, rng)
             cloud.log_w = np.full(cloud.size, -np.log(cloud.size))
         else:

@@ -15,6 +15,12 @@ import numpy as np
 from coopproc.model import FloatArray
 from coopproc.stages.particle.increments import wrap_pi
 from coopproc.stages.particle.inputs import LocateInputs
+from coopproc.stages.particle.kernels import (
+    jitter_apply,
+    propagate_kernel,
+    weighted_estimate,
+    weighted_moments,
+)
 from coopproc.stages.particle.modes import Mode
 from coopproc.stages.particle.params import LocateParams
 
@@ -136,11 +142,18 @@ def propagate(
     root_dt = float(np.sqrt(max(inc.time_s[k + 1] - inc.time_s[k], 0.0)))
     noise = rng.standard_normal((3, cloud.size))
     sigma_xy = params.step_sigma_m * root_dt + params.step_sigma_rel * delta_l
-    sigma_phi = np.radians(params.heading_sigma_deg) * root_dt
-    cloud.phi += float(inc.delta_phi_rad[k]) + sigma_phi * noise[2]
-    step = delta_l * (1.0 + cloud.scale)
-    cloud.east += step * np.cos(cloud.phi) + sigma_xy * noise[0]
-    cloud.north += step * np.sin(cloud.phi) + sigma_xy * noise[1]
+    sigma_phi = float(np.radians(params.heading_sigma_deg)) * root_dt
+    propagate_kernel(
+        cloud.east,
+        cloud.north,
+        cloud.phi,
+        cloud.scale,
+        noise,
+        delta_l,
+        float(inc.delta_phi_rad[k]),
+        sigma_xy,
+        sigma_phi,
+    )
 
 
 def kernel_jitter(
@@ -174,37 +187,38 @@ def kernel_jitter(
     d = 4
     h = params.kernel_scale * (4.0 / (cloud.size * (d + 2))) ** (1.0 / (d + 4))
     h = min(h, 0.99)
-    heavy = w > 1e-12 * w.max()
-    sel = np.flatnonzero(heavy if members is None else heavy & members)
-    if sel.size == 0:
-        return
-    ws = w[sel] / w[sel].sum()
-    phi_mean = _circular_mean(ws, cloud.phi[sel])
-    x = np.vstack(
-        [
-            cloud.east[sel],
-            cloud.north[sel],
-            wrap_pi(cloud.phi[sel] - phi_mean) + phi_mean,
-            cloud.scale[sel],
-        ]
+    use_members = members is not None
+    mean, cov, phi_mean, total = weighted_moments(
+        cloud.east,
+        cloud.north,
+        cloud.phi,
+        cloud.scale,
+        w,
+        members if members is not None else np.zeros(1, dtype=bool),
+        use_members,
+        1e-12,
     )
-    mean = x @ ws
-    dev = x - mean[:, None]
-    cov = (dev * ws) @ dev.T
+    if total <= 0:
+        return
     # Cholesky of the covariance, regularized so a degenerate cloud still factorizes
     scale = np.sqrt(np.maximum(np.diag(cov), 1e-18))
     corr = cov / np.outer(scale, scale) + 1e-9 * np.eye(d)
     chol = scale[:, None] * np.linalg.cholesky(corr)
-    noise = chol @ rng.standard_normal((d, count))
-    src = np.vstack([cloud.east[moved], cloud.north[moved], cloud.phi[moved], cloud.scale[moved]])
-    if params.kernel_shrink:
-        a = np.sqrt(1.0 - h * h)
-        src[2] = wrap_pi(src[2] - phi_mean) + phi_mean
-        src = a * src + (1.0 - a) * mean[:, None]
-    cloud.east[moved] = src[0] + h * noise[0]
-    cloud.north[moved] = src[1] + h * noise[1]
-    cloud.phi[moved] = src[2] + h * noise[2]
-    cloud.scale[moved] = src[3] + h * noise[3]
+    noise = rng.standard_normal((d, count))
+    shrink = float(np.sqrt(1.0 - h * h)) if params.kernel_shrink else 1.0
+    jitter_apply(
+        cloud.east,
+        cloud.north,
+        cloud.phi,
+        cloud.scale,
+        moved,
+        noise,
+        np.ascontiguousarray(chol),
+        mean,
+        phi_mean,
+        h,
+        shrink,
+    )
 
 
 def log_likelihood(
@@ -287,11 +301,8 @@ class TrackBuilder:
         Particles lighter than 1e-12 x the heaviest are left out of the sums (they change
         them by less than the float precision of the output).
         """
-        sel = np.flatnonzero(w > 1e-12 * w.max())
-        ws = w[sel] / w[sel].sum()
-        self.east[k] = float(ws @ cloud.east[sel])
-        self.north[k] = float(ws @ cloud.north[sel])
-        self.phi[k] = _circular_mean(ws, cloud.phi[sel])
+        e, n, p = weighted_estimate(cloud.east, cloud.north, cloud.phi, w, 1e-12)
+        self.east[k], self.north[k], self.phi[k] = e, n, p
         # eq. (16) literally: the initial azimuth of the largest-weight particle's lineage
         # (index r mod M of the initial grid). With process noise on the azimuth a lineage
         # keeps its grid value while its azimuth wanders, so the reported initial azimuth

@@ -19,20 +19,27 @@ from coopproc.stages.particle.core import (
     propagate,
 )
 from coopproc.stages.particle.inputs import LocateInputs
+from coopproc.stages.particle.kernels import systematic_indices
 from coopproc.stages.particle.modes import find_modes
 from coopproc.stages.particle.params import LocateParams
 from coopproc.stages.particle.progress import ProgressFn
 
-__all__ = ["run_pf", "systematic_resample"]
+__all__ = ["first_copies", "run_pf", "systematic_resample"]
 
 
 def systematic_resample(w: FloatArray, u: float) -> np.ndarray:
     """Indices drawn by systematic resampling: one offset ``u`` in [0, 1), P strata."""
-    n = w.shape[0]
     cdf = np.cumsum(w)
     cdf[-1] = 1.0
-    positions = (np.arange(n) + u) / n
-    return np.asarray(np.searchsorted(cdf, positions, side="right"), dtype=np.int64)
+    return np.asarray(systematic_indices(cdf, float(u)), dtype=np.int64)
+
+
+def first_copies(idx: np.ndarray) -> np.ndarray:
+    """True at the first occurrence of each index in ``idx`` (sorted, as systematic
+    resampling gives them)."""
+    first = np.ones(idx.shape[0], dtype=bool)
+    first[1:] = idx[1:] != idx[:-1]
+    return first
 
 
 def run_pf(
