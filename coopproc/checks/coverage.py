@@ -31,7 +31,6 @@ from coopproc.model import GAP_FACTOR, FloatArray, RangeTable, Session
 
 __all__ = [
     "NavCoverage",
-    "check_processable",
     "coverage_warnings",
     "nav_coverage",
     "prepare_run",
@@ -213,31 +212,18 @@ def restrict_to_coverage(session: Session) -> tuple[Session, list[str]]:
     return restricted, notes
 
 
-def check_processable(session: Session) -> None:
-    """Raise InputError for what ``coopproc run`` cannot process yet: a ``tag`` (a moving
-    platform without navigation of its own, positioned from its ranges)."""
-    tags = [p for p in session.platform_ids if session.platforms[p].role == "tag"]
-    if tags:
-        raise InputError(
-            session.root,
-            f"platform {tags[0]} has role 'tag' (no navigation of its own), which this "
-            f"version of coopproc run cannot process; expected nav_{tags[0]}.csv and role "
-            "follower or leader",
-        )
-
-
 def prepare_run(session: Session) -> tuple[Session, list[str]]:
     """What ``coopproc run`` does to a session before the stage chain.
 
-    Raises for roles it cannot process (:func:`check_processable`), leaves out the ranges
-    the navigation does not cover (:func:`restrict_to_coverage`) and checks each
-    platform's navigation frame (:func:`coopproc.checks.framecheck.frame_notes`). Returns the
-    session (the same object when there is nothing to note) and the new notes, which
-    are also appended to its ``notes`` (and so reach run.json).
+    Leaves out the ranges the navigation does not cover (:func:`restrict_to_coverage`)
+    and checks each platform's navigation frame
+    (:func:`coopproc.checks.framecheck.frame_notes`). Returns the session (the same
+    object when there is nothing to note) and the new notes, which are also appended to
+    its ``notes`` (and so reach run.json). Tags are processed by the run
+    (:mod:`coopproc.run.tags`).
     """
     from coopproc.checks.framecheck import frame_notes
 
-    check_processable(session)
     session, notes = restrict_to_coverage(session)
     frame = frame_notes(session)
     if frame:

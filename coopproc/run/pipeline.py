@@ -43,6 +43,7 @@ from coopproc.report.metrics import distance_metrics, nlos_scores, position_metr
 from coopproc.report.scores import nlos_event_scores
 from coopproc.run.chain import Step, resolve
 from coopproc.run.config import RunConfig
+from coopproc.run.tags import tag_pipeline, tag_rows, widen, without_tags
 from coopproc.stages.base import PositionInput, PositionProduct, RangeInput, RangeProduct
 from coopproc.stages.fusion.dr_quality import DeadReckoningQuality, dead_reckoning_quality
 from coopproc.stages.ranging.table import observed_table
@@ -184,6 +185,8 @@ def _nav_at(session: Session, like: Mapping[str, Trajectory]) -> dict[str, Traje
     """Each platform's own solution at the epochs of the fused output."""
     out = {}
     for platform, traj in like.items():
+        if platform not in session.nav:
+            continue  # a tag: no navigation of its own
         nav = session.nav[platform]
         out[platform] = Trajectory(platform, traj.time_s, nav.interpolate(traj.time_s))
     return out
@@ -205,13 +208,18 @@ def run_pipeline(
         yield
         timings[label] = round(time.perf_counter() - start, 3)
 
-    steps = resolve(config.pipeline)
+    # tags (no navigation): the DR-based stages run on the session without them (run.tags)
+    pipeline, tag_notes = tag_pipeline(config.pipeline, session)
+    dr_session = without_tags(session)
+    steps = resolve(pipeline)
     for step in steps:
         check = POSITION_STAGES[step.stage].check if step.kind == "positions" else None
         if check is not None:
             check(session)
     output: Literal["ranges", "nav"] = config.run.positions_at
     base = observed_table(session)
+    dr_rows = ~tag_rows(session, base["pair"]) if dr_session is not session else None
+    dr_base = base if dr_rows is None else base[dr_rows].reset_index(drop=True)
     sigma_by_row = _row_sigma(session, base)
     range_sets = {"observed": session.ranges.frame[["time", "from", "to", "range", "sigma"]]}
     columns: dict[str, FloatArray] = {}
@@ -221,7 +229,9 @@ def run_pipeline(
     for step in steps:
         with timed(step.label):
             if step.kind == "ranges":
-                product = _run_range_step(step, session, base, config, cp_product)
+                product = _run_range_step(step, dr_session, dr_base, config, cp_product)
+                if dr_rows is not None:
+                    product = widen(product, dr_rows)
                 range_products.append(product)
                 for method in step.methods:
                     columns[method] = product.values[method]
@@ -232,10 +242,13 @@ def run_pipeline(
             observed = None
             if stage.needs_observed and step.range_set != "observed":
                 observed = products[stage.method("observed")]
+            own = session if stage.uwb_only else dr_session
             position_input = PositionInput(
-                session,
+                own,
                 step.range_set,
-                range_sets[step.range_set],
+                own.ranges.frame[list(range_sets["observed"].columns)]
+                if step.range_set == "observed" and own is not session
+                else range_sets[step.range_set],
                 output,
                 observed=observed,
                 want_cp="cp" in step.outputs,
@@ -245,7 +258,7 @@ def run_pipeline(
                 cp_product = products[step.methods[0]]
 
     # ranges.csv keeps the config's column order whatever order the steps ran in
-    columns = {m: columns[m] for m in config.pipeline.ranges}
+    columns = {m: columns[m] for m in pipeline.ranges}
     with timed("metrics"):
         table = _range_table(base, columns, range_products)
         positions = _positions_table(session, products, output)
@@ -283,7 +296,7 @@ def run_pipeline(
         dr_quality=(
             {} if cp_positions is None else dead_reckoning_quality(session, cp_positions.positions)
         ),
-        notes=tuple(n for p in products.values() for n in p.notes),
+        notes=(*tag_notes, *(n for p in products.values() for n in p.notes)),
         chain=steps,
         methods={
             "ranges": ("observed", *columns),

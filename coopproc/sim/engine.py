@@ -101,6 +101,13 @@ def simulate(
         truth = Trajectory(actor.id, time, actor.truth_enu_m, heading_deg=heading, source="truth")
         truth_traj[actor.id] = truth
         plats[actor.id] = actor_platform(actor, params)
+        if actor.role != "anchor":  # a tag has no nav file but a reference
+            ref_pos, ref_sigma, quality = ppk_reference(
+                truth.interpolate(t_ref), t_ref, params, named_rng(seed, f"ref:{actor.id}")
+            )
+            reference[actor.id] = Trajectory(
+                actor.id, t_ref, ref_pos, sigma_enu_m=ref_sigma, quality=quality, source="simulated"
+            )
         if actor.nav == "none":
             continue
         pos, head, sigma, vel, errors = navigate(
@@ -153,12 +160,6 @@ def simulate(
             heading_deg=head[logged],
             vel_enu_mps=None if vel is None else vel[logged],
             source="simulated",
-        )
-        ref_pos, ref_sigma, quality = ppk_reference(
-            truth.interpolate(t_ref), t_ref, params, named_rng(seed, f"ref:{actor.id}")
-        )
-        reference[actor.id] = Trajectory(
-            actor.id, t_ref, ref_pos, sigma_enu_m=ref_sigma, quality=quality, source="simulated"
         )
 
     pairs = sorted(link.pair for link in world.links)

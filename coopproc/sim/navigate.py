@@ -50,6 +50,8 @@ def actor_platform(actor: Actor, params: SimParams) -> Platform:
     if actor.role == "anchor":
         p = actor.truth_enu_m[0]
         return Platform(actor.id, "anchor", None, (float(p[0]), float(p[1]), float(p[2])))
+    if actor.role == "tag":
+        return Platform(actor.id, "tag")
     drift = leader_drift_sigma_mps(params) if actor.nav == "gnss" else dr_drift_sigma_mps(params)
     return Platform(actor.id, actor.role, round(drift, 4))
 

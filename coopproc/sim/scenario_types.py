@@ -30,7 +30,8 @@ class Actor:
     """One platform of a world: its role, how it navigates, and its true positions."""
 
     id: str
-    role: Literal["follower", "leader", "anchor"]
+    #: "tag": no navigation of its own (nav "none"), positioned from its ranges
+    role: Literal["follower", "leader", "anchor", "tag"]
     nav: NavKind
     truth_enu_m: FloatArray  # (n, 3) on the world's time grid
     #: True: the nav file is in the platform's own frame (start 0, initial heading 0).

@@ -144,6 +144,14 @@ def _anchors(params: SimParams, seed: int, t: FloatArray) -> World:
     return World(time_rel_s=t, actors=tuple(actors), links=links)
 
 
+def _tag_only(params: SimParams, seed: int, t: FloatArray) -> World:
+    # the anchors world with a tag that has no dead reckoning: no nav file, role "tag"
+    world = _anchors(params, seed, t)
+    tag = world.actors[0]
+    actors = (Actor(tag.id, "tag", "none", tag.truth_enu_m), *world.actors[1:])
+    return World(time_rel_s=world.time_rel_s, actors=actors, links=world.links)
+
+
 #: paper 000 section 4.4: two NLOS events on each leader pair (the estimated means, rounded)
 _PAPER_EVENTS = (
     NlosSpec("A-B", 120.0, 145.0, 0.58),
@@ -183,6 +191,12 @@ _ANCHORS_UNUSED = {
     ),
     "distance_rate_mps": "no formation: the tag follows a fixed route among fixed anchors",
 }
+
+#: Dead-reckoning options: the tag-only scenario has no navigation to act on.
+_TAG_UNUSED = dict.fromkeys(
+    ("heading_drift_dpm", "odo_scale_fault", "slip_rate_per_hour", "nav_gaps"),
+    "the tag has no dead reckoning",
+)
 
 SCENARIOS: dict[str, Scenario] = {
     "paper-experiment": Scenario(
@@ -228,6 +242,25 @@ SCENARIOS: dict[str, Scenario] = {
             "outages": (OutageSpec(450.0, 480.0),),
         },
         unused=_ANCHORS_UNUSED,
+    ),
+    "tag-only": Scenario(
+        "tag-only",
+        "paper 003 without the INS: one tag with no dead reckoning (role tag, no nav file) "
+        "among 6 fixed anchors on the anchors route, pedestrians blocking AN3 (NLOS), one "
+        "30 s UWB outage",
+        _tag_only,
+        {
+            "duration_s": 600.0,
+            "platforms": 7,
+            "speed_mps": 0.6,
+            "height_amplitude_m": 0.05,
+            "nlos_events": (
+                NlosSpec("AN3-tag", 100.0, 130.0, 0.8),
+                NlosSpec("AN3-tag", 350.0, 380.0, 0.6),
+            ),
+            "outages": (OutageSpec(450.0, 480.0),),
+        },
+        unused={**_ANCHORS_UNUSED, **_TAG_UNUSED},
     ),
     "single-auxiliary": Scenario(
         "single-auxiliary",

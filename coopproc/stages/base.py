@@ -148,6 +148,9 @@ class PositionStage:
     #: raises StageError when the session cannot give this estimator anything (checked
     #: before any stage runs); None: no check
     check: Callable[[Session], None] | None = None
+    #: True: it positions from ranges alone (no navigation needed), so it also positions
+    #: ``tag`` platforms; False: it runs on the session without tags and their ranges
+    uwb_only: bool = False
 
     def method(self, range_set: str) -> str:
         """The positions.csv method of this estimator on ``range_set``."""

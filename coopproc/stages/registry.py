@@ -30,6 +30,8 @@ POSITION_STAGES: dict[str, PositionStage] = {
     for s in (
         fusion_entry.FUSION,  # cooperative EKF + RTS (papers 002, 003)
         fusion_entry.LSQ,  # robust least squares from anchors (paper 003)
+        fusion_entry.LSQ_KF,  # lsq + constant-velocity KF (UWB only)
+        fusion_entry.LSQ_RTS,  # lsq + constant-velocity KF + RTS (UWB only, paper 003)
     )
 }
 

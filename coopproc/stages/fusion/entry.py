@@ -8,18 +8,27 @@
 - ``lsq``: robust least squares from fixed anchors (paper 003 sec. 2.2,
   :func:`coopproc.stages.fusion.lsq.robust_lsq_positions`), epoch by epoch; method
   ``lsq`` on the observed ranges, ``lsq_<set>`` on a processed set.
+- ``lsq_kf`` / ``lsq_rts``: the same fixes through a constant-velocity Kalman filter
+  (causal) / and its RTS smoother (:mod:`coopproc.stages.fusion.uwb_kf`); methods
+  ``lsq_kf``, ``lsq_rts`` (``lsq_kf_<set>``, ``lsq_rts_<set>``).
+
+``lsq*`` are UWB-only (``uwb_only``): they position a ``tag`` (no navigation of its own);
+the fusion needs every moving platform's navigation and never sees a tag.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 from coopproc.errors import StageError
-from coopproc.model import Session
+from coopproc.model import Session, Trajectory
 from coopproc.stages.base import PositionInput, PositionProduct, PositionStage
 from coopproc.stages.fusion.calibration import calibrated_fuse
 from coopproc.stages.fusion.fuse import FusionParams
 from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
+from coopproc.stages.fusion.uwb_kf import uwb_kf_positions
 
-__all__ = ["FUSION", "LSQ", "fusion_stage", "lsq_stage"]
+__all__ = ["FUSION", "LSQ", "LSQ_KF", "LSQ_RTS", "fusion_stage", "lsq_stage"]
 
 
 def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
@@ -47,9 +56,34 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
     return PositionProduct(positions=fused.smoothed, cp=cp, calibration=cal, notes=cal.notes)
 
 
+def _product(inp: PositionInput, positions: Mapping[str, Trajectory]) -> PositionProduct:
+    """The positions, with a note for each tag that got none (a tag has nothing else)."""
+    missing = [
+        p
+        for p in inp.session.platform_ids
+        if inp.session.platforms[p].role == "tag" and p not in positions
+    ]
+    notes = tuple(
+        f"tag {p}: no {inp.range_set} fix (never ranged to enough anchors in one epoch); "
+        "it has no position"
+        for p in missing
+    )
+    return PositionProduct(positions=positions, notes=notes)
+
+
 def lsq_stage(inp: PositionInput, params: LsqParams) -> PositionProduct:
     """Robust least-squares fixes of every platform ranging to enough anchors."""
-    return PositionProduct(positions=robust_lsq_positions(inp.session, inp.ranges, params))
+    return _product(inp, robust_lsq_positions(inp.session, inp.ranges, params))
+
+
+def lsq_kf_stage(inp: PositionInput, params: LsqParams) -> PositionProduct:
+    """The fixes through the constant-velocity Kalman filter (causal)."""
+    return _product(inp, uwb_kf_positions(inp.session, inp.ranges, params, smooth=False))
+
+
+def lsq_rts_stage(inp: PositionInput, params: LsqParams) -> PositionProduct:
+    """The fixes through the constant-velocity Kalman filter and the RTS smoother."""
+    return _product(inp, uwb_kf_positions(inp.session, inp.ranges, params, smooth=True))
 
 
 def _has_anchors(session: Session) -> None:
@@ -80,4 +114,27 @@ LSQ = PositionStage(
     help="robust least squares from fixed anchors, epoch by epoch (paper 003 sec. 2.2); "
     "method lsq (observed ranges) or lsq_<set>",
     check=_has_anchors,
+    uwb_only=True,
+)
+
+LSQ_KF = PositionStage(
+    name="lsq_kf",
+    params_type=LsqParams,
+    section="fusion.lsq",
+    run=lsq_kf_stage,
+    help="the lsq fixes through a constant-velocity Kalman filter with IGG-III (causal); "
+    "method lsq_kf or lsq_kf_<set>",
+    check=_has_anchors,
+    uwb_only=True,
+)
+
+LSQ_RTS = PositionStage(
+    name="lsq_rts",
+    params_type=LsqParams,
+    section="fusion.lsq",
+    run=lsq_rts_stage,
+    help="the lsq_kf filter followed by the RTS smoother (paper 003 sec. 2.8); method "
+    "lsq_rts or lsq_rts_<set>",
+    check=_has_anchors,
+    uwb_only=True,
 )

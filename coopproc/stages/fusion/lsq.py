@@ -39,7 +39,7 @@ from coopproc.stages.fusion.data import (
     range_sigma_default,
 )
 
-__all__ = ["LsqParams", "robust_lsq_positions"]
+__all__ = ["LsqFixes", "LsqParams", "lsq_fixes", "robust_lsq_positions"]
 
 
 @dataclass(frozen=True)
@@ -77,7 +77,37 @@ class LsqParams:
         default=2.0, metadata={"help": "longest gap (s) between ranges used as a range rate"}
     )
 
+    tag_up_m: float = field(
+        default=0.0,
+        metadata={
+            "help": "2D: the antenna height (m, up) of a platform without navigation "
+            "(a tag); platforms with navigation use their own height"
+        },
+    )
+    # the constant-velocity Kalman filter and RTS smoother over the fixes (methods
+    # lsq_kf, lsq_rts; coopproc.stages.fusion.uwb_kf)
+    kf_accel_psd: float = field(
+        default=0.05,
+        metadata={
+            "help": "lsq_kf/lsq_rts: white-acceleration PSD q (m^2/s^3) per axis of the "
+            "constant-velocity model"
+        },
+    )
+    kf_velocity: bool = field(
+        default=False,
+        metadata={"help": "lsq_kf/lsq_rts: also use the range-rate velocities as observations"},
+    )
+    kf_robust: bool = field(
+        default=True, metadata={"help": "lsq_kf/lsq_rts: IGG-III factor on the innovations"}
+    )
+    kf_k0: float = field(default=3.0, metadata={"help": "lsq_kf/lsq_rts: IGG-III k0"})
+    kf_k1: float = field(default=4.0, metadata={"help": "lsq_kf/lsq_rts: IGG-III k1"})
+
     def __post_init__(self) -> None:
+        if self.kf_accel_psd <= 0:
+            raise ValueError(f"kf_accel_psd = {self.kf_accel_psd}, expected > 0")
+        if not 0 < self.kf_k0 < self.kf_k1:
+            raise ValueError(f"kf_k0 = {self.kf_k0}, kf_k1 = {self.kf_k1}: expected 0 < k0 < k1")
         if not 1.3 <= self.c <= 2.0:
             raise ValueError(f"c = {self.c} is outside 1.3..2.0 (paper 003 section 2.2)")
         if self.dims not in (2, 3):
@@ -90,6 +120,10 @@ class LsqParams:
             raise ValueError("epoch_merge_s must be >= 0 and rate_max_gap_s > 0")
 
 
+def _has_nav(session: Session, tid: str) -> bool:
+    return tid in session.nav and len(session.nav[tid]) > 0
+
+
 def _solve(n_mat: FloatArray, b: FloatArray) -> FloatArray:
     """Batched solve of (E, d, d) systems; singular ones give NaN."""
     det = np.linalg.det(n_mat)
@@ -100,25 +134,20 @@ def _solve(n_mat: FloatArray, b: FloatArray) -> FloatArray:
     return out
 
 
-def robust_lsq_positions(
-    session: Session, ranges: pd.DataFrame, params: LsqParams | None = None
-) -> Mapping[str, Trajectory]:
-    """Positions (and velocities) of every tag ranging to anchors, epoch by epoch.
+@dataclass(frozen=True, eq=False)
+class LsqFixes:
+    """One tag's least-squares fixes with their covariances (``dims`` = d axes)."""
 
-    Parameters
-    ----------
-    session : the session (anchors are platforms with role ``anchor``).
-    ranges : columns time, from, to, range[, sigma]; rows between a moving platform and
-        an anchor are used, others ignored.
-    params : LsqParams; ``robust=False`` gives plain weighted least squares.
+    time_s: FloatArray  # (E,)
+    pos: FloatArray  # (E, d) east, north[, up]
+    cov: FloatArray  # (E, d, d) N^-1 of the robust fix
+    vel: FloatArray  # (E, d) from range rates, NaN where fewer than d rates
+    vel_cov: FloatArray  # (E, d, d) its covariance (NaN where vel is NaN)
+    up: FloatArray  # (E,) the height used by the 2D model (0 without nav)
 
-    Returns
-    -------
-    tag id -> Trajectory at the epochs with at least ``min_anchors`` anchors, with
-    ``sigma_enu_m`` from the estimate's covariance and ``vel_enu_mps`` from range rates
-    (NaN where fewer than ``dims`` rates are available). Tags without any fix are absent.
-    """
-    params = params or LsqParams()
+
+def lsq_fixes(session: Session, ranges: pd.DataFrame, params: LsqParams) -> Mapping[str, LsqFixes]:
+    """The fixes of :func:`robust_lsq_positions` with full covariances, by tag id."""
     dim = params.dims
     anchors = anchor_positions(session)
     rows = clean_ranges(session, ranges, range_sigma_default(session, params.range_sigma_m))
@@ -185,31 +214,74 @@ def robust_lsq_positions(
     min_anchors = params.min_anchors or dim + 1
     enough = has.sum(axis=1) >= min_anchors
     # tag height for the 2D model: from its own navigation, else 0
+    # tag height for the 2D model: from its own navigation, else tag_up_m
     tag_up = np.zeros(n_prob)
+    no_nav = np.array([not _has_nav(session, t) for t in prob_tag], dtype=bool)
     if dim == 2:
-        for tid in np.unique(prob_tag):
+        tag_up[no_nav] = params.tag_up_m
+        for tid in np.unique(prob_tag[~no_nav]):
             sel = prob_tag == tid
-            if tid in session.nav and len(session.nav[tid]) > 0:
-                nav = session.nav[tid]
-                tag_up[sel] = np.interp(prob_time[sel], nav.time_s, nav.enu_m[:, 2])
+            nav = session.nav[tid]
+            tag_up[sel] = np.interp(prob_time[sel], nav.time_s, nav.enu_m[:, 2])
     x, cov, weight = _gauss_newton(pos, rng, var, has, tag_up, params)
-    vel = _velocity(x, pos, tag_up, rate_arr, rate_var, has_rate, weight, dim)
-    out: dict[str, Trajectory] = {}
+    vel, vel_cov = _velocity(x, pos, tag_up, rate_arr, rate_var, has_rate, weight, dim)
+    # a tag without navigation: its range-rate velocity carries it to each range time of
+    # the epoch (as the nav does above for the others), then the fix is solved again
+    lag = row_t - ep_t
+    move = no_nav[problem] & (lag != 0) & np.isfinite(vel[problem]).all(axis=1)
+    if move.any():
+        pos[problem[move], slot[move], :dim] -= vel[problem[move]] * lag[move, None]
+        x, cov, weight = _gauss_newton(pos, rng, var, has, tag_up, params)
+        vel, vel_cov = _velocity(x, pos, tag_up, rate_arr, rate_var, has_rate, weight, dim)
+    out: dict[str, LsqFixes] = {}
     good = enough & np.isfinite(x).all(axis=1)
     for tid in sorted(np.unique(prob_tag[good])):
         sel = good & (prob_tag == tid)
-        enu = np.zeros((int(sel.sum()), 3))
-        enu[:, :dim] = x[sel]
+        out[str(tid)] = LsqFixes(
+            time_s=prob_time[sel],
+            pos=x[sel],
+            cov=cov[sel],
+            vel=vel[sel],
+            vel_cov=vel_cov[sel],
+            up=tag_up[sel],
+        )
+    return out
+
+
+def robust_lsq_positions(
+    session: Session, ranges: pd.DataFrame, params: LsqParams | None = None
+) -> Mapping[str, Trajectory]:
+    """Positions (and velocities) of every tag ranging to anchors, epoch by epoch.
+
+    Parameters
+    ----------
+    session : the session (anchors are platforms with role ``anchor``).
+    ranges : columns time, from, to, range[, sigma]; rows between a moving platform and
+        an anchor are used, others ignored.
+    params : LsqParams; ``robust=False`` gives plain weighted least squares.
+
+    Returns
+    -------
+    tag id -> Trajectory at the epochs with at least ``min_anchors`` anchors, with
+    ``sigma_enu_m`` from the estimate's covariance and ``vel_enu_mps`` from range rates
+    (NaN where fewer than ``dims`` rates are available). Tags without any fix are absent.
+    """
+    params = params or LsqParams()
+    dim = params.dims
+    out: dict[str, Trajectory] = {}
+    for tid, fix in lsq_fixes(session, ranges, params).items():
+        enu = np.zeros((fix.time_s.shape[0], 3))
+        enu[:, :dim] = fix.pos
         sig = np.full_like(enu, np.nan)
-        sig[:, :dim] = np.sqrt(np.einsum("eii->ei", cov[sel]))
+        sig[:, :dim] = np.sqrt(np.einsum("eii->ei", fix.cov))
         v3 = np.zeros_like(enu)
-        v3[:, :dim] = vel[sel]
+        v3[:, :dim] = fix.vel
         v3[np.isnan(v3[:, 0]), 2] = np.nan
         if dim == 2:
-            enu[:, 2] = tag_up[sel]
-        out[str(tid)] = Trajectory(
-            platform=str(tid),
-            time_s=prob_time[sel],
+            enu[:, 2] = fix.up
+        out[tid] = Trajectory(
+            platform=tid,
+            time_s=fix.time_s,
             enu_m=enu,
             sigma_enu_m=sig,
             vel_enu_mps=v3,
@@ -276,12 +348,17 @@ def _velocity(
     has_rate: FloatArray,
     weight: FloatArray,
     dim: int,
-) -> FloatArray:
-    """Velocity (E, dim) from range rates, paper 003 eq. (7); NaN with too few rates."""
+) -> tuple[FloatArray, FloatArray]:
+    """Velocity (E, dim) from range rates, paper 003 eq. (7), and its covariance (E, dim,
+    dim); NaN with too few rates."""
     _, a = _design(x, pos, tag_up, dim)
     p = np.where(has_rate, weight / rate_var, 0.0)
     n_mat = np.einsum("emi,em,emj->eij", a, p, a)
     b = np.einsum("emi,em,em->ei", a, p, rate)
     vel = _solve(n_mat, b)
     vel[has_rate.sum(axis=1) < dim] = np.nan
-    return vel
+    cov = np.full(n_mat.shape, np.nan)
+    ok = np.isfinite(vel).all(axis=1)
+    if ok.any():
+        cov[ok] = np.linalg.pinv(n_mat[ok])
+    return vel, cov
