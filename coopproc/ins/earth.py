@@ -16,6 +16,8 @@ __all__ = [
     "WGS84_A",
     "WGS84_E2",
     "earth_rate_enu",
+    "ecef_to_enu_matrix",
+    "llh_to_ecef",
     "normal_gravity",
     "radii",
     "transport_rate_enu",
@@ -81,3 +83,25 @@ def transport_rate_enu(lat: float, h: float, v_enu: FloatArray) -> FloatArray:
     out[1] = v_enu[0] / (n + h)
     out[2] = v_enu[0] * np.tan(lat) / (n + h)
     return out
+
+
+@numba.njit(cache=True)
+def llh_to_ecef(lat: float, lon: float, h: float) -> FloatArray:
+    """ECEF (m) of a geodetic position (rad, rad, m), WGS-84."""
+    _, n = radii(lat)
+    out = np.empty(3)
+    out[0] = (n + h) * np.cos(lat) * np.cos(lon)
+    out[1] = (n + h) * np.cos(lat) * np.sin(lon)
+    out[2] = (n * (1.0 - WGS84_E2) + h) * np.sin(lat)
+    return out
+
+
+@numba.njit(cache=True)
+def ecef_to_enu_matrix(lat: float, lon: float) -> FloatArray:
+    """C_e^n: rotates ECEF vectors into the ENU frame at (lat, lon)."""
+    sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
+    c = np.empty((3, 3))
+    c[0, 0], c[0, 1], c[0, 2] = -so, co, 0.0
+    c[1, 0], c[1, 1], c[1, 2] = -sl * co, -sl * so, cl
+    c[2, 0], c[2, 1], c[2, 2] = cl * co, cl * so, sl
+    return c
