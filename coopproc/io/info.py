@@ -94,8 +94,9 @@ def session_info(session: Session) -> SessionInfo:
         p = session.platforms[pid]
         nav = session.nav.get(pid)
         ref = session.reference.get(pid)
-        if nav is None:
-            rows.append((pid, p.role, 0, np.nan, np.nan, np.nan, 0, 0.0, 0, np.nan))
+        if nav is None:  # an anchor, or a tag (its reference epochs counted)
+            ref_n = 0 if ref is None else len(ref)
+            rows.append((pid, p.role, 0, np.nan, np.nan, np.nan, 0, 0.0, ref_n, np.nan))
             continue
         rate, n_gaps, longest = gaps(nav.time_s)
         start, end = nav.span_s

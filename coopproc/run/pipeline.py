@@ -367,6 +367,13 @@ def _positions_table(
     if basis is not None:
         parts |= _reference_rows(session, basis)
         parts |= _positions_rows(session, "nav", _nav_at(session, basis))
+        for solution in solutions.values():  # tags the basis leaves out: their first method's
+            tags = {
+                p: t
+                for p, t in solution.items()
+                if session.platforms[p].role == "tag" and (p, "reference") not in parts
+            }
+            parts |= _reference_rows(session, tags)
     for method, solution in solutions.items():
         parts |= _positions_rows(session, method, solution)
     parts = {k: v for k, v in parts.items() if len(v)}
