@@ -15,11 +15,14 @@ import functools
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:  # coopproc.sensors imports this module
+    from coopproc.sensors import ImuData, OdometerData
 
 __all__ = [
     "DI_COLUMNS",
@@ -375,8 +378,12 @@ class Session:
     inputs: tuple[Path, ...] = ()
     #: What the readers decided that a user should know (defaults used, rows sorted, ...).
     notes: tuple[str, ...] = ()
-    #: Raw-sensor files found beside the navigation (listed, not read by this version).
+    #: Raw-sensor files found beside the navigation (or the bag holding them).
     sensor_files: tuple[SensorFile, ...] = ()
+    #: Raw IMU samples by platform (imu_<ID>.csv, sensor_msgs/msg/Imu), read and checked.
+    imu: Mapping[str, ImuData] = field(default_factory=dict)
+    #: Odometer samples by platform (odo_<ID>.csv, nav_msgs/msg/Odometry twist).
+    odometer: Mapping[str, OdometerData] = field(default_factory=dict)
 
     @property
     def name(self) -> str:

@@ -27,7 +27,8 @@ def validate(session: Path, quiet: bool) -> None:
     """
     from coopproc.checks.coverage import coverage_warnings, session_start_s
     from coopproc.checks.framecheck import frame_notes
-    from coopproc.io.registry import find_files, sensor_note
+    from coopproc.io.raw_sensors import sensor_notes
+    from coopproc.io.registry import find_files
     from coopproc.io.session import inspect_session
 
     data, problems = inspect_session(session)
@@ -47,7 +48,7 @@ def validate(session: Path, quiet: bool) -> None:
         warnings += find_files(data.root, data.config).notes
     for line in warnings:
         click.echo(f"warning: {line}")
-    for note in [*map(sensor_note, data.sensor_files), *frame_notes(data)]:
+    for note in [*sensor_notes(data), *frame_notes(data)]:
         click.echo(f"note: {note}")
     counted = f" ({len(warnings)} warning{'s' * (len(warnings) != 1)})" if warnings else ""
     click.echo(f"{session}: ok{counted}")

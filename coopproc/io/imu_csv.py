@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import difflib
 import re
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Literal
 
@@ -40,6 +40,7 @@ from coopproc.errors import InputError
 from coopproc.io._common import InputProblems, Locator, missing_column, numeric_column
 from coopproc.io.csv_traj import read_csv_table
 from coopproc.model import FloatArray, gap_limit_s
+from coopproc.sensors import ImuData
 
 __all__ = [
     "EARTH_RATE_RADPS",
@@ -48,6 +49,7 @@ __all__ = [
     "IMU_RATE_COLUMNS",
     "IMU_RATE_LIMITS_HZ",
     "ImuData",
+    "checked_imu",
     "find_imu_files",
     "imu_platform",
     "read_imu_csv",
@@ -81,45 +83,6 @@ _GYRO_FULL_SCALE_RADPS = 2000.0 * np.pi / 180.0
 _REST_TURN_RADPS = 0.1
 _HEADER = "time,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z (or dtheta_x..z, dvel_x..z)"
 _NAME = re.compile(r"^imu_(?P<id>[A-Za-z0-9_-]+?)\.csv(\.gz)?$")
-
-
-@dataclass(frozen=True, eq=False)
-class ImuData:
-    """IMU samples of one file, in rates, in the body frame (x forward, y left, z up).
-
-    ``time_s`` strictly increasing (session time base); ``gyro_radps`` and ``accel_mps2``
-    (n, 3); ``form`` says what the file held (``rate`` or ``increment``);
-    ``static_fraction`` the share of 1-s windows in which the accelerometers say the unit
-    is at rest.
-    """
-
-    platform: str
-    source: str
-    time_s: FloatArray
-    gyro_radps: FloatArray
-    accel_mps2: FloatArray
-    form: Literal["rate", "increment"]
-    static_fraction: float
-    notes: tuple[str, ...] = ()
-
-    @property
-    def interval_s(self) -> float:
-        """The nominal sample interval (median), s."""
-        return float(np.median(np.diff(self.time_s)))
-
-    @property
-    def rate_hz(self) -> float:
-        """The nominal sample rate, Hz."""
-        return 1.0 / self.interval_s
-
-    @property
-    def duration_s(self) -> float:
-        return float(self.time_s[-1] - self.time_s[0])
-
-    def gaps(self) -> int:
-        """How many intervals are gaps (longer than 2.5 x the median, the gap rule of
-        :func:`coopproc.model.gap_limit_s`)."""
-        return int(np.count_nonzero(np.diff(self.time_s) > gap_limit_s(self.time_s)))
 
 
 def imu_platform(path: Path) -> str:
@@ -275,6 +238,23 @@ def read_imu_csv(path: str | Path, platform: str | None = None) -> ImuData:
     values = np.column_stack([numeric_column(frame, c, where, problems) for c in names])
     if problems:
         raise InputProblems(problems)
+    where_notes = [f"{path}: columns {', '.join(extra)} ignored"] if extra else []
+    return checked_imu(
+        platform or imu_platform(path), where, time, values, form, tuple(where_notes)
+    )
+
+
+def checked_imu(
+    platform: str,
+    where: Locator,
+    time: FloatArray,
+    values: FloatArray,
+    form: Literal["rate", "increment"] = "rate",
+    notes: tuple[str, ...] = (),
+) -> ImuData:
+    """Samples (``values``: (n, 6) gyro then accel, rates or increments) checked for times,
+    rate and units (see the module text) into an :class:`ImuData`; InputError otherwise."""
+    path = where.path
     if time.size < 2:
         raise where.error(f"{time.size} data row(s); expected IMU samples at 50-1000 Hz")
     steps = np.diff(time)
@@ -295,18 +275,16 @@ def read_imu_csv(path: str | Path, platform: str | None = None) -> ImuData:
         values = values / interval
     gyro, accel = values[:, :3].copy(), values[:, 3:].copy()
     per_window = max(round(1.0 / interval), 2)
-    static, notes = _check_units(where, gyro, accel, per_window, form)
-    if extra:
-        notes.insert(0, f"{path}: columns {', '.join(extra)} ignored")
+    static, found = _check_units(where, gyro, accel, per_window, form)
     data = ImuData(
-        platform=platform or imu_platform(path),
+        platform=platform,
         source=str(path),
         time_s=time,
         gyro_radps=gyro,
         accel_mps2=accel,
         form=form,
         static_fraction=static,
-        notes=tuple(notes),
+        notes=(*notes, *found),
     )
     gaps = data.gaps()
     if gaps:

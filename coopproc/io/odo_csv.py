@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import difflib
 import re
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
@@ -35,6 +34,7 @@ from coopproc.errors import InputError
 from coopproc.io._common import InputProblems, Locator, missing_column, numeric_column
 from coopproc.io.csv_traj import read_csv_table
 from coopproc.model import FloatArray, gap_limit_s
+from coopproc.sensors import OdometerData
 
 __all__ = [
     "ODO_RATE_LIMITS_HZ",
@@ -57,46 +57,6 @@ MAX_GROUND_SPEED_MPS = 100.0
 _RATE_SLACK = 0.02
 _HEADER = "time,speed (or time,v_left,v_right)"
 _NAME = re.compile(r"^odo_(?P<id>[A-Za-z0-9_-]+?)\.csv(\.gz)?$")
-
-
-@dataclass(frozen=True, eq=False)
-class OdometerData:
-    """Odometer samples of one platform (body x forward, z up).
-
-    ``speed_mps`` forward speed; ``yaw_rate_radps`` the wheels' yaw rate (counter-clockwise
-    positive) when the file gave wheel speeds, else None; ``form`` what the file held.
-    """
-
-    platform: str
-    source: str
-    time_s: FloatArray
-    speed_mps: FloatArray
-    form: Literal["speed", "wheels"]
-    yaw_rate_radps: FloatArray | None = None
-    wheelbase_m: float | None = None
-    notes: tuple[str, ...] = field(default=())
-
-    @property
-    def interval_s(self) -> float:
-        """The nominal sample interval (median), s."""
-        return float(np.median(np.diff(self.time_s)))
-
-    @property
-    def rate_hz(self) -> float:
-        return 1.0 / self.interval_s
-
-    @property
-    def duration_s(self) -> float:
-        return float(self.time_s[-1] - self.time_s[0])
-
-    def distance_m(self) -> float:
-        """Distance travelled (trapezoid of |speed|), m."""
-        s = np.abs(self.speed_mps)
-        return float(np.sum(0.5 * (s[1:] + s[:-1]) * np.diff(self.time_s)))
-
-    def gaps(self) -> int:
-        """How many intervals are gaps (longer than 2.5 x the median)."""
-        return int(np.count_nonzero(np.diff(self.time_s) > gap_limit_s(self.time_s)))
 
 
 def odo_platform(path: Path) -> str:

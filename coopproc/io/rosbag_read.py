@@ -14,8 +14,8 @@ any other input. Decisions (docs/formats.md "ROS bags"):
   detection) is no measurement and is left out, with a note;
 - names from topics and range messages are renamed by ``[topics.rename]``; names in
   ``[topics] drop`` are left out with every range they take part in;
-- ``sensor_msgs/msg/Imu``: read into :class:`ImuSamples` (``read_bag``), listed in the
-  session as a raw sensor, not used by this version.
+- ``sensor_msgs/msg/Imu``: read into :class:`ImuSamples` (``read_bag``), checked like
+  ``imu_<ID>.csv`` and attached to the session (``Session.imu``) by the session loader.
 """
 
 from __future__ import annotations
@@ -104,11 +104,6 @@ def read_bag(path: str | Path, topics: TopicsMapping | None = None) -> BagConten
                 if role == "imu":
                     out.imu[pid] = _imu(channels[topic], pid, where)
                     out.sensors.append(SensorFile("imu", path, pid))
-                    n = len(channels[topic])
-                    out.notes.append(
-                        f"{path} {topic}: IMU samples of {pid} ({n}) recognised but not used "
-                        "by this version of coopproc"
-                    )
                 else:
                     target = out.nav if role == "nav" else out.reference
                     target[pid] = _trajectory(channels[topic], pid, where, f"{path} {topic}")

@@ -19,14 +19,18 @@ from coopproc.io._common import InputProblems, RawTrajectory, expand, flat
 from coopproc.io.csv_mapping import CsvForms
 from coopproc.io.mcap_read import McapContent, decode_mcap, read_mcap_raw
 from coopproc.io.ranges_csv import RangesRead, read_ranges_csv
+from coopproc.io.raw_sensors import bag_imu, read_raw_sensors
 from coopproc.io.registry import find_files, read_trajectory, sensor_note
-from coopproc.io.rosbag_read import session_bag
+from coopproc.io.rosbag_read import ImuSamples, session_bag
 from coopproc.io.rosbag_scan import bag_files, is_bag
 from coopproc.io.session_toml import TomlRead, mcap_mapping, parse_session_toml, read_session_toml
 from coopproc.io.timebase import TimedFile, WeekSource, check_times, infer_time_base
 from coopproc.model import SensorFile, Session, SessionConfig, Trajectory
 
 __all__ = ["inspect_session", "read_session", "validate_session"]
+
+#: Raw-sensor kinds read into the session (the others are listed, with a note).
+RAW_READ = ("imu", "odo")
 
 
 class _Loader:
@@ -35,7 +39,8 @@ class _Loader:
         self.notes: list[str] = []
         self.inputs: list[Path] = []
         self.failed: set[str] = set()  # platforms whose nav could not be read
-        self.sensors: list[SensorFile] = []  # raw-sensor files: listed, not read
+        self.sensors: list[SensorFile] = []  # raw-sensor files (imu, odo read; others listed)
+        self.bag_imu: tuple[Path, dict[str, ImuSamples]] | None = None
 
     def add(self, err: CoopprocError) -> None:
         if isinstance(err, InputProblems):
@@ -67,7 +72,7 @@ class _Loader:
             self.problems.extend(files.problems)
             self.notes.extend(files.notes)
             self.sensors = files.sensors
-            self.notes.extend(sensor_note(f) for f in files.sensors)
+            self.notes.extend(sensor_note(f) for f in files.sensors if f.kind not in RAW_READ)
             for kind, group, target in (("nav", files.nav, nav_raw), ("ref", files.ref, ref_raw)):
                 for pid, fpath in sorted(group.items()):
                     self.inputs.append(fpath)
@@ -108,6 +113,7 @@ class _Loader:
             if found is not None:
                 self.inputs.extend(bag_files(found[0]))
                 self.sensors.extend(found[1].sensors)
+                self.bag_imu = (found[0], found[1].imu)
                 ranges = self._merge(found[1], nav_raw, ref_raw, ranges, found[0])
         config = toml.config if toml else SessionConfig()
         if toml is None:
@@ -223,6 +229,11 @@ class _Loader:
             spans = {} if ranges.where.path in bad_times else nav
             spans = {p: t for p, t in spans.items() if t.source not in bad_times}
             self.problems.extend(assemble.check_ranges(ranges, platforms, nav, skip, spans))
+        imu, odometer = read_raw_sensors(self.sensors, platforms, nav, self.problems, self.notes)
+        if self.bag_imu is not None:
+            imu.update(
+                bag_imu(self.bag_imu[1], self.bag_imu[0], platforms, self.problems, self.notes)
+            )
         if self.problems or ranges is None:
             return None
         return Session(
@@ -236,6 +247,8 @@ class _Loader:
             inputs=tuple(dict.fromkeys(self.inputs)),
             notes=tuple(self.notes),
             sensor_files=tuple(self.sensors),
+            imu=imu,
+            odometer=odometer,
         )
 
     def _time_base(

@@ -126,7 +126,7 @@ def recording(m: _Msgs, *, zero_stamp_nav_b: bool = False) -> list[Message]:
     for k, (t, r) in enumerate(zip(RANGE_TIMES, true_range(RANGE_TIMES), strict=True)):
         topic = "/uwb/A/B/range" if k % 2 == 0 else "/uwb/B/A/range"
         out.append((topic, "sensor_msgs/msg/Range", t + 0.01, m.range(t, float(np.float32(r)))))
-    for t in t_nav:
+    for t in T0 + np.arange(N_NAV * 10) * 0.01:  # 100 Hz, as IMUs are (DATA.md: 50-1000 Hz)
         out.append(("/A/imu", "sensor_msgs/msg/Imu", t + 0.01, m.imu(t)))
     return sorted(out, key=lambda x: x[2])
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
@@ -113,29 +114,46 @@ def test_bad_sensor_keys_are_one_line_errors(sample_dir: Path, text: str, messag
         read_session(sample_dir)
 
 
+def _imu_odo_files(sample_dir: Path) -> None:
+    """imu_A.csv (100 Hz at rest) and odo_B.csv.gz (10 Hz) over the sample session's start."""
+    t = 432000.0 + np.arange(1000) / 100.0
+    rng = np.random.default_rng(0)
+    imu = pd.DataFrame({"time": t})
+    for i, axis in enumerate("xyz"):
+        imu[f"gyro_{axis}"] = rng.normal(0.0, 1e-3, t.size)
+        imu[f"accel_{axis}"] = rng.normal(0.0, 0.01, t.size) + (9.80665 if i == 2 else 0.0)
+    imu.to_csv(sample_dir / "imu_A.csv", index=False)
+    odo = pd.DataFrame({"time": t[::10], "speed": 0.5})
+    odo.to_csv(sample_dir / "odo_B.csv.gz", index=False)
+
+
 def test_raw_sensor_files_are_listed_and_noted_once(sample_dir: Path, tmp_path: Path) -> None:
-    names = ("imu_A.csv", "odo_B.csv.gz", "obs_A.21o", "obs_C.rnx", "brdc3060.21n", "imu_Z.csv")
-    for name in names:
+    _imu_odo_files(sample_dir)
+    for name in ("obs_A.21o", "obs_C.rnx", "brdc3060.21n"):
         (sample_dir / name).write_text("time\n")
     (sample_dir / "imu.txt").write_text("not a sensor file name\n")
     session = read_session(sample_dir)
-    assert sorted(session.platforms) == ["A", "B", "C", "X"]  # no phantom platform Z
+    assert sorted(session.platforms) == ["A", "B", "C", "X"]
     assert session.sensor_files == (
         SensorFile("gnss_nav", sample_dir / "brdc3060.21n", None),
         SensorFile("imu", sample_dir / "imu_A.csv", "A"),
-        SensorFile("imu", sample_dir / "imu_Z.csv", "Z"),
         SensorFile("gnss_obs", sample_dir / "obs_A.21o", "A"),
         SensorFile("gnss_obs", sample_dir / "obs_C.rnx", "C"),
         SensorFile("odo", sample_dir / "odo_B.csv.gz", "B"),
     )
+    assert sorted(session.imu) == ["A"] and sorted(session.odometer) == ["B"]
+    assert session.imu["A"].time_s.size == 1000 and session.imu["A"].static_fraction == 1.0
+    np.testing.assert_allclose(session.odometer["B"].speed_mps, 0.5)
+    read = "not used by this version's methods"
     expected = [
         f"note: {sample_dir / 'brdc3060.21n'}: GNSS broadcast ephemerides (RINEX navigation) "
         + NOT_USED,
-        f"note: {sample_dir / 'imu_A.csv'}: IMU samples of A {NOT_USED}",
-        f"note: {sample_dir / 'imu_Z.csv'}: IMU samples of Z {NOT_USED}",
+        f"note: {sample_dir / 'imu_A.csv'}: IMU samples of A read (1000 rates at 100 Hz, "
+        f"10.0 s); {read}",
         f"note: {sample_dir / 'obs_A.21o'}: GNSS observations (RINEX) of A {NOT_USED}",
         f"note: {sample_dir / 'obs_C.rnx'}: GNSS observations (RINEX) of C {NOT_USED}",
-        f"note: {sample_dir / 'odo_B.csv.gz'}: odometer speeds of B {NOT_USED}",
+        f"note: {sample_dir / 'odo_B.csv.gz'}: odometer speeds of B read (100 at 10 Hz, "
+        f"9.9 s); {read}",
     ]
     res = CliRunner().invoke(main, ["validate", str(sample_dir)])
     assert res.exit_code == 0
@@ -145,6 +163,21 @@ def test_raw_sensor_files_are_listed_and_noted_once(sample_dir: Path, tmp_path: 
     assert info.exit_code == 0
     for line in expected:
         assert info.output.count(line.removeprefix("note: ")) == 1
+
+
+def test_raw_sensor_files_of_unknown_platforms_and_bad_files_are_errors(sample_dir: Path) -> None:
+    _imu_odo_files(sample_dir)
+    (sample_dir / "imu_A.csv").rename(sample_dir / "imu_Z.csv")
+    frame = pd.read_csv(sample_dir / "odo_B.csv.gz")
+    frame.loc[5, "time"] = frame.loc[3, "time"]
+    frame.to_csv(sample_dir / "odo_B.csv", index=False)
+    (sample_dir / "odo_B.csv.gz").unlink()
+    assert validate_session(sample_dir) == [
+        f"{sample_dir / 'imu_Z.csv'}: IMU samples of platform Z, which the session does not "
+        "have (platforms: A, B, C, X); expected nav_Z.csv or [platforms.Z] in session.toml",
+        f"{sample_dir / 'odo_B.csv'}:7: time 432000.3 is before the previous sample's "
+        "432000.4; expected increasing times",
+    ]
 
 
 def test_tag_is_read_and_run_with_a_note(sample_dir: Path, tmp_path: Path) -> None:
@@ -182,7 +215,11 @@ def test_real_tuc_session_reads_validates_and_runs(real_data: Path, tmp_path: Pa
     robot = session.platforms["robot"]
     assert robot.wheelbase_m == 0.0785 and robot.drift_sigma_mps == 0.251
     assert session.sensor_files == (SensorFile("odo", tuc / "odo_robot.csv", "robot"),)
-    note = f"{tuc / 'odo_robot.csv'}: odometer speeds of robot {NOT_USED}"
+    note = (
+        f"{tuc / 'odo_robot.csv'}: odometer wheel speeds of robot read (233 at 7.813 Hz, "
+        "29.8 s); not used by this version's methods"
+    )
+    assert session.odometer["robot"].form == "wheels"
     res = CliRunner().invoke(main, ["validate", str(tuc)])
     assert res.exit_code == 0
     assert res.output.splitlines() == [f"note: {note}", f"{tuc}: ok"]

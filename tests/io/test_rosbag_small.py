@@ -86,7 +86,9 @@ def test_a_bag_session_gives_nav_reference_ranges_and_imu(bags: dict[str, Path],
     assert list(f["from"][:2]) == ["A", "B"] and set(f["pair"]) == {"A-B"}
     assert f["sigma"].isna().all()
     assert [(x.kind, x.platform) for x in s.sensor_files] == [("imu", "A")]
-    assert any("IMU samples of A (50) recognised but not used" in n for n in s.notes)
+    assert any("/A/imu: IMU samples of A read (500 rates at 100 Hz" in n for n in s.notes)
+    assert s.imu["A"].time_s.size == 500 and s.imu["A"].rate_hz == pytest.approx(100.0)
+    np.testing.assert_allclose(s.imu["A"].accel_mps2, [[0.0, 0.0, 9.81]] * 500)
     assert s.config.time_base == "unix"
     assert all(p.is_file() for p in s.inputs)
 
@@ -105,9 +107,9 @@ def test_the_three_forms_give_the_same_session(bags: dict[str, Path]) -> None:
 def test_imu_samples_are_read_into_arrays(bags: dict[str, Path]) -> None:
     content = read_bag(bags["db3"] / "rec", parse_topics({"imu": "/{id}/imu"}))
     imu = content.imu["A"]
-    assert imu.topic == "/A/imu" and imu.time_s.size == 50
-    np.testing.assert_allclose(imu.gyro_radps, [[0.0, 0.0, 0.1]] * 50)
-    np.testing.assert_allclose(imu.accel_mps2, [[0.0, 0.0, 9.81]] * 50)
+    assert imu.topic == "/A/imu" and imu.time_s.size == 500
+    np.testing.assert_allclose(imu.gyro_radps, [[0.0, 0.0, 0.1]] * 500)
+    np.testing.assert_allclose(imu.accel_mps2, [[0.0, 0.0, 9.81]] * 500)
 
 
 @pytest.mark.parametrize("form", ["db3", "ros1"])
@@ -333,7 +335,7 @@ def test_info_lists_topics_and_suggests_a_mapping(bags: dict[str, Path]) -> None
     result = CliRunner().invoke(main, ["info", str(bags["ros1"] / "rec.bag")])
     assert result.exit_code == 0, result.output
     out = result.output
-    assert "(ROS 1, 6 topics, 185 messages, 4.9 s; rates from log times)" in out
+    assert "(ROS 1, 6 topics, 635 messages, 5.0 s; rates from log times)" in out
     row = next(line for line in out.splitlines() if line.strip().startswith("/A/odom"))
     assert row.split() == ["/A/odom", "nav_msgs/msg/Odometry", "50", "10.00", "nav", "A"]
     suggested = out.split("check it):\n", 1)[1].split("\nsession ", 1)[0]
@@ -350,7 +352,7 @@ def test_info_on_a_session_directory_shows_the_mapping_then_the_session(
     result = CliRunner().invoke(main, ["info", str(bags["db3"])])
     assert result.exit_code == 0, result.output
     lines = result.output.splitlines()
-    assert lines[0].startswith(f"bag {bags['db3'] / 'rec'}  (ROS 2 sqlite3, 6 topics, 185 ")
+    assert lines[0].startswith(f"bag {bags['db3'] / 'rec'}  (ROS 2 sqlite3, 6 topics, 635 ")
     assert lines[1].split() == ["topic", "type", "messages", "rate_hz", "mapped"]
     roles = {line.split()[0]: " ".join(line.split()[4:]) for line in lines[2:8]}
     assert roles == {

@@ -1,0 +1,142 @@
+"""A session's raw-sensor files read and attached to its platforms (DATA.md "Raw sensors").
+
+``imu_<ID>.csv`` and ``odo_<ID>.csv`` of a session directory, and the IMU topics of a
+ROS bag, are read and checked (:mod:`coopproc.io.imu_csv`, :mod:`coopproc.io.odo_csv`)
+into :class:`~coopproc.sensors.ImuData` / :class:`~coopproc.sensors.OdometerData` by
+platform id. A file of a platform the session does not have (no navigation file, not in
+session.toml ``[platforms]``) is a one-line error, as is an odometer whose distance
+says km/h against the platform's navigation. Each file read gets one note.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from coopproc.errors import CoopprocError, InputError
+from coopproc.io._common import InputProblems, Locator
+from coopproc.io.imu_csv import checked_imu, read_imu_csv
+from coopproc.io.odo_csv import odometer_scale_problem, read_odo_csv
+from coopproc.io.registry import sensor_note
+from coopproc.io.rosbag_read import ImuSamples
+from coopproc.model import Platform, SensorFile, Session, Trajectory
+from coopproc.sensors import ImuData, OdometerData
+
+__all__ = [
+    "RawSensors",
+    "bag_imu",
+    "imu_note",
+    "odometer_note",
+    "read_raw_sensors",
+    "sensor_notes",
+]
+
+RawSensors = tuple[dict[str, ImuData], dict[str, OdometerData]]
+
+
+def imu_note(imu: ImuData) -> str:
+    form = "increments" if imu.form == "increment" else "rates"
+    return (
+        f"{imu.source}: IMU samples of {imu.platform} read ({imu.time_s.size} {form} at "
+        f"{imu.rate_hz:.4g} Hz, {imu.duration_s:.1f} s); not used by this version's methods"
+    )
+
+
+def odometer_note(odo: OdometerData) -> str:
+    form = "wheel speeds" if odo.form == "wheels" else "speeds"
+    return (
+        f"{odo.source}: odometer {form} of {odo.platform} read ({odo.time_s.size} at "
+        f"{odo.rate_hz:.4g} Hz, {odo.duration_s:.1f} s); not used by this version's methods"
+    )
+
+
+def _unknown(path: Path, kind: str, pid: str, known: Sequence[str]) -> InputError:
+    return InputError(
+        path,
+        f"{kind} of platform {pid}, which the session does not have (platforms: "
+        f"{', '.join(known) or 'none'}); expected nav_{pid}.csv or [platforms.{pid}] in "
+        "session.toml",
+    )
+
+
+def read_raw_sensors(
+    files: Sequence[SensorFile],
+    platforms: Mapping[str, Platform],
+    nav: Mapping[str, Trajectory],
+    problems: list[CoopprocError],
+    notes: list[str],
+) -> RawSensors:
+    """Read the ``imu``/``odo`` CSV files among ``files``; problems and notes appended."""
+    imu: dict[str, ImuData] = {}
+    odo: dict[str, OdometerData] = {}
+    known = sorted(platforms)
+    for f in files:
+        if f.kind not in ("imu", "odo") or f.platform is None or not f.path.is_file():
+            continue
+        if not f.path.name.lower().startswith(("imu_", "odo_")):
+            continue  # a bag listed as the source of its IMU topics
+        pid = f.platform
+        what = "IMU samples" if f.kind == "imu" else "odometer speeds"
+        if pid not in platforms:
+            problems.append(_unknown(f.path, what, pid, known))
+            continue
+        try:
+            if f.kind == "imu":
+                imu[pid] = read_imu_csv(f.path, pid)
+                notes.extend([*imu[pid].notes, imu_note(imu[pid])])
+            else:
+                data = read_odo_csv(f.path, pid, platforms[pid].wheelbase_m)
+                if pid in nav:
+                    unit = odometer_scale_problem(data, nav[pid].time_s, nav[pid].enu_m)
+                    if unit:
+                        raise InputError(f.path, unit)
+                odo[pid] = data
+                notes.extend([*data.notes, odometer_note(data)])
+        except InputProblems as err:
+            problems.extend(err.errors)
+        except CoopprocError as err:
+            problems.append(err)
+    return imu, odo
+
+
+def bag_imu(
+    samples: Mapping[str, ImuSamples],
+    path: Path,
+    platforms: Mapping[str, Platform],
+    problems: list[CoopprocError],
+    notes: list[str],
+) -> dict[str, ImuData]:
+    """The ``sensor_msgs/msg/Imu`` topics of a bag, checked like ``imu_<ID>.csv``."""
+    out: dict[str, ImuData] = {}
+    for pid, s in sorted(samples.items()):
+        if pid not in platforms:
+            problems.append(_unknown(path, f"IMU topic {s.topic}", pid, sorted(platforms)))
+            continue
+        where = Locator(f"{path} {s.topic}", record=_message_namer(s.topic))
+        values = np.column_stack([s.gyro_radps, s.accel_mps2])
+        try:
+            out[pid] = checked_imu(pid, where, s.time_s, values)
+        except CoopprocError as err:
+            problems.append(err)
+            continue
+        notes.extend([*out[pid].notes, imu_note(out[pid])])
+    return out
+
+
+def _message_namer(topic: str) -> Callable[[int], str]:
+    return lambda i: f"message {i + 1} on {topic}"
+
+
+def sensor_notes(session: Session) -> list[str]:
+    """One note per raw-sensor file of ``session``: what was read, or that it is not used."""
+    out = []
+    for f in session.sensor_files:
+        if f.kind == "imu" and f.platform in session.imu:
+            out.append(imu_note(session.imu[f.platform]))
+        elif f.kind == "odo" and f.platform in session.odometer:
+            out.append(odometer_note(session.odometer[f.platform]))
+        else:
+            out.append(sensor_note(f))
+    return out

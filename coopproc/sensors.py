@@ -1,0 +1,97 @@
+"""The raw-sensor samples of a platform (DATA.md "Raw sensors"), shared by every layer.
+
+:class:`ImuData` (``imu_<ID>.csv``, ``sensor_msgs/msg/Imu``) and :class:`OdometerData`
+(``odo_<ID>.csv``, ``nav_msgs/msg/Odometry`` twist): what the readers of
+:mod:`coopproc.io.imu_csv` / :mod:`coopproc.io.odo_csv` and the bag reader return, what
+the simulator writes, and what the INS stages read from :class:`coopproc.model.Session`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from coopproc.model import FloatArray, gap_limit_s
+
+__all__ = ["ImuData", "OdometerData"]
+
+
+@dataclass(frozen=True, eq=False)
+class ImuData:
+    """IMU samples of one file, in rates, in the body frame (x forward, y left, z up).
+
+    ``time_s`` strictly increasing (session time base); ``gyro_radps`` and ``accel_mps2``
+    (n, 3); ``form`` says what the file held (``rate`` or ``increment``);
+    ``static_fraction`` the share of 1-s windows in which the accelerometers say the unit
+    is at rest.
+    """
+
+    platform: str
+    source: str
+    time_s: FloatArray
+    gyro_radps: FloatArray
+    accel_mps2: FloatArray
+    form: Literal["rate", "increment"]
+    static_fraction: float
+    notes: tuple[str, ...] = ()
+
+    @property
+    def interval_s(self) -> float:
+        """The nominal sample interval (median), s."""
+        return float(np.median(np.diff(self.time_s)))
+
+    @property
+    def rate_hz(self) -> float:
+        """The nominal sample rate, Hz."""
+        return 1.0 / self.interval_s
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.time_s[-1] - self.time_s[0])
+
+    def gaps(self) -> int:
+        """How many intervals are gaps (longer than 2.5 x the median, the gap rule of
+        :func:`coopproc.model.gap_limit_s`)."""
+        return int(np.count_nonzero(np.diff(self.time_s) > gap_limit_s(self.time_s)))
+
+
+@dataclass(frozen=True, eq=False)
+class OdometerData:
+    """Odometer samples of one platform (body x forward, z up).
+
+    ``speed_mps`` forward speed; ``yaw_rate_radps`` the wheels' yaw rate (counter-clockwise
+    positive) when the file gave wheel speeds, else None; ``form`` what the file held.
+    """
+
+    platform: str
+    source: str
+    time_s: FloatArray
+    speed_mps: FloatArray
+    form: Literal["speed", "wheels"]
+    yaw_rate_radps: FloatArray | None = None
+    wheelbase_m: float | None = None
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def interval_s(self) -> float:
+        """The nominal sample interval (median), s."""
+        return float(np.median(np.diff(self.time_s)))
+
+    @property
+    def rate_hz(self) -> float:
+        return 1.0 / self.interval_s
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.time_s[-1] - self.time_s[0])
+
+    def distance_m(self) -> float:
+        """Distance travelled (trapezoid of |speed|), m."""
+        s = np.abs(self.speed_mps)
+        return float(np.sum(0.5 * (s[1:] + s[:-1]) * np.diff(self.time_s)))
+
+    def gaps(self) -> int:
+        """How many intervals are gaps (longer than 2.5 x the median)."""
+        return int(np.count_nonzero(np.diff(self.time_s) > gap_limit_s(self.time_s)))
