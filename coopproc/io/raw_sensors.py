@@ -133,10 +133,11 @@ def sensor_notes(session: Session) -> list[str]:
     """One note per raw-sensor file of ``session``: what was read, or that it is not used."""
     out = []
     for f in session.sensor_files:
-        if f.kind == "imu" and f.platform in session.imu:
-            out.append(imu_note(session.imu[f.platform]))
-        elif f.kind == "odo" and f.platform in session.odometer:
-            out.append(odometer_note(session.odometer[f.platform]))
+        pid = f.platform or ""
+        if f.kind == "imu" and pid in session.imu:
+            out.append(imu_note(session.imu[pid]))
+        elif f.kind == "odo" and pid in session.odometer:
+            out.append(odometer_note(session.odometer[pid]))
         else:
             out.append(sensor_note(f))
     return out
