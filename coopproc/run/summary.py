@@ -121,16 +121,22 @@ def summarize(output: PipelineOutput) -> RunSummary:
         obs = _lookup(pm, "platform", platform, "observed", "mean")
         facts["platforms"][platform] = {"mean_nav": nav, "mean_observed": obs}
         text = f"  {platform}: mean horizontal error own nav {nav:.3f} m"
+        base, second = obs, primary
         if math.isfinite(obs):
             text += f", fused observed {obs:.3f} m"
+        elif not math.isfinite(nav):  # a tag: no navigation, not fused: raw fixes, smoothed
+            base = _lookup(pm, "platform", platform, "lsq", "mean")
+            text = f"  {platform} (tag): mean horizontal error lsq {base:.3f} m"
+            smoothed = [m for m in methods["positions"] if m in ("lsq_rts", "lsq_kf")]
+            second = smoothed[0] if smoothed else None
         value = math.nan
-        if primary is not None:
-            value = _lookup(pm, "platform", platform, primary, "mean")
-            facts["platforms"][platform][f"mean_{primary}"] = value
-            label = f"fused {_SHORT[primary]}" if primary in _SHORT else primary
-            text += f", {label} {value:.3f} m ({_change(value, obs)})"
+        if second is not None:
+            value = _lookup(pm, "platform", platform, second, "mean")
+            facts["platforms"][platform][f"mean_{second}"] = value
+            label = f"fused {_SHORT[second]}" if second in _SHORT else second
+            text += f", {label} {value:.3f} m ({_change(value, base)})"
         # platforms without a reference have no error statistics: no line
-        if math.isfinite(obs) or ("observed" not in methods["positions"] and math.isfinite(value)):
+        if math.isfinite(base) or ("observed" not in methods["positions"] and math.isfinite(value)):
             lines.append(text)
         fused = [v for v in (obs, value) if math.isfinite(v)]
         if fused and math.isfinite(nav) and min(fused) > nav + max(0.1 * nav, WORSE_MIN_M):

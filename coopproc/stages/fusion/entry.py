@@ -64,8 +64,9 @@ def _product(inp: PositionInput, positions: Mapping[str, Trajectory]) -> Positio
         if inp.session.platforms[p].role == "tag" and p not in positions
     ]
     notes = tuple(
-        f"tag {p}: no {inp.range_set} fix (never ranged to enough anchors in one epoch); "
-        "it has no position"
+        f"tag {p}: no {inp.range_set} fix (never ranged to enough anchors in one epoch; "
+        "with anchors polled one at a time, [fusion.lsq] epoch_merge_s must span one "
+        "polling round); it has no position"
         for p in missing
     )
     return PositionProduct(positions=positions, notes=notes)
