@@ -12,9 +12,10 @@ One step (Shin 2005 / Savage 1998, as paper 003 cites [38]):
 - attitude: body rotation vector with the two-sample coning correction
   phi_b = dth_k + (1/12) dth_{k-1} x dth_k; navigation-frame rotation zeta = omega_in^n dt;
   q_k = q(-zeta) * q_{k-1} * q(phi_b);
-- velocity: dv_f^b = dv_k + 1/2 dth_k x dv_k (rotation) + 1/12 (dth_{k-1} x dv_k +
-  dv_{k-1} x dth_k) (sculling); v_k = v_{k-1} + (I - 1/2 [zeta x]) C_b^n(k-1) dv_f^b +
-  (g^n - (2 omega_ie^n + omega_en^n) x v) dt;
+- velocity: dv_f^b = dv_k + 1/2 dth_k x dv_k + 1/6 dth_k x (dth_k x dv_k) (rotation, to
+  second order) + 1/12 (dth_{k-1} x dv_k + dv_{k-1} x dth_k) (sculling);
+  v_k = v_{k-1} + (I - 1/2 [zeta x]) C_b^n(k-1) dv_f^b + (g^n - (2 omega_ie^n +
+  omega_en^n) x v) dt;
 - position: trapezoidal velocity, h first, then latitude and longitude with the curvature
   radii at the mid-point.
 
@@ -93,6 +94,7 @@ def ins_step(
     zeta = (w_ie + w_en) * dt
     # velocity: rotation + sculling corrections, paper 003 eq. (14)-(15)
     dvf = dv + 0.5 * np.cross(dth, dv) + (np.cross(dth_prev, dv) + np.cross(dv_prev, dth)) / 12.0
+    dvf += np.cross(dth, np.cross(dth, dv)) / 6.0  # second-order rotation term
     c = quat_to_dcm(q)
     dvn = c @ dvf
     dvn = dvn - 0.5 * np.cross(zeta, dvn)

@@ -61,6 +61,7 @@ def _step(
     w_en = np.array([-v[1] / (m + h), v[0] / (n + h), v[0] * np.tan(lat) / (n + h)])
     zeta = (w_ie + w_en) * dt
     dvf = dv + np.cross(dth, dv) / 2 + (np.cross(dth_p, dv) + np.cross(dv_p, dth)) / 12
+    dvf = dvf + np.cross(dth, np.cross(dth, dv)) / 6
     dvn = _dcm(q) @ dvf
     g = np.array([0.0, 0.0, -normal_gravity_reference(lat, h)])
     v_new = v + dvn - np.cross(zeta, dvn) / 2 + (g - np.cross(2 * w_ie + w_en, v)) * dt
