@@ -3,7 +3,7 @@
 Filter epochs are the times of the target's ranges to its auxiliaries (within the spans
 of the target's and the auxiliary's navigation). At each epoch every auxiliary has a
 range or NaN; auxiliary positions are their navigation (GNSS) solutions interpolated
-at the epoch.
+at the epoch, or for an anchor without navigation its surveyed ``position``.
 """
 
 from __future__ import annotations
@@ -69,9 +69,16 @@ def gather_inputs(
     if len(set(aux)) != len(aux):
         raise StageError(f"locate: auxiliary listed twice in {','.join(aux)}")
     known = ", ".join(sorted(session.nav)) or "none"
-    for pid in (target, *aux):
-        if pid not in session.nav:
-            raise StageError(f"locate: platform '{pid}' has no navigation (platforms: {known})")
+    if target not in session.nav:
+        raise StageError(f"locate: platform '{target}' has no navigation (platforms: {known})")
+    for pid in aux:
+        spec = session.platforms.get(pid)
+        fixed = spec is not None and spec.position_enu_m is not None
+        if pid not in session.nav and not fixed:
+            raise StageError(
+                f"locate: platform '{pid}' has no navigation and no anchor position "
+                f"(platforms: {known})"
+            )
     nav_t = session.nav[target]
     t_lo, t_hi = nav_t.span_s
     fallback = _sigma_default(session, 0.0)
@@ -79,7 +86,7 @@ def gather_inputs(
     per_aux = []
     for a in aux:
         rows = frame[frame["pair"] == pair_name(target, a)]
-        lo, hi = session.nav[a].span_s
+        lo, hi = session.nav[a].span_s if a in session.nav else (t_lo, t_hi)
         keep = (rows["time"] >= max(t_lo, lo)) & (rows["time"] <= min(t_hi, hi))
         rows = rows[keep & np.isfinite(rows["range"].to_numpy(dtype=np.float64))]
         if rows.empty:
@@ -108,6 +115,11 @@ def gather_inputs(
         idx = np.searchsorted(time_s, times)
         range_m[idx, j] = rng
         sig_m[idx, j] = sg
+        if aux[j] not in session.nav:  # an anchor: its surveyed position
+            position = session.platforms[aux[j]].position_enu_m
+            assert position is not None
+            aux_en[:, j] = position[:2]
+            continue
         nav_a = session.nav[aux[j]]
         aux_en[:, j, 0] = np.interp(time_s, nav_a.time_s, nav_a.enu_m[:, 0])
         aux_en[:, j, 1] = np.interp(time_s, nav_a.time_s, nav_a.enu_m[:, 1])
