@@ -17,6 +17,7 @@ FORBIDDEN: dict[str, tuple[str, ...]] = {
     "stages": ("io", "run", "report", "cli", "sim", "checks"),
     "report": ("io", "run", "cli", "sim", "checks", "stages.ranging", "stages.fusion"),
     "sim": ("stages", "run", "report", "checks", "cli"),
+    "ins": ("io", "run", "report", "cli", "sim", "checks"),
     "run": ("cli",),
 }
 
