@@ -157,3 +157,22 @@ def test_robust_range_update_downweights_a_gross_error() -> None:
     gamma = ekf.update(range_update(NAV, anchor, LEVER, true_range + 5.0, 0.1), (3.0, 4.5))
     assert gamma[0] < 1e-20
     assert np.abs(ekf.x[POS]).max() < 0.05
+
+
+def test_scale_factor_columns_predict_the_mechanization_error() -> None:
+    """Scale-factor errors (21 states) on a straight drive: expm(F T) dx0 again."""
+    from coopproc.ins.errorstate import SA, SG
+
+    s = straight_imu(LAT, LON, H, 15.0, 20.0)
+    dx0 = np.zeros(21)
+    dx0[SA] = [2e-3, -3e-3, 1e-3]
+    dx0[SG] = [0.05, -0.04, 0.03]  # large: the body rates are only earth + transport rate
+    truth = mechanize(s.time_s, s.nav0, s.dtheta, s.dvel)
+    ins = mechanize(s.time_s, s.nav0, s.dtheta * (1 + dx0[SG]), s.dvel * (1 + dx0[SA]))
+    f = f_matrix(s.nav0, s.dvel[0] / DT, s.dtheta[0] / DT, 1e9, 21)
+    k = 4000
+    predicted = (expm(f * s.time_s[k]) @ dx0)[:9]
+    actual = nav_error(ins.nav[k], truth.nav[k])
+    scale = np.abs(predicted) + np.array([1e-3] * 3 + [1e-4] * 3 + [1e-7] * 3)
+    assert np.abs(actual - predicted) / scale == pytest.approx(np.zeros(9), abs=0.02)
+    assert abs(actual[2]) > 1.0  # the vertical accelerometer scale error is visible
