@@ -4,6 +4,7 @@ IMU (paper 003 section 2.6, Fig. 7)."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from coopproc.ins.errorstate import ErrorStateEkf, nav_error
 from coopproc.ins.loop import run_filter
@@ -56,3 +57,27 @@ def test_nhc_removes_the_lateral_drift_on_a_straight_road() -> None:
     # lateral accelerometer bias and roll error both act as lateral specific force; NHC
     # sees their sum: the filter's share of the bias moves towards the true 5 mg
     assert 0.0 < ekf.bias_a[1] < 6e-3 * 9.80665
+
+
+def test_free_inertial_drift_at_rest_stays_within_the_bias_model() -> None:
+    """60 s at rest, tactical grade, biases drawn from the grade: the free-inertial error
+    stays inside 3 sigma of the covariance the error-state model propagates (and the
+    sigma is what 1/2 b t^2 says)."""
+    from coopproc.ins.mechanize import make_nav
+    from coopproc.ins.synth import circle_imu
+
+    noise = GRADES["tactical"]
+    s = circle_imu(LAT, LON, H, 0.0, 0.0, 60.0)  # at rest, yaw 0
+    rng = np.random.default_rng(5)
+    bias_g = noise.gyro_bias_radps * rng.normal(size=3)
+    bias_a = noise.accel_bias_mps2 * rng.normal(size=3)
+    dth = s.dtheta + bias_g * DT + rng.normal(0, noise.arw_rad_rts * np.sqrt(DT), s.dtheta.shape)
+    dv = s.dvel + bias_a * DT + rng.normal(0, noise.vrw_mps_rts * np.sqrt(DT), s.dvel.shape)
+    ekf = ErrorStateEkf.start(noise, np.full(3, 1e-3), np.full(3, 1e-3), np.full(3, 1e-5))
+    sol = run_filter(s.time_s, dth, dv, s.nav0, ekf)
+    err = nav_error(sol.nav[-1], make_nav(LAT, LON, H, np.zeros(3), 0.0, 0.0, 0.0))
+    sigma = np.sqrt(np.diag(ekf.p))[:9]
+    assert np.all(np.abs(err) < 3 * sigma)
+    half_b_t2 = 0.5 * noise.accel_bias_mps2 * 60.0**2
+    assert sigma[0] == pytest.approx(half_b_t2, rel=0.3)  # gyro tilt adds a little
+    assert np.abs(err[:2]).max() > 0.05 * half_b_t2  # and it does drift
