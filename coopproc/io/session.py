@@ -216,7 +216,8 @@ class _Loader:
             config, set(nav) | self.failed - {"<ranges>"}, self.notes, self.problems
         )
         platforms = {p: v for p, v in platforms.items() if p not in self.failed}
-        for pid in sorted(set(reference) - set(nav)):
+        tags = {p for p, v in platforms.items() if v.role == "tag"}  # no navigation by design
+        for pid in sorted(set(reference) - set(nav) - tags):
             self.notes.append(f"reference of {pid} has no navigation beside it")
         for pid in sorted(set(reference) & set(nav)):
             if not {nav[pid].source, reference[pid].source} & bad_times:
