@@ -194,7 +194,19 @@ _ANCHORS_UNUSED = {
 
 #: Dead-reckoning options: the tag-only scenario has no navigation to act on.
 _TAG_UNUSED = dict.fromkeys(
-    ("heading_drift_dpm", "odo_scale_fault", "slip_rate_per_hour", "nav_gaps"),
+    (
+        "gyro_bias_dph",
+        "gyro_arw_dpsh",
+        "heading_init_sigma_deg",
+        "odo_scale_sigma",
+        "odo_noise_m",
+        "init_error_m",
+        "height_rw_m",
+        "heading_drift_dpm",
+        "odo_scale_fault",
+        "slip_rate_per_hour",
+        "nav_gaps",
+    ),
     "the tag has no dead reckoning",
 )
 

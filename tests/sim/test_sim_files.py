@@ -90,6 +90,7 @@ _SHORT = {
     "paper-experiment": ["--duration", "120"],
     "paper-table1": [],
     "anchors": ["--duration", "120"],
+    "tag-only": ["--duration", "120"],
     "single-auxiliary": ["--duration", "120", "--set", "second_aux=true"],
     "multi-auxiliary": ["--duration", "120"],
     "large": ["--duration", "300", "--platforms", "4"],

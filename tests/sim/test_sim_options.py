@@ -26,6 +26,7 @@ _BASE: dict[str, dict[str, Any]] = {
     "paper-experiment": {"duration_s": 120.0},
     "paper-table1": {"duration_s": 240.0},
     "anchors": {"duration_s": 120.0},
+    "tag-only": {"duration_s": 120.0},
     "single-auxiliary": {"duration_s": 120.0},
     "multi-auxiliary": {"duration_s": 120.0},
     "large": {"duration_s": 120.0, "platforms": 3},
@@ -43,7 +44,7 @@ def _pair(sim: Simulation) -> str:
 
 
 def _navigating(sim: Simulation) -> str:
-    return sorted(sim.session.nav)[0]
+    return sorted(sim.session.nav)[0] if sim.session.nav else "tag"  # tag-only: no nav
 
 
 def _flip(name: str) -> Value:
@@ -126,6 +127,12 @@ _LEADER = (
     "leader_sigma_m", "leader_sigma_up_m", "leader_corr_s", "leader_white_m",
     "leader_velocity", "leader_vel_sigma_mps",
 )  # fmt: skip
+#: the dead-reckoning model's parameters: nothing to act on in tag-only
+_TAG_DR = (
+    "gyro_bias_dph", "gyro_arw_dpsh", "heading_init_sigma_deg", "odo_scale_sigma",
+    "odo_noise_m", "init_error_m", "height_rw_m", "heading_drift_dpm", "odo_scale_fault",
+    "slip_rate_per_hour", "nav_gaps",
+)  # fmt: skip
 #: (parameter, scenario) -> what the refusal says besides the parameter's name
 _REFUSED: dict[tuple[str, str], str] = {
     **{
@@ -150,6 +157,9 @@ _REFUSED: dict[tuple[str, str], str] = {
     ("platforms", "multi-auxiliary"): "must be 2..4",
     **{(o, "anchors"): "no GNSS/INS platform" for o in _LEADER},
     ("distance_rate_mps", "anchors"): "no formation",
+    **{(o, "tag-only"): "no GNSS/INS platform" for o in _LEADER},
+    **{(o, "tag-only"): "the tag has no dead reckoning" for o in _TAG_DR},
+    ("distance_rate_mps", "tag-only"): "no formation",
     ("distance_rate_mps", "single-auxiliary"): "no formation",
     ("platforms", "paper-table1"): "must be 2",
 }
