@@ -15,7 +15,7 @@ import numpy as np
 
 from coopproc.model import FloatArray, gap_limit_s
 
-__all__ = ["ImuData", "OdometerData"]
+__all__ = ["IMU_GRADE_FIGURES", "ImuData", "ImuGrade", "OdometerData"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,3 +95,41 @@ class OdometerData:
     def gaps(self) -> int:
         """How many intervals are gaps (longer than 2.5 x the median)."""
         return int(np.count_nonzero(np.diff(self.time_s) > gap_limit_s(self.time_s)))
+
+
+@dataclass(frozen=True)
+class ImuGrade:
+    """The error figures of a named IMU grade (session.toml ``[platforms.ID.imu] grade``,
+    the simulator's ``imu_grade``); typical datasheet values of each class (docs/simulator.md).
+
+    White noise: ``gyro_arw`` deg/sqrt(s), ``accel_vrw`` (m/s)/sqrt(s); bias instability
+    (first-order Gauss-Markov, steady-state 1-sigma, ``correlation_time_s``): ``gyro_bias``
+    deg/h, ``accel_bias`` mg; constant turn-on bias, 1-sigma: ``gyro_turn_on`` deg/h,
+    ``accel_turn_on`` mg; scale-factor error, 1-sigma: ``scale_ppm``.
+    """
+
+    name: str
+    gyro_arw: float
+    accel_vrw: float
+    gyro_bias: float
+    accel_bias: float
+    correlation_time_s: float
+    gyro_turn_on: float
+    accel_turn_on: float
+    scale_ppm: float
+
+
+#: The named grades (the names of :data:`coopproc.io.session_platforms.IMU_GRADES`).
+IMU_GRADE_FIGURES: dict[str, ImuGrade] = {
+    g.name: g
+    for g in (
+        # phone / hobby MEMS (e.g. MPU-6050 / BMI160 class)
+        ImuGrade("consumer", 0.01, 0.003, 30.0, 1.0, 300.0, 720.0, 30.0, 5000.0),
+        # industrial MEMS (e.g. ADIS1646x / Xsens MTi class)
+        ImuGrade("industrial", 0.0035, 0.0006, 10.0, 0.2, 1000.0, 200.0, 5.0, 1000.0),
+        # tactical (e.g. STIM300 / HG1700 class)
+        ImuGrade("tactical", 0.002, 0.0003, 1.0, 0.05, 3600.0, 10.0, 1.0, 300.0),
+        # navigation (ring-laser / fibre-optic, servo accelerometers)
+        ImuGrade("navigation", 0.00005, 0.00002, 0.01, 0.01, 3600.0, 0.01, 0.025, 50.0),
+    )
+}

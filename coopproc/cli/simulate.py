@@ -48,6 +48,14 @@ _SCENARIO_HELP = "\n".join(f"  {name}" for name in SCENARIOS)
 )
 @click.option("--duration", type=float, default=None, help="Session length, s (scenario default).")
 @click.option("--platforms", type=int, default=None, help="Number of platforms (scenario default).")
+@click.option(
+    "--imu",
+    "imu_rate",
+    type=float,
+    default=None,
+    help="Also write imu_<ID>.csv at this rate, Hz (50-1000), and odo_<ID>.csv "
+    "(= --set imu_rate_hz=RATE; grade: --set imu_grade=...).",
+)
 @click.option("--mcap", is_flag=True, help="Also write the session as one MCAP file in OUT/mcap/.")
 @click.option(
     "--mcap-encoding",
@@ -70,6 +78,7 @@ def simulate(
     seed: int,
     duration: float | None,
     platforms: int | None,
+    imu_rate: float | None,
     mcap: bool,
     mcap_encoding: Literal["json", "ros2"],
     force: bool,
@@ -83,6 +92,7 @@ def simulate(
     for option, key, value in (
         ("--duration", "duration_s", duration),
         ("--platforms", "platforms", platforms),
+        ("--imu", "imu_rate_hz", imu_rate),
     ):
         if value is not None and key in overrides:
             raise ConfigError(f"{option} and --set {key} both given: use one")

@@ -14,11 +14,13 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from coopproc.errors import CoopprocError, InputError
 from coopproc.io._common import InputProblems, Locator
-from coopproc.io.imu_csv import checked_imu, read_imu_csv
+from coopproc.io.imu_csv import IMU_RATE_COLUMNS, checked_imu, read_imu_csv
 from coopproc.io.odo_csv import odometer_scale_problem, read_odo_csv
+from coopproc.io.outdir import write_csv
 from coopproc.io.registry import sensor_note
 from coopproc.io.rosbag_read import ImuSamples
 from coopproc.model import Platform, SensorFile, Session, Trajectory
@@ -31,6 +33,8 @@ __all__ = [
     "odometer_note",
     "read_raw_sensors",
     "sensor_notes",
+    "write_imu_csv",
+    "write_odo_csv",
 ]
 
 RawSensors = tuple[dict[str, ImuData], dict[str, OdometerData]]
@@ -141,3 +145,16 @@ def sensor_notes(session: Session) -> list[str]:
         else:
             out.append(sensor_note(f))
     return out
+
+
+def write_imu_csv(imu: ImuData, path: Path) -> Path:
+    """``imu_<ID>.csv`` in the rate form (the project's float format: 1e-6 rad/s, m/s^2)."""
+    frame = pd.DataFrame({"time": imu.time_s})
+    for k, col in enumerate(IMU_RATE_COLUMNS):
+        frame[col] = (imu.gyro_radps if k < 3 else imu.accel_mps2)[:, k % 3]
+    return write_csv(frame, path)
+
+
+def write_odo_csv(odo: OdometerData, path: Path) -> Path:
+    """``odo_<ID>.csv``: ``time, speed`` (wheel data are written as their forward speed)."""
+    return write_csv(pd.DataFrame({"time": odo.time_s, "speed": odo.speed_mps}), path)

@@ -19,6 +19,7 @@ from coopproc.errors import OutputError
 from coopproc.frames import enu2geodetic
 from coopproc.io.csv_traj import write_traj_csv
 from coopproc.io.ranges_csv import write_ranges_csv
+from coopproc.io.raw_sensors import write_imu_csv, write_odo_csv
 from coopproc.io.rtklib_pos import write_pos
 from coopproc.io.session_toml import write_session_toml
 from coopproc.model import Session, SessionConfig, Trajectory
@@ -91,4 +92,8 @@ def write_session(
             )
         else:
             written.append(write_traj_csv(traj, out / f"ref_{pid}{ext}"))
+    for pid in sorted(session.imu):  # raw sensors (DATA.md), when the session has them
+        written.append(write_imu_csv(session.imu[pid], out / f"imu_{pid}{ext}"))
+    for pid in sorted(session.odometer):
+        written.append(write_odo_csv(session.odometer[pid], out / f"odo_{pid}{ext}"))
     return written

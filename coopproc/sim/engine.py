@@ -18,6 +18,7 @@ import pandas as pd
 from coopproc.errors import ConfigError
 from coopproc.model import Platform, RangeTable, Session, SessionConfig, Trajectory
 from coopproc.sim.gnss import ppk_reference
+from coopproc.sim.imu import add_raw_sensors
 from coopproc.sim.navigate import actor_platform, dr_fault_rows, heading_of, navigate, own_frame
 from coopproc.sim.params import NlosSpec, OutageSpec, SimParams
 from coopproc.sim.resolve import (
@@ -212,4 +213,5 @@ def simulate(
         params=params,
         nav_faults=pd.DataFrame(fault_rows, columns=list(NAV_FAULT_COLUMNS)),
     )
-    return Simulation(scenario=scenario, seed=seed, session=session, truth=truth_obj)
+    sim = Simulation(scenario=scenario, seed=seed, session=session, truth=truth_obj)
+    return add_raw_sensors(sim)  # imu_<ID>.csv, odo_<ID>.csv: only with imu_rate_hz > 0

@@ -95,6 +95,10 @@ def _slips(p: SimParams) -> str | None:
     return f"in a session of {p.duration_s:g} s: wheel slips need more than 20 s"
 
 
+def _imu(p: SimParams) -> str | None:
+    return None if p.imu_rate_hz > 0 else "without IMU data (imu_rate_hz = 0; e.g. --imu 100)"
+
+
 #: Parameters that act only together with another one, or in a session long enough:
 #: name -> a function of the effective parameters that says why not (None: it acts).
 NEEDS: dict[str, Callable[[SimParams], str | None]] = {
@@ -112,6 +116,9 @@ NEEDS: dict[str, Callable[[SimParams], str | None]] = {
     "float_sigma_m": _float_noise,
     "random_nlos_per_pair_hour": _random_nlos,
     "slip_rate_per_hour": _slips,
+    "imu_grade": _imu,
+    "imu_earth_rate": _imu,
+    "odo_rate_hz": _imu,
 }
 
 

@@ -15,6 +15,7 @@ from typing import Any
 
 from coopproc.configtools import from_table, nearest
 from coopproc.errors import ConfigError
+from coopproc.sensors import IMU_GRADE_FIGURES
 
 __all__ = ["NavGapSpec", "NlosSpec", "OutageSpec", "SimParams", "apply_overrides", "sparse_table"]
 
@@ -187,6 +188,21 @@ class SimParams:
         sparse=True,
     )
 
+    # raw sensors (issue 12): off unless imu_rate_hz > 0 (coopproc.sim.imu)
+    imu_rate_hz: float = _f(
+        0.0,
+        "IMU rate, Hz (50-1000): write imu_<ID>.csv and odo_<ID>.csv for every moving "
+        "platform; 0 = none",
+        sparse=True,
+    )
+    imu_grade: str = _f(
+        "industrial", "IMU error grade: consumer | industrial | tactical | navigation", sparse=True
+    )
+    imu_earth_rate: bool = _f(
+        True, "IMU gyros sense the earth rotation (and the accelerometers Coriolis)", sparse=True
+    )
+    odo_rate_hz: float = _f(10.0, "odometer rate, Hz (1-1000), with imu_rate_hz", sparse=True)
+
     def __post_init__(self) -> None:
         positive = ("duration_s", "nav_rate_hz", "range_rate_hz", "ref_rate_hz")
         for name in positive:
@@ -204,6 +220,13 @@ class SimParams:
         for name in ("dropout_rate", "gross_error_rate", "float_fraction"):
             if not 0.0 <= getattr(self, name) < 1.0:
                 raise ValueError(f"{name} must be in [0, 1), found {getattr(self, name)}")
+        if self.imu_rate_hz != 0 and not 50.0 <= self.imu_rate_hz <= 1000.0:
+            raise ValueError(f"imu_rate_hz must be 0 or 50-1000 Hz, found {self.imu_rate_hz}")
+        if not 1.0 <= self.odo_rate_hz <= 1000.0:
+            raise ValueError(f"odo_rate_hz must be 1-1000 Hz, found {self.odo_rate_hz}")
+        if self.imu_grade not in IMU_GRADE_FIGURES:
+            grades = " | ".join(IMU_GRADE_FIGURES)
+            raise ValueError(f"imu_grade must be one of {grades}, found {self.imu_grade!r}")
         if self.platforms < 1:
             raise ValueError(f"platforms must be >= 1, found {self.platforms}")
         if self.start_tow_s < 0 or self.start_tow_s + self.duration_s >= 604800.0:

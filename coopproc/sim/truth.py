@@ -15,6 +15,7 @@ __all__ = [
     "DR_ERROR_COLUMNS",
     "DR_PARAM_COLUMNS",
     "GROSS_ERROR_COLUMNS",
+    "IMU_ERROR_COLUMNS",
     "NAV_FAULT_COLUMNS",
     "NAV_FRAME_COLUMNS",
     "NLOS_TRUTH_COLUMNS",
@@ -68,6 +69,18 @@ NAV_FRAME_COLUMNS: tuple[str, ...] = ("platform", "rotation_deg", "shift_east", 
 #: ``slip`` (odometer over-read fraction in [start, end]), ``nav_gap`` (no nav rows in
 #: [start, end]; value = nav epochs missing).
 NAV_FAULT_COLUMNS: tuple[str, ...] = ("platform", "fault", "start", "end", "value")
+#: ``truth/imu_errors.csv`` (written only with ``imu_rate_hz`` > 0): the errors each
+#: platform's simulated IMU drew (turn-on biases deg/h and mg, scale factors ppm) and the
+#: odometer scale of its ``odo_<ID>.csv`` (coopproc.sim.imu).
+IMU_ERROR_COLUMNS: tuple[str, ...] = (
+    "platform",
+    "grade",
+    *(f"gyro_turn_on_{a}" for a in "xyz"),
+    *(f"accel_turn_on_{a}" for a in "xyz"),
+    *(f"gyro_scale_ppm_{a}" for a in "xyz"),
+    *(f"accel_scale_ppm_{a}" for a in "xyz"),
+    "odo_scale",
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,6 +100,10 @@ class Truth:
     #: Navigation faults (NAV_FAULT_COLUMNS); empty for the fault-free scenarios.
     nav_faults: pd.DataFrame = field(
         default_factory=lambda: pd.DataFrame(columns=list(NAV_FAULT_COLUMNS))
+    )
+    #: The simulated IMUs' error draws (IMU_ERROR_COLUMNS); empty without imu_rate_hz.
+    imu_errors: pd.DataFrame = field(
+        default_factory=lambda: pd.DataFrame(columns=list(IMU_ERROR_COLUMNS))
     )
 
 

@@ -13,6 +13,8 @@ Layout of ``OUT``::
     truth/nav_frames.csv       own-frame navigation: rotation and shift (single-auxiliary)
     truth/nav_faults.csv       dead-reckoning faults and nav gaps (only when there are any)
     truth/params.toml          the effective simulation parameters, scenario and seed
+    imu_<ID>.csv, odo_<ID>.csv (imu_rate_hz > 0) raw IMU and odometer (coopproc.sim.imu)
+    truth/imu_errors.csv       (imu_rate_hz > 0) the IMU errors and odometer scale drawn
     README.md                  what this is and the command that makes it again
 
 The output directory is written atomically (``coopproc.io.outdir.atomic_output_dir``).
@@ -38,6 +40,7 @@ from coopproc.sim.truth import (
     DR_ERROR_COLUMNS,
     DR_PARAM_COLUMNS,
     GROSS_ERROR_COLUMNS,
+    IMU_ERROR_COLUMNS,
     NAV_FAULT_COLUMNS,
     NAV_FRAME_COLUMNS,
     NLOS_TRUTH_COLUMNS,
@@ -82,6 +85,8 @@ def write_truth(
     )
     for name, frame, columns in tables:
         written.append(write_csv(frame, directory / name, columns))
+    if len(truth.imu_errors):
+        written.append(write_csv(truth.imu_errors, directory / "imu_errors.csv", IMU_ERROR_COLUMNS))
     if len(truth.nav_faults):
         faults = directory / "nav_faults.csv"
         written.append(write_csv(truth.nav_faults, faults, NAV_FAULT_COLUMNS))

@@ -103,6 +103,10 @@ _CHANGE: dict[str, Value] = {
     "aux_distance_m": lambda sim: 30.0,
     "aux1_moves_at_s": lambda sim: 30.0,
     "aux3_tail_m": lambda sim: 0.4,
+    "imu_rate_hz": lambda sim: 50.0,
+    "imu_grade": lambda sim: "tactical",
+    "imu_earth_rate": _flip("imu_earth_rate"),
+    "odo_rate_hz": lambda sim: 20.0,
 }
 
 
@@ -118,6 +122,9 @@ _NEEDS: dict[str, dict[str, Value]] = {
     "nlos_sigma_m": {"nlos_events": _CHANGE["nlos_events"]},
     "aux2_bias_m": {"second_aux": _single_only(True)},
     "aux2_noise_m": {"second_aux": _single_only(True)},
+    "imu_grade": {"imu_rate_hz": lambda sim: 50.0},
+    "imu_earth_rate": {"imu_rate_hz": lambda sim: 50.0},
+    "odo_rate_hz": {"imu_rate_hz": lambda sim: 50.0},
 }
 
 _AUX = ("aux_static", "second_aux", "aux2_bias_m", "aux2_noise_m")
@@ -197,6 +204,10 @@ def _content(sim: Simulation) -> dict[str, str]:
         for pid, traj in trajectories.items():
             arrays = (traj.time_s, traj.enu_m, traj.sigma_enu_m, traj.vel_enu_mps)
             out[f"{kind}_{pid}"] = _digest(*arrays, traj.heading_deg, traj.quality)
+    for pid, imu in session.imu.items():
+        out[f"imu_{pid}"] = _digest(imu.time_s, imu.gyro_radps, imu.accel_mps2)
+    for pid, odo in session.odometer.items():
+        out[f"odo_{pid}"] = _digest(odo.time_s, odo.speed_mps)
     for f in dataclasses.fields(truth):
         value = getattr(truth, f.name)
         if isinstance(value, pd.DataFrame):
