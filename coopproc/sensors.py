@@ -61,15 +61,16 @@ class ImuData:
 class OdometerData:
     """Odometer samples of one platform (body x forward, z up).
 
-    ``speed_mps`` forward speed; ``yaw_rate_radps`` the wheels' yaw rate (counter-clockwise
-    positive) when the file gave wheel speeds, else None; ``form`` what the file held.
+    ``speed_mps`` forward speed; ``yaw_rate_radps`` the yaw rate (counter-clockwise
+    positive) of wheel speeds or of a ``nav_msgs/msg/Odometry`` twist (``angular.z``),
+    else None; ``form`` what the source held (``speed``, ``wheels``, ``twist``).
     """
 
     platform: str
     source: str
     time_s: FloatArray
     speed_mps: FloatArray
-    form: Literal["speed", "wheels"]
+    form: Literal["speed", "wheels", "twist"]
     yaw_rate_radps: FloatArray | None = None
     wheelbase_m: float | None = None
     notes: tuple[str, ...] = field(default=())

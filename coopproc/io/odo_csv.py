@@ -41,6 +41,7 @@ __all__ = [
     "ODO_SPEED_COLUMNS",
     "ODO_WHEEL_COLUMNS",
     "OdometerData",
+    "checked_twist",
     "find_odo_files",
     "odo_platform",
     "odometer_from_arrays",
@@ -190,6 +191,31 @@ def read_odo_csv(
         note = f"{path}: {data.gaps()} gap(s) over {gap_limit_s(time):.4g} s between samples"
         data = OdometerData(**{**data.__dict__, "notes": (*data.notes, note)})
     return data
+
+
+def checked_twist(
+    platform: str, where: Locator, time: FloatArray, speed: FloatArray, yaw_rate: FloatArray
+) -> OdometerData:
+    """A ``nav_msgs/msg/Odometry`` twist (``linear.x`` forward speed, ``angular.z`` yaw
+    rate) checked like ``odo_<ID>.csv`` (finite, times, rate, speeds) into OdometerData."""
+    values = np.column_stack([time, speed, yaw_rate])
+    bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
+    if bad.size:
+        raise where.error(
+            "NaN or inf time or twist; expected finite numbers", int(bad[0]), bad.size
+        )
+    if time.size < 2:
+        raise where.error(f"{time.size} message(s); expected odometry at 1-1000 Hz")
+    _check_times(time, where)
+    _check_speeds(("twist.twist.linear.x",), speed[:, None], where)
+    return OdometerData(
+        platform,
+        where.path,
+        time,
+        np.asarray(speed, dtype=np.float64),
+        "twist",
+        yaw_rate_radps=np.asarray(yaw_rate, dtype=np.float64),
+    )
 
 
 def odometer_from_arrays(

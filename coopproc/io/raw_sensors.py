@@ -29,6 +29,7 @@ from coopproc.sensors import ImuData, OdometerData
 __all__ = [
     "RawSensors",
     "bag_imu",
+    "bag_odometer",
     "imu_note",
     "odometer_note",
     "read_raw_sensors",
@@ -49,7 +50,7 @@ def imu_note(imu: ImuData) -> str:
 
 
 def odometer_note(odo: OdometerData) -> str:
-    form = "wheel speeds" if odo.form == "wheels" else "speeds"
+    form = {"wheels": "wheel speeds", "twist": "twists"}.get(odo.form, "speeds")
     return (
         f"{odo.source}: odometer {form} of {odo.platform} read ({odo.time_s.size} at "
         f"{odo.rate_hz:.4g} Hz, {odo.duration_s:.1f} s); not used by this version's methods"
@@ -103,6 +104,24 @@ def read_raw_sensors(
         except CoopprocError as err:
             problems.append(err)
     return imu, odo
+
+
+def bag_odometer(
+    odometer: Mapping[str, OdometerData],
+    path: Path,
+    platforms: Mapping[str, Platform],
+    problems: list[CoopprocError],
+    notes: list[str],
+) -> dict[str, OdometerData]:
+    """The odometer twists of a bag (checked by the bag reader) of known platforms."""
+    out: dict[str, OdometerData] = {}
+    for pid, odo in sorted(odometer.items()):
+        if pid not in platforms:
+            problems.append(_unknown(path, "odometry", pid, sorted(platforms)))
+            continue
+        out[pid] = odo
+        notes.append(odometer_note(odo))
+    return out
 
 
 def bag_imu(

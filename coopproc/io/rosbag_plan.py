@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from coopproc.errors import ConfigError, InputError
-from coopproc.io.rosbag_suggest import IMU, NAV_TYPES, RANGE
+from coopproc.io.rosbag_suggest import IMU, NAV_TYPES, ODOMETRY, RANGE
 from coopproc.io.topics_toml import TopicsMapping, nearest_topic, topic_regex, unused_names
 
 __all__ = ["Plan", "plan_topics", "topic_roles"]
@@ -51,11 +51,11 @@ def topic_roles(path: Path, topics: TopicsMapping, types: dict[str, str]) -> dic
 def plan_topics(path: Path, topics: TopicsMapping, types: dict[str, str]) -> Plan:
     plan = Plan()
     where = topics.where
-    for role in ("nav", "reference", "imu"):
+    for role in ("nav", "reference", "imu", "odometer"):
         spec = getattr(topics, role)
         if spec is None:
             continue
-        allowed = (IMU,) if role == "imu" else NAV_TYPES
+        allowed = {"imu": (IMU,), "odometer": (ODOMETRY,)}.get(role, NAV_TYPES)
         entries: dict[str, str] = {}
         if isinstance(spec, str):
             regex = topic_regex(spec, ["id"])

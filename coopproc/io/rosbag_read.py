@@ -15,7 +15,9 @@ any other input. Decisions (docs/formats.md "ROS bags"):
 - names from topics and range messages are renamed by ``[topics.rename]``; names in
   ``[topics] drop`` are left out with every range they take part in;
 - ``sensor_msgs/msg/Imu``: read into :class:`ImuSamples` (``read_bag``), checked like
-  ``imu_<ID>.csv`` and attached to the session (``Session.imu``) by the session loader.
+  ``imu_<ID>.csv`` and attached to the session (``Session.imu``) by the session loader;
+- ``[topics] odometer``: the twist of ``nav_msgs/msg/Odometry`` (``linear.x`` forward speed,
+  ``angular.z`` yaw rate) -> :class:`~coopproc.sensors.OdometerData` (``Session.odometer``).
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from coopproc.io._common import InputProblems, Locator, RawTrajectory, check_tra
 from coopproc.io.mcap_read import McapContent
 from coopproc.io.mcap_ros2_read import RosFields, ros_trajectory
 from coopproc.io.mcap_scan import Channel
+from coopproc.io.odo_csv import checked_twist
 from coopproc.io.ranges_csv import RangesRead, range_table_from_frame
 from coopproc.io.rosbag_plan import Plan, plan_topics
 from coopproc.io.rosbag_scan import find_bag, inventory, open_bag, read_channels
@@ -42,6 +45,7 @@ from coopproc.io.topics_toml import (
     unused_names,
 )
 from coopproc.model import FloatArray, SensorFile
+from coopproc.sensors import OdometerData
 
 __all__ = ["BagContent", "ImuSamples", "read_bag", "session_bag"]
 
@@ -64,6 +68,8 @@ class BagContent(McapContent):
     """What a bag gives a session: McapContent plus the IMU samples (listed, not used)."""
 
     imu: dict[str, ImuSamples] = field(default_factory=dict)
+    #: nav_msgs/msg/Odometry twists mapped by [topics] odometer, checked.
+    odometer: dict[str, OdometerData] = field(default_factory=dict)
     sensors: list[SensorFile] = field(default_factory=list)
     mapping: TopicsMapping | None = None
 
@@ -101,7 +107,10 @@ def read_bag(path: str | Path, topics: TopicsMapping | None = None) -> BagConten
         for pid, topic in sorted(entries.items()):
             where = Locator(str(path), record=_namer(topic))
             try:
-                if role == "imu":
+                if role == "odometer":
+                    out.odometer[pid] = _odometer(channels[topic], pid, where, path)
+                    out.sensors.append(SensorFile("odo", path, pid))
+                elif role == "imu":
                     out.imu[pid] = _imu(channels[topic], pid, where)
                     out.sensors.append(SensorFile("imu", path, pid))
                 else:
@@ -170,6 +179,14 @@ def _imu(ch: Channel, pid: str, where: Locator) -> ImuSamples:
     gyro = np.column_stack([f.get(f"angular_velocity.{a}") for a in "xyz"]).astype(np.float64)
     acc = np.column_stack([f.get(f"linear_acceleration.{a}") for a in "xyz"]).astype(np.float64)
     return ImuSamples(pid, ch.topic, f.times(), gyro, acc)
+
+
+def _odometer(ch: Channel, pid: str, where: Locator, path: Path) -> OdometerData:
+    f = RosFields(ch, where)
+    speed = np.asarray(f.get("twist.twist.linear.x"), dtype=np.float64)
+    yaw_rate = np.asarray(f.get("twist.twist.angular.z"), dtype=np.float64)
+    at = Locator(f"{path} {ch.topic}", record=where.record)
+    return checked_twist(pid, at, f.times(), speed, yaw_rate)
 
 
 def _copies(frame: pd.DataFrame, window_s: float) -> np.ndarray:

@@ -19,9 +19,9 @@ from coopproc.io._common import InputProblems, RawTrajectory, expand, flat
 from coopproc.io.csv_mapping import CsvForms
 from coopproc.io.mcap_read import McapContent, decode_mcap, read_mcap_raw
 from coopproc.io.ranges_csv import RangesRead, read_ranges_csv
-from coopproc.io.raw_sensors import bag_imu, read_raw_sensors
+from coopproc.io.raw_sensors import bag_imu, bag_odometer, read_raw_sensors
 from coopproc.io.registry import find_files, read_trajectory, sensor_note
-from coopproc.io.rosbag_read import ImuSamples, session_bag
+from coopproc.io.rosbag_read import BagContent, session_bag
 from coopproc.io.rosbag_scan import bag_files, is_bag
 from coopproc.io.session_toml import TomlRead, mcap_mapping, parse_session_toml, read_session_toml
 from coopproc.io.timebase import TimedFile, WeekSource, check_times, infer_time_base
@@ -40,7 +40,7 @@ class _Loader:
         self.inputs: list[Path] = []
         self.failed: set[str] = set()  # platforms whose nav could not be read
         self.sensors: list[SensorFile] = []  # raw-sensor files (imu, odo read; others listed)
-        self.bag_imu: tuple[Path, dict[str, ImuSamples]] | None = None
+        self.bag: tuple[Path, BagContent] | None = None  # its IMU and odometry
 
     def add(self, err: CoopprocError) -> None:
         if isinstance(err, InputProblems):
@@ -113,7 +113,7 @@ class _Loader:
             if found is not None:
                 self.inputs.extend(bag_files(found[0]))
                 self.sensors.extend(found[1].sensors)
-                self.bag_imu = (found[0], found[1].imu)
+                self.bag = found
                 ranges = self._merge(found[1], nav_raw, ref_raw, ranges, found[0])
         config = toml.config if toml else SessionConfig()
         if toml is None:
@@ -231,10 +231,11 @@ class _Loader:
             spans = {p: t for p, t in spans.items() if t.source not in bad_times}
             self.problems.extend(assemble.check_ranges(ranges, platforms, nav, skip, spans))
         imu, odometer = read_raw_sensors(self.sensors, platforms, nav, self.problems, self.notes)
-        if self.bag_imu is not None:
-            imu.update(
-                bag_imu(self.bag_imu[1], self.bag_imu[0], platforms, self.problems, self.notes)
-            )
+        if self.bag is not None:
+            bag, content = self.bag
+            imu.update(bag_imu(content.imu, bag, platforms, self.problems, self.notes))
+            odo = bag_odometer(content.odometer, bag, platforms, self.problems, self.notes)
+            odometer.update(odo)
         if self.problems or ranges is None:
             return None
         return Session(

@@ -8,13 +8,14 @@
     reference = "/vrpn_client_node/{id}/pose"
     ranges = "/uwb/tof/{from}/{to}/distance"   # sensor_msgs/Range, the pair from the topic
     imu = "/{id}/imu"
+    odometer = "/{id}/odom"                    # nav_msgs/Odometry twist: speed, yaw rate
     drop = ["n_8"]                             # names left out (ranges with them too)
     duplicates_s = 0.005                       # A->B and B->A copies of one range: one kept
 
     [topics.rename]                            # name in the topics -> platform id
     n_1 = "tb1"
 
-``nav`` / ``reference`` / ``imu`` are a template holding ``{id}`` or a table
+``nav`` / ``reference`` / ``imu`` / ``odometer`` are a template holding ``{id}`` or a table
 ``<platform id> = "topic"``. ``ranges`` is a topic pattern holding ``{from}`` and
 ``{to}``, or a table ``topic, from_field, to_field, range_field, sigma_field`` for a
 message that carries the ids itself. Checked here (keys, types, placeholders); matched
@@ -41,7 +42,17 @@ __all__ = [
     "topic_regex",
 ]
 
-_KEYS = ("bag", "nav", "reference", "ranges", "imu", "rename", "drop", "duplicates_s")
+_KEYS = (
+    "bag",
+    "nav",
+    "reference",
+    "ranges",
+    "imu",
+    "odometer",
+    "rename",
+    "drop",
+    "duplicates_s",
+)
 _RANGE_KEYS = ("topic", "from_field", "to_field", "range_field", "sigma_field")
 _NAME = "[A-Za-z0-9_-]+"
 
@@ -73,6 +84,8 @@ class TopicsMapping:
     nav: str | Mapping[str, str] | None = None
     reference: str | Mapping[str, str] | None = None
     imu: str | Mapping[str, str] | None = None
+    #: nav_msgs/msg/Odometry topics whose twist is the platform's odometer.
+    odometer: str | Mapping[str, str] | None = None
     ranges: RangeTopics | None = None
     #: Name in the topics (or range message ids) -> platform id.
     rename: Mapping[str, str] = field(default_factory=dict)
@@ -224,7 +237,7 @@ def parse_topics(table: Any, where: str = "session.toml") -> TopicsMapping | Non
         raise ConfigError(f"{where} bag: {bag!r}; expected the name of a bag in the directory")
     roles = {
         key: _per_platform(table[key], f"{where} {key}")
-        for key in ("nav", "reference", "imu")
+        for key in ("nav", "reference", "imu", "odometer")
         if key in table
     }
     ranges = _ranges(table["ranges"], f"{where} ranges") if "ranges" in table else None
@@ -251,6 +264,7 @@ def parse_topics(table: Any, where: str = "session.toml") -> TopicsMapping | Non
         nav=roles.get("nav"),
         reference=roles.get("reference"),
         imu=roles.get("imu"),
+        odometer=roles.get("odometer"),
         ranges=ranges,
         rename=dict(rename),
         drop=tuple(drop),
