@@ -246,17 +246,21 @@ def odometer_from_arrays(
 
 
 def odometer_scale_problem(odo: OdometerData, nav_time_s: FloatArray, nav_en_m: FloatArray) -> str:
-    """A unit problem seen against the navigation over the common span ('' when none).
+    """A km/h look seen against the navigation over the common span ('' when none).
 
-    The odometer's distance over the navigation's path length (both over >= 10 s and
-    >= 20 m): 3.0..4.3 reads as km/h; other ratios outside 0.5..2 as implausible.
+    The odometer's distance over the navigation's path length (the navigation taken once
+    a second, so that its noise adds little; both over >= 10 s and >= 20 m): 3.0..4.3
+    reads as km/h. Other ratios are not judged: a navigation's noise lengthens its path,
+    wheels slip, and a platform standing still has an odometer reading zero.
     """
     lo = max(float(odo.time_s[0]), float(nav_time_s[0]))
     hi = min(float(odo.time_s[-1]), float(nav_time_s[-1]))
-    inside = (nav_time_s >= lo) & (nav_time_s <= hi)
-    if hi - lo < 10.0 or np.count_nonzero(inside) < 3:
+    if hi - lo < 10.0:
         return ""
-    path_m = float(np.sum(np.hypot(*np.diff(nav_en_m[inside, :2], axis=0).T)))
+    grid = np.arange(lo, hi, 1.0)
+    east = np.interp(grid, nav_time_s, nav_en_m[:, 0])
+    north = np.interp(grid, nav_time_s, nav_en_m[:, 1])
+    path_m = float(np.sum(np.hypot(np.diff(east), np.diff(north))))
     keep = (odo.time_s >= lo) & (odo.time_s <= hi)
     s, t = np.abs(odo.speed_mps[keep]), odo.time_s[keep]
     odo_m = float(np.sum(0.5 * (s[1:] + s[:-1]) * np.diff(t)))
@@ -267,10 +271,5 @@ def odometer_scale_problem(odo: OdometerData, nav_time_s: FloatArray, nav_en_m: 
         return (
             f"odometer distance {odo_m:.1f} m is {ratio:.2f} x the navigation's {path_m:.1f} m "
             "over the same time: speeds look like km/h; divide by 3.6"
-        )
-    if not 0.5 <= ratio <= 2.0:
-        return (
-            f"odometer distance {odo_m:.1f} m is {ratio:.2f} x the navigation's {path_m:.1f} m "
-            "over the same time; expected forward speed in m/s"
         )
     return ""

@@ -96,3 +96,10 @@ def test_find_odo_files(tmp_path: Path) -> None:
     for name in ("odo_A.csv", "odo_B.csv.gz", "nav_A.csv", "odo_.csv"):
         (tmp_path / name).write_text("time,speed\n")
     assert list(find_odo_files(tmp_path)) == ["A", "B"]
+
+
+def test_a_platform_standing_still_is_not_judged(tmp_path: Path) -> None:
+    t = T0 + np.arange(9000) / 10.0
+    odo = read_odo_csv(write(pd.DataFrame({"time": t, "speed": 0.0}), tmp_path / "odo_A.csv"))
+    noisy = np.random.default_rng(0).normal(0.0, 0.05, (t.size, 2))  # nav noise: a long path
+    assert odometer_scale_problem(odo, t, noisy) == ""
