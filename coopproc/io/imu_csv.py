@@ -51,8 +51,10 @@ __all__ = [
     "ImuData",
     "checked_imu",
     "find_imu_files",
+    "frame_problem",
     "imu_platform",
     "read_imu_csv",
+    "rest_gravity",
 ]
 
 IMU_RATE_COLUMNS: tuple[str, ...] = (
@@ -217,6 +219,45 @@ def _check_units(
                 f"deg/s ({earth_deg:.5f}); if the file is in deg/s, convert it to rad/s"
             )
     return starts.size / n_windows, notes
+
+
+def rest_gravity(imu: ImuData) -> FloatArray | None:
+    """The mean specific force (body frame) over the 1-s windows at rest; None: never at rest."""
+    per_window = max(round(imu.rate_hz), 2)
+    starts, g_body = _rest_windows(imu.accel_mps2, per_window)
+    if not starts.size:
+        return None
+    return np.asarray(np.median(g_body, axis=0), dtype=np.float64)
+
+
+def frame_problem(imu: ImuData) -> str:
+    """The body-frame convention seen at rest ('' when x forward, y left, z up fits).
+
+    At rest on the ground the specific force points up: along +z in DATA.md's body frame
+    (REP 103). Along -z reads as a z-down frame (x forward, y right, z down: NED/FRD);
+    along x or y as an IMU mounted on its side. Not judged for a platform whose
+    session.toml gives ``imu_mounting`` (the caller's business) or that never rests.
+    """
+    g = rest_gravity(imu)
+    if g is None:
+        return ""
+    up = g / np.linalg.norm(g)
+    k = int(np.argmax(np.abs(up)))
+    if abs(up[k]) < np.cos(np.radians(30.0)) or (k == 2 and up[2] > 0):
+        return ""
+    found = f"at rest the accelerometers read {np.array2string(g, precision=2)} m/s^2"
+    if k == 2:
+        return (
+            f"{found}: gravity along -z, a z-down body frame (x forward, y right, z down: "
+            "NED/FRD); expected x forward, y left, z up (REP 103): negate y and z, or set "
+            "imu_mounting = [180, 0, 0]"
+        )
+    axis = "xyz"[k]
+    return (
+        f"{found}: gravity along {'+' if up[k] > 0 else '-'}{axis}; expected along +z "
+        "(x forward, y left, z up, REP 103): give the IMU's mounting as imu_mounting "
+        "(roll, pitch, yaw, degrees) in session.toml [platforms.<ID>]"
+    )
 
 
 def read_imu_csv(path: str | Path, platform: str | None = None) -> ImuData:

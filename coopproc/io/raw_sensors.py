@@ -18,7 +18,7 @@ import pandas as pd
 
 from coopproc.errors import CoopprocError, InputError
 from coopproc.io._common import InputProblems, Locator
-from coopproc.io.imu_csv import IMU_RATE_COLUMNS, checked_imu, read_imu_csv
+from coopproc.io.imu_csv import IMU_RATE_COLUMNS, checked_imu, frame_problem, read_imu_csv
 from coopproc.io.odo_csv import odometer_scale_problem, read_odo_csv
 from coopproc.io.outdir import write_csv
 from coopproc.io.registry import sensor_note
@@ -89,8 +89,12 @@ def read_raw_sensors(
             continue
         try:
             if f.kind == "imu":
-                imu[pid] = read_imu_csv(f.path, pid)
-                notes.extend([*imu[pid].notes, imu_note(imu[pid])])
+                data_imu = read_imu_csv(f.path, pid)
+                frame = "" if platforms[pid].imu_mounting_deg else frame_problem(data_imu)
+                if frame:
+                    raise InputError(f.path, frame)
+                imu[pid] = data_imu
+                notes.extend([*data_imu.notes, imu_note(data_imu)])
             else:
                 data = read_odo_csv(f.path, pid, platforms[pid].wheelbase_m)
                 if pid in nav:
@@ -141,6 +145,10 @@ def bag_imu(
         values = np.column_stack([s.gyro_radps, s.accel_mps2])
         try:
             out[pid] = checked_imu(pid, where, s.time_s, values)
+            frame = "" if platforms[pid].imu_mounting_deg else frame_problem(out[pid])
+            if frame:
+                del out[pid]
+                raise InputError(where.path, frame)
         except CoopprocError as err:
             problems.append(err)
             continue

@@ -169,3 +169,20 @@ def test_missing_and_empty_files(tmp_path: Path) -> None:
     path.write_text("time,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z\n")
     with pytest.raises(InputError, match=r"0 data row\(s\); expected IMU samples at 50-1000 Hz"):
         read_imu_csv(path)
+
+
+def test_frame_convention_from_a_static_start(tmp_path: Path) -> None:
+    from coopproc.io.imu_csv import frame_problem, rest_gravity
+
+    t, gyro, accel = samples()
+    good = read_imu_csv(write(rate_frame(t, gyro, accel), tmp_path / "imu_A.csv"))
+    assert frame_problem(good) == ""
+    g = rest_gravity(good)
+    assert g is not None and g[2] == pytest.approx(9.80665, abs=0.01)
+    frd = accel * np.array([1.0, -1.0, -1.0])  # x forward, y right, z down
+    down = read_imu_csv(write(rate_frame(t, gyro, frd), tmp_path / "imu_B.csv"))
+    assert "gravity along -z, a z-down body frame" in frame_problem(down)
+    side = accel[:, [2, 1, 0]]  # gravity on x: mounted on its side
+    assert "gravity along +x" in frame_problem(
+        read_imu_csv(write(rate_frame(t, gyro, side), tmp_path / "imu_C.csv"))
+    )

@@ -242,3 +242,15 @@ def test_platform_defaults_are_unchanged() -> None:
 
     p = Platform("A")
     assert dataclasses.astuple(p)[4:] == (None, None, None, None, None, None)
+
+
+def test_a_z_down_imu_is_an_error_unless_its_mounting_is_given(sample_dir: Path) -> None:
+    _imu_odo_files(sample_dir)
+    frame = pd.read_csv(sample_dir / "imu_A.csv")
+    frame[["accel_y", "accel_z"]] *= -1.0  # x forward, y right, z down
+    frame.to_csv(sample_dir / "imu_A.csv", index=False)
+    (problem,) = validate_session(sample_dir)
+    assert problem.startswith(f"{sample_dir / 'imu_A.csv'}: at rest the accelerometers read")
+    assert "gravity along -z, a z-down body frame" in problem
+    _add_to_a(sample_dir, "imu_mounting = [180.0, 0.0, 0.0]")
+    assert read_session(sample_dir).imu["A"].accel_mps2[:, 2].mean() < -9.0
