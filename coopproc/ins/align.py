@@ -17,7 +17,7 @@ import numpy as np
 
 from coopproc.errors import StageError
 from coopproc.ins.earth import EARTH_RATE_RADPS, normal_gravity
-from coopproc.ins.models import ImuNoise
+from coopproc.ins.models import ImuFigures
 from coopproc.model import FloatArray
 
 __all__ = [
@@ -89,7 +89,7 @@ def gyrocompass(w_mean: FloatArray, roll: float, pitch: float) -> float:
     return float(np.arctan2(w_l[0], w_l[1]))
 
 
-def gyrocompass_sigma(lat: float, noise: ImuNoise, duration_s: float) -> float:
+def gyrocompass_sigma(lat: float, noise: ImuFigures, duration_s: float) -> float:
     """1-sigma heading (rad) of gyrocompassing: sqrt(b^2 + ARW^2 / T) / (Omega cos lat)."""
     sigma_w = np.hypot(noise.gyro_bias_radps, noise.arw_rad_rts / np.sqrt(max(duration_s, 1e-9)))
     horizontal = EARTH_RATE_RADPS * abs(np.cos(lat))
@@ -115,7 +115,7 @@ def coarse_align(
     gyro_radps: FloatArray,
     accel_mps2: FloatArray,
     lat: float,
-    noise: ImuNoise,
+    noise: ImuFigures,
     *,
     yaw: float | None = None,
     motion: tuple[FloatArray, FloatArray] | None = None,

@@ -23,7 +23,7 @@ from coopproc.ins.earth import (
     radii,
     transport_rate_enu,
 )
-from coopproc.ins.models import ImuNoise
+from coopproc.ins.models import ImuFigures
 from coopproc.ins.quat import qmul, quat_to_dcm, rotvec_to_quat, skew
 from coopproc.model import FloatArray
 from coopproc.stages.filters import igg3_scalar
@@ -92,7 +92,7 @@ def discretize(f: FloatArray, dt: float) -> FloatArray:
     return np.eye(f.shape[0]) + fdt + 0.5 * fdt @ fdt
 
 
-def process_noise(noise: ImuNoise, phi: FloatArray, dt: float) -> FloatArray:
+def process_noise(noise: ImuFigures, phi: FloatArray, dt: float) -> FloatArray:
     """Q_k = 1/2 (Phi Q_c Phi^T + Q_c) dt (trapezoid) with the continuous densities:
     VRW^2 on dv, ARW^2 on psi (isotropic, so C Q C^T = Q), 2 sigma^2 / tau on the
     Gauss-Markov states."""
@@ -175,7 +175,7 @@ class ErrorStateEkf:
     """Closed-loop error-state filter: the sensor-error estimates live here, the INS
     solution in the caller's ``nav`` array, corrected in :meth:`feedback`."""
 
-    noise: ImuNoise
+    noise: ImuFigures
     p: FloatArray
     x: FloatArray = field(init=False)
     bias_g: FloatArray = field(default_factory=lambda: np.zeros(3))
@@ -189,7 +189,7 @@ class ErrorStateEkf:
     @classmethod
     def start(
         cls,
-        noise: ImuNoise,
+        noise: ImuFigures,
         sigma_pos: FloatArray,
         sigma_vel: FloatArray,
         sigma_att: FloatArray,
@@ -197,7 +197,7 @@ class ErrorStateEkf:
     ) -> ErrorStateEkf:
         """P0 from the initial 1-sigma figures and the grade's bias (and scale) sigmas."""
         sig = [sigma_pos, sigma_vel, sigma_att]
-        sig += [np.full(3, noise.gyro_bias_radps), np.full(3, noise.accel_bias_mps2)]
+        sig += [np.full(3, noise.gyro_bias0_radps), np.full(3, noise.accel_bias0_mps2)]
         if scale_factors:
             sig += [np.full(3, noise.gyro_scale * 1e-6), np.full(3, noise.accel_scale * 1e-6)]
         s = np.concatenate([np.broadcast_to(np.asarray(v, dtype=np.float64), 3) for v in sig])

@@ -5,18 +5,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from coopproc.errors import ConfigError, StageError
+from coopproc.errors import StageError
 from coopproc.ins.align import coarse_align, heading_from_motion, level, static_start
 from coopproc.ins.earth import earth_rate_enu, normal_gravity
-from coopproc.ins.models import GRADES, ImuNoise, imu_noise_from_table
+from coopproc.ins.models import DEFAULT_GRADE, GRADES, ImuFigures, imu_figures
 from coopproc.ins.quat import euler_to_quat, quat_to_dcm
+from coopproc.model import ImuNoise
 
 LAT = np.radians(48.0)
 RATE = 200.0
 
 
 def _static_imu(
-    roll: float, pitch: float, yaw: float, noise: ImuNoise, seconds: float, seed: int = 1
+    roll: float, pitch: float, yaw: float, noise: ImuFigures, seconds: float, seed: int = 1
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Noisy samples of a unit at rest with the grade's random walks and a bias draw."""
     rng = np.random.default_rng(seed)
@@ -40,7 +41,7 @@ def _static_imu(
 
 @pytest.mark.parametrize(("roll", "pitch"), [(3.0, -5.0), (-20.0, 10.0), (0.0, 0.0)])
 def test_levelling_recovers_roll_and_pitch_within_0_1_deg(roll: float, pitch: float) -> None:
-    noise = GRADES["industrial-mems"]
+    noise = GRADES["industrial"]
     t, gyro, accel = _static_imu(np.radians(roll), np.radians(pitch), 0.7, noise, 30.0)
     al = coarse_align(t, gyro, accel, LAT, noise, yaw=0.7)
     assert np.degrees(al.roll) == pytest.approx(roll, abs=0.1)
@@ -56,7 +57,7 @@ def test_level_exact_sign_conventions() -> None:
 
 
 def test_gyrocompassing_with_a_good_gyro() -> None:
-    good = ImuNoise(0.0005, 0.0002, 0.01, 0.05, 3600.0)  # navigation grade
+    good = GRADES["navigation"]
     t, gyro, accel = _static_imu(np.radians(2.0), np.radians(-1.0), np.radians(125.0), good, 60.0)
     al = coarse_align(t, gyro, accel, LAT, good)
     assert al.heading_source == "gyrocompass"
@@ -64,7 +65,7 @@ def test_gyrocompassing_with_a_good_gyro() -> None:
 
 
 def test_poor_gyro_needs_an_external_heading() -> None:
-    poor = GRADES["consumer-mems"]
+    poor = GRADES["consumer"]
     t, gyro, accel = _static_imu(0.0, 0.0, 1.0, poor, 20.0)
     with pytest.raises(StageError, match="gyrocompassing"):
         coarse_align(t, gyro, accel, LAT, poor)
@@ -81,7 +82,7 @@ def test_heading_from_motion_waits_for_the_distance() -> None:
 
 
 def test_static_start_detector_finds_the_end_of_rest() -> None:
-    noise = GRADES["industrial-mems"]
+    noise = GRADES["industrial"]
     t, gyro, accel = _static_imu(0.0, 0.0, 0.0, noise, 20.0)
     moving = t >= 12.0
     accel[moving, 0] += np.sin(2 * np.pi * 1.5 * t[moving])  # driving off
@@ -91,18 +92,20 @@ def test_static_start_detector_finds_the_end_of_rest() -> None:
         coarse_align(t[-1000:], gyro[-1000:], accel[-1000:], LAT, noise, yaw=0.0)
 
 
-def test_imu_noise_table() -> None:
-    n = imu_noise_from_table(
-        {"grade": "tactical", "gyro_bias": 2.0}, "session.toml [platforms.C.imu]"
-    )
+def test_imu_figures_from_the_session() -> None:
+    """The session's figures override its grade's; no table: the default grade."""
+    n = imu_figures(ImuNoise(grade="tactical", gyro_bias_deg_h=2.0))
     assert n.gyro_bias == 2.0 and n.accel_bias == GRADES["tactical"].accel_bias
     assert n.gyro_bias_radps == pytest.approx(np.radians(2.0) / 3600)
-    with pytest.raises(ConfigError, match="did you mean 'gyro_noise'"):
-        imu_noise_from_table({"gyro_nois": 0.1}, "x")
-    with pytest.raises(ConfigError, match="unknown IMU grade"):
-        imu_noise_from_table({"grade": "military"}, "x")
-    with pytest.raises(ConfigError, match="positive"):
-        imu_noise_from_table({"accel_bias": -1.0}, "x")
+    assert imu_figures(None) == GRADES[DEFAULT_GRADE]
+    m = imu_figures(ImuNoise(accel_noise_mps_rts=0.01, correlation_time_s=50.0))
+    assert (m.accel_noise, m.correlation_time) == (0.01, 50.0)
+    assert m.gyro_noise == GRADES[DEFAULT_GRADE].gyro_noise
     q_g, q_a = n.bias_psd()
-    assert q_a == pytest.approx(2 * n.accel_bias_mps2**2 / 3600.0)
-    assert q_g == pytest.approx(2 * n.gyro_bias_radps**2 / 3600.0)
+    assert q_g == pytest.approx(2 * n.gyro_bias_radps**2 / n.correlation_time)
+    assert q_a == pytest.approx(2 * n.accel_bias_mps2**2 / n.correlation_time)
+    # the initial bias sigma holds the turn-on bias too
+    t = GRADES["tactical"]
+    assert t.gyro_bias0_radps == pytest.approx(
+        np.radians(np.hypot(t.gyro_bias, t.gyro_turn_on)) / 3600
+    )

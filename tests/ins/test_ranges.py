@@ -29,7 +29,7 @@ def _anchor_llh(enu: np.ndarray) -> np.ndarray:
 
 @pytest.mark.parametrize("scale_factors", [False, True])
 def test_ranges_with_lever_arm_keep_a_consumer_imu_on_the_circle(scale_factors: bool) -> None:
-    noise = GRADES["consumer-mems"]
+    noise = GRADES["consumer"]
     s = circle_imu(LAT, LON, H, 10.0, 2 * np.pi / 40.0, 80.0)
     truth = mechanize(s.time_s, s.nav0, s.dtheta, s.dvel)
     rng = np.random.default_rng(11)
