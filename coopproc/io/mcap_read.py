@@ -32,11 +32,14 @@ from coopproc.io._common import (
     one_line,
 )
 from coopproc.io.csv_traj import trajectory_from_frame
+from coopproc.io.imu_csv import IMU_RATE_COLUMNS, checked_imu
 from coopproc.io.mcap_json import fast_json_frame
-from coopproc.io.mcap_ros2_read import NAVSAT_TO_Q, ros_range_frame, ros_trajectory
+from coopproc.io.mcap_ros2_read import NAVSAT_TO_Q, RosFields, ros_range_frame, ros_trajectory
 from coopproc.io.mcap_scan import Channel, RawMcap, scan_mcap
+from coopproc.io.odo_csv import checked_twist
 from coopproc.io.ranges_csv import RangesRead, range_table_from_frame
 from coopproc.io.session_toml import McapMapping
+from coopproc.sensors import ImuData, OdometerData
 
 __all__ = ["NAVSAT_TO_Q", "McapContent", "decode_mcap", "read_mcap_raw"]
 
@@ -49,6 +52,10 @@ class McapContent:
     reference: dict[str, RawTrajectory] = field(default_factory=dict)
     ranges: RangesRead | None = None
     notes: list[str] = field(default_factory=list)
+    #: Raw IMU samples (``[mcap] imu_topic``), checked like imu_<ID>.csv.
+    imu_data: dict[str, ImuData] = field(default_factory=dict)
+    #: Odometer samples (``[mcap] odometer_topic``; bags: ``[topics] odometer``).
+    odometer: dict[str, OdometerData] = field(default_factory=dict)
 
 
 def read_mcap_raw(path: str | Path) -> RawMcap:
@@ -65,6 +72,7 @@ def decode_mcap(raw: RawMcap, mapping: McapMapping) -> McapContent:
     """Decode the nav, reference and range channels of a scanned MCAP file."""
     out = McapContent()
     nav_re, ref_re = _topic_regex(mapping.nav_topic), _topic_regex(mapping.reference_topic)
+    imu_re, odo_re = _topic_regex(mapping.imu_topic), _topic_regex(mapping.odometer_topic)
     problems: list[InputError] = []
     range_frames: list[pd.DataFrame] = []
     range_where: Locator | None = None
@@ -78,6 +86,14 @@ def decode_mcap(raw: RawMcap, mapping: McapMapping) -> McapContent:
                 range_where = where
                 continue
             m_nav, m_ref = nav_re.match(ch.topic), ref_re.match(ch.topic)
+            m_imu, m_odo = imu_re.match(ch.topic), odo_re.match(ch.topic)
+            if m_imu:
+                out.imu_data[m_imu["id"]] = _imu_channel(ch, m_imu["id"], where)
+                continue
+            if m_odo:
+                out.odometer[m_odo["id"]] = _odometer_channel(ch, m_odo["id"], where)
+                if not (m_nav or m_ref):
+                    continue
             if m_nav or m_ref:
                 pid = (m_nav or m_ref).group("id")  # type: ignore[union-attr]
                 traj = _trajectory(ch, pid, where)
@@ -137,6 +153,47 @@ def _json_frame(ch: Channel, where: Locator) -> pd.DataFrame:
     if "time" not in frame.columns:
         frame.insert(0, "time", np.asarray(ch.log_time_ns, dtype=np.int64) / 1e9)
     return frame
+
+
+def _imu_channel(ch: Channel, pid: str, where: Locator) -> ImuData:
+    """sensor_msgs/msg/Imu (ROS 2) or JSON ``time, gyro_x..z, accel_x..z``, checked."""
+    at = Locator(f"{where.path} {ch.topic}", record=where.record)
+    if ch.message_encoding == "json":
+        frame = _json_frame(ch, where)
+        missing = [c for c in IMU_RATE_COLUMNS if c not in frame.columns]
+        if missing:
+            raise at.error(f"no key '{missing[0]}'; expected time, {', '.join(IMU_RATE_COLUMNS)}")
+        time = frame["time"].to_numpy(dtype=np.float64)
+        values = frame[list(IMU_RATE_COLUMNS)].to_numpy(dtype=np.float64)
+    else:
+        f = RosFields(ch, where)
+        time = f.times()
+        values = np.column_stack(
+            [f.get(f"angular_velocity.{a}") for a in "xyz"]
+            + [f.get(f"linear_acceleration.{a}") for a in "xyz"]
+        ).astype(np.float64)
+    bad = np.flatnonzero(~np.isfinite(values).all(axis=1) | ~np.isfinite(time))
+    if bad.size:
+        raise at.error("NaN or inf sample; expected finite numbers", int(bad[0]), bad.size)
+    return checked_imu(pid, at, time, values)
+
+
+def _odometer_channel(ch: Channel, pid: str, where: Locator) -> OdometerData:
+    """nav_msgs/msg/Odometry twist (ROS 2) or JSON ``time, speed[, yaw_rate]``, checked."""
+    at = Locator(f"{where.path} {ch.topic}", record=where.record)
+    if ch.message_encoding == "json":
+        frame = _json_frame(ch, where)
+        if "speed" not in frame.columns:
+            raise at.error("no key 'speed'; expected time, speed (m/s)[, yaw_rate (rad/s)]")
+        yaw = frame["yaw_rate"].to_numpy(dtype=np.float64) if "yaw_rate" in frame else None
+        time = frame["time"].to_numpy(dtype=np.float64)
+        return checked_twist(pid, at, time, frame["speed"].to_numpy(dtype=np.float64), yaw)
+    f = RosFields(ch, where)
+    speed = np.asarray(f.get("twist.twist.linear.x"), dtype=np.float64)
+    yaw_rate: np.ndarray | None = np.asarray(f.get("twist.twist.angular.z"), dtype=np.float64)
+    if np.all(np.asarray(f.get("twist.covariance"), dtype=np.float64)[:, 35] < 0):
+        yaw_rate = None  # coopproc's writer: variance -1 = no yaw rate
+    return checked_twist(pid, at, f.times(), speed, yaw_rate)
 
 
 def _trajectory(ch: Channel, pid: str, where: Locator) -> RawTrajectory:

@@ -28,9 +28,10 @@ from mcap_ros2.writer import Writer as Ros2Writer
 from coopproc.errors import OutputError
 from coopproc.frames import enu2geodetic
 from coopproc.io.navsat_status import navsat_status
-from coopproc.io.ros2_msgdefs import NAVSATFIX, ODOMETRY, UWB_RANGE, UWB_RANGE_MAPPING
+from coopproc.io.ros2_msgdefs import IMU, NAVSATFIX, ODOMETRY, UWB_RANGE, UWB_RANGE_MAPPING
 from coopproc.io.session_toml import McapMapping, session_toml_table
 from coopproc.model import Session, Trajectory
+from coopproc.sensors import ImuData
 
 __all__ = ["json_lines", "write_mcap"]
 
@@ -111,7 +112,71 @@ def _write_json(
     ranges = session.ranges.frame.drop(columns=["pair"])
     if len(ranges):
         emit(mapping.range_topic, ranges, ranges["time"].to_numpy())
+    for pid in sorted(session.imu):
+        emit(
+            mapping.imu_topic.format(id=pid), _imu_frame(session.imu[pid]), session.imu[pid].time_s
+        )
+    for pid in sorted(session.odometer):
+        odo = session.odometer[pid]
+        frame = pd.DataFrame({"time": odo.time_s, "speed": odo.speed_mps})
+        if odo.yaw_rate_radps is not None:
+            frame["yaw_rate"] = odo.yaw_rate_radps
+        emit(mapping.odometer_topic.format(id=pid), frame, odo.time_s)
     writer.finish()
+
+
+def _imu_frame(imu: ImuData) -> pd.DataFrame:
+    frame = pd.DataFrame({"time": imu.time_s})
+    for k, axis in enumerate("xyz"):
+        frame[f"gyro_{axis}"] = imu.gyro_radps[:, k]
+    for k, axis in enumerate("xyz"):
+        frame[f"accel_{axis}"] = imu.accel_mps2[:, k]
+    return frame
+
+
+def _write_ros2_sensors(
+    session: Session, writer: Ros2Writer, mapping: McapMapping, odom: Any
+) -> None:
+    """sensor_msgs/msg/Imu and the odometer as nav_msgs/msg/Odometry twists (body frame)."""
+    imu_def = writer.register_msgdef("sensor_msgs/msg/Imu", IMU)
+    zeros9 = [0.0] * 9
+    for pid in sorted(session.imu):
+        imu = session.imu[pid]
+        topic = mapping.imu_topic.format(id=pid)
+        for i, t in enumerate(_log_ns(imu.time_s, topic)):
+            g, a = imu.gyro_radps[i], imu.accel_mps2[i]
+            msg = {
+                "header": {"stamp": _stamp(float(imu.time_s[i])), "frame_id": pid},
+                "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 0.0},
+                "orientation_covariance": [-1.0, *zeros9[1:]],  # REP 145: no orientation
+                "angular_velocity": {"x": float(g[0]), "y": float(g[1]), "z": float(g[2])},
+                "angular_velocity_covariance": zeros9,
+                "linear_acceleration": {"x": float(a[0]), "y": float(a[1]), "z": float(a[2])},
+                "linear_acceleration_covariance": zeros9,
+            }
+            writer.write_message(topic, imu_def, msg, int(t), int(t), i)
+    still = {"position": {"x": 0.0, "y": 0.0, "z": 0.0},
+             "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 0.0}}  # fmt: skip
+    for pid in sorted(session.odometer):
+        odo = session.odometer[pid]
+        topic = mapping.odometer_topic.format(id=pid)
+        known = odo.yaw_rate_radps is not None
+        yaw = np.zeros(len(odo.time_s)) if odo.yaw_rate_radps is None else odo.yaw_rate_radps
+        cov = [0.0] * 36
+        if not known:  # no yaw rate: its variance -1 (unknown), read back as none
+            cov[35] = -1.0
+        for i, t in enumerate(_log_ns(odo.time_s, topic)):
+            twist = {
+                "linear": {"x": float(odo.speed_mps[i]), "y": 0.0, "z": 0.0},
+                "angular": {"x": 0.0, "y": 0.0, "z": float(yaw[i])},
+            }
+            msg = {
+                "header": {"stamp": _stamp(float(odo.time_s[i])), "frame_id": "odom"},
+                "child_frame_id": pid,
+                "pose": {"pose": still, "covariance": [0.0] * 36},
+                "twist": {"twist": twist, "covariance": cov},
+            }
+            writer.write_message(topic, odom, msg, int(t), int(t), i)
 
 
 def _json_values(column: pd.Series) -> list[str]:
@@ -231,4 +296,5 @@ def _write_ros2(
                 "sigma": float(sig[i]),
             }
             writer.write_message(mapping.range_topic, rng, msg, int(log[i]), int(log[i]), i)
+    _write_ros2_sensors(session, writer, mapping, odom)
     writer.finish()

@@ -194,11 +194,15 @@ def read_odo_csv(
 
 
 def checked_twist(
-    platform: str, where: Locator, time: FloatArray, speed: FloatArray, yaw_rate: FloatArray
+    platform: str,
+    where: Locator,
+    time: FloatArray,
+    speed: FloatArray,
+    yaw_rate: FloatArray | None = None,
 ) -> OdometerData:
     """A ``nav_msgs/msg/Odometry`` twist (``linear.x`` forward speed, ``angular.z`` yaw
     rate) checked like ``odo_<ID>.csv`` (finite, times, rate, speeds) into OdometerData."""
-    values = np.column_stack([time, speed, yaw_rate])
+    values = np.column_stack([time, speed] + ([] if yaw_rate is None else [yaw_rate]))
     bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
     if bad.size:
         raise where.error(
@@ -213,8 +217,8 @@ def checked_twist(
         where.path,
         time,
         np.asarray(speed, dtype=np.float64),
-        "twist",
-        yaw_rate_radps=np.asarray(yaw_rate, dtype=np.float64),
+        "twist" if yaw_rate is not None else "speed",
+        yaw_rate_radps=None if yaw_rate is None else np.asarray(yaw_rate, dtype=np.float64),
     )
 
 

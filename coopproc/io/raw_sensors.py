@@ -28,8 +28,8 @@ from coopproc.sensors import ImuData, OdometerData
 
 __all__ = [
     "RawSensors",
+    "attach_decoded",
     "bag_imu",
-    "bag_odometer",
     "imu_note",
     "odometer_note",
     "read_raw_sensors",
@@ -110,22 +110,36 @@ def read_raw_sensors(
     return imu, odo
 
 
-def bag_odometer(
+def attach_decoded(
+    imu: Mapping[str, ImuData],
     odometer: Mapping[str, OdometerData],
     path: Path,
     platforms: Mapping[str, Platform],
     problems: list[CoopprocError],
     notes: list[str],
-) -> dict[str, OdometerData]:
-    """The odometer twists of a bag (checked by the bag reader) of known platforms."""
-    out: dict[str, OdometerData] = {}
+) -> RawSensors:
+    """IMU and odometer samples decoded from an MCAP file or a bag (checked by their
+    readers), kept for the session's platforms; unknown platforms and a wrong body frame
+    at rest are errors."""
+    out_imu: dict[str, ImuData] = {}
+    out_odo: dict[str, OdometerData] = {}
+    for pid, data in sorted(imu.items()):
+        if pid not in platforms:
+            problems.append(_unknown(path, f"IMU samples ({data.source})", pid, sorted(platforms)))
+            continue
+        frame = "" if platforms[pid].imu_mounting_deg else frame_problem(data)
+        if frame:
+            problems.append(InputError(data.source, frame))
+            continue
+        out_imu[pid] = data
+        notes.extend([*data.notes, imu_note(data)])
     for pid, odo in sorted(odometer.items()):
         if pid not in platforms:
-            problems.append(_unknown(path, "odometry", pid, sorted(platforms)))
+            problems.append(_unknown(path, f"odometry ({odo.source})", pid, sorted(platforms)))
             continue
-        out[pid] = odo
+        out_odo[pid] = odo
         notes.append(odometer_note(odo))
-    return out
+    return out_imu, out_odo
 
 
 def bag_imu(

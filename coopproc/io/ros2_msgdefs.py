@@ -7,7 +7,7 @@ fields and a range field can be read instead, mapped in ``session.toml [mcap]``)
 
 from __future__ import annotations
 
-__all__ = ["NAVSATFIX", "ODOMETRY", "UWB_RANGE", "UWB_RANGE_MAPPING"]
+__all__ = ["IMU", "NAVSATFIX", "ODOMETRY", "UWB_RANGE", "UWB_RANGE_MAPPING"]
 
 _SEP = "=" * 80 + "\n"
 
@@ -53,6 +53,22 @@ NAVSATFIX = (
     + _HEADER
     + _SEP
     + "MSG: sensor_msgs/NavSatStatus\nint8 status\nuint16 service\n"
+)
+
+#: sensor_msgs/msg/Imu and its dependencies.
+IMU = (
+    "std_msgs/Header header\n"
+    "geometry_msgs/Quaternion orientation\n"
+    "float64[9] orientation_covariance\n"
+    "geometry_msgs/Vector3 angular_velocity\n"
+    "float64[9] angular_velocity_covariance\n"
+    "geometry_msgs/Vector3 linear_acceleration\n"
+    "float64[9] linear_acceleration_covariance\n"
+    + _HEADER
+    + _SEP
+    + "MSG: geometry_msgs/Quaternion\nfloat64 x\nfloat64 y\nfloat64 z\nfloat64 w\n"
+    + _SEP
+    + "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"
 )
 
 #: coopproc_msgs/msg/UwbRange.

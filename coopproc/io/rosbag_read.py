@@ -68,8 +68,6 @@ class BagContent(McapContent):
     """What a bag gives a session: McapContent plus the IMU samples (listed, not used)."""
 
     imu: dict[str, ImuSamples] = field(default_factory=dict)
-    #: nav_msgs/msg/Odometry twists mapped by [topics] odometer, checked.
-    odometer: dict[str, OdometerData] = field(default_factory=dict)
     sensors: list[SensorFile] = field(default_factory=list)
     mapping: TopicsMapping | None = None
 

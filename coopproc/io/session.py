@@ -19,7 +19,7 @@ from coopproc.io._common import InputProblems, RawTrajectory, expand, flat
 from coopproc.io.csv_mapping import CsvForms
 from coopproc.io.mcap_read import McapContent, decode_mcap, read_mcap_raw
 from coopproc.io.ranges_csv import RangesRead, read_ranges_csv
-from coopproc.io.raw_sensors import bag_imu, bag_odometer, read_raw_sensors
+from coopproc.io.raw_sensors import attach_decoded, bag_imu, read_raw_sensors
 from coopproc.io.registry import find_files, read_trajectory, sensor_note
 from coopproc.io.rosbag_read import BagContent, session_bag
 from coopproc.io.rosbag_scan import bag_files, is_bag
@@ -41,6 +41,7 @@ class _Loader:
         self.failed: set[str] = set()  # platforms whose nav could not be read
         self.sensors: list[SensorFile] = []  # raw-sensor files (imu, odo read; others listed)
         self.bag: tuple[Path, BagContent] | None = None  # its IMU and odometry
+        self.decoded: list[tuple[Path, McapContent]] = []  # an MCAP file's IMU, odometry
 
     def add(self, err: CoopprocError) -> None:
         if isinstance(err, InputProblems):
@@ -103,6 +104,7 @@ class _Loader:
             toml, content = self._mcap(mcap_path, toml)
             if content is not None:
                 ranges = self._merge(content, nav_raw, ref_raw, ranges, mcap_path)
+                self.decoded.append((mcap_path, content))
         if "<toml>" not in self.failed:  # a ROS bag: rosbag_read.py, [topics]
             try:
                 found = session_bag(root, toml.topics if toml else None)
@@ -114,6 +116,7 @@ class _Loader:
                 self.inputs.extend(bag_files(found[0]))
                 self.sensors.extend(found[1].sensors)
                 self.bag = found
+                self.decoded.append(found)
                 ranges = self._merge(found[1], nav_raw, ref_raw, ranges, found[0])
         config = toml.config if toml else SessionConfig()
         if toml is None:
@@ -231,11 +234,15 @@ class _Loader:
             spans = {p: t for p, t in spans.items() if t.source not in bad_times}
             self.problems.extend(assemble.check_ranges(ranges, platforms, nav, skip, spans))
         imu, odometer = read_raw_sensors(self.sensors, platforms, nav, self.problems, self.notes)
+        for where, content in self.decoded:
+            found = attach_decoded(
+                content.imu_data, content.odometer, where, platforms, self.problems, self.notes
+            )
+            imu.update(found[0])
+            odometer.update(found[1])
         if self.bag is not None:
-            bag, content = self.bag
-            imu.update(bag_imu(content.imu, bag, platforms, self.problems, self.notes))
-            odo = bag_odometer(content.odometer, bag, platforms, self.problems, self.notes)
-            odometer.update(odo)
+            bag, samples = self.bag
+            imu.update(bag_imu(samples.imu, bag, platforms, self.problems, self.notes))
         if self.problems or ranges is None:
             return None
         return Session(

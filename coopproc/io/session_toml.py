@@ -95,6 +95,13 @@ class McapMapping:
         default="/{id}/reference", metadata={"help": "reference topic template"}
     )
     range_topic: str = field(default="/uwb/range", metadata={"help": "UWB range topic"})
+    imu_topic: str = field(
+        default="/{id}/imu", metadata={"help": "raw IMU topic template (sensor_msgs/msg/Imu)"}
+    )
+    odometer_topic: str = field(
+        default="/{id}/odometer",
+        metadata={"help": "odometer topic template (nav_msgs/msg/Odometry twist)"},
+    )
     from_field: str = field(default="from", metadata={"help": "range message: id of one end"})
     to_field: str = field(default="to", metadata={"help": "range message: id of the other end"})
     range_field: str = field(default="range", metadata={"help": "range message: range, metres"})

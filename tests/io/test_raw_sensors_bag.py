@@ -83,5 +83,6 @@ def test_odometer_topic_of_the_wrong_type_or_unknown_platform(tmp_path: Path) ->
         TOPICS.replace('odometer = "/{id}/odom"', 'odometer = { Q = "/B/odom" }')
     )
     (problem,) = validate_session(root)
-    assert "odometry of platform Q, which the session does not have (platforms: A, B)" in problem
+    assert "/B/odom) of platform Q, which the session does not have (platforms: A, B)" in problem
+    assert problem.startswith(f"{root / 'rec'}: odometry (")
     assert parse_topics({"odometer": "/{id}/odom"}).odometer == "/{id}/odom"  # type: ignore[union-attr]
