@@ -215,4 +215,5 @@ def test_bad_parameters_are_one_line_config_errors() -> None:
         "noisy-leader",
         "body-blocked",
         "nav-gaps",
+        "tag-only",
     }
