@@ -217,7 +217,8 @@ def locate(
             if frac[j] > 0:
                 warnings.append(
                     f"locate: auxiliary '{a}' rejected at {100 * frac[j]:.1f}% of the epochs "
-                    "(residual mean > Omega1 and variance > Omega2)"
+                    "(step 3: residual mean > Omega1 and variance > Omega2, or its own "
+                    "ranges scatter beyond Omega2)"
                 )
     table = pd.concat(rows, ignore_index=True)[list(LOCATE_COLUMNS)]
     return LocateResult(
