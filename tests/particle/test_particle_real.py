@@ -88,12 +88,18 @@ def test_tiers_multi_robot_with_a_body_blocked_auxiliary(tmp_path: Path) -> None
 
 
 def test_tuc_wheel_odometry_with_fixed_modules(tmp_path: Path) -> None:
-    out = tmp_path / "out"
     config = WHEEL.format(methods="['aacopf', 'ekf']", step=0.04, heading=2.0, scale=0.05)
-    _locate(_real("tuc"), "robot", "u105,u107,u108,u109", config, out)
-    summary = pd.read_csv(out / "locate_summary.csv").set_index("method")
+    outs = {}
+    for warmup in ("first", "quiet"):
+        outs[warmup] = tmp_path / warmup
+        _locate(
+            _real("tuc"), "robot", "u105,u107,u108,u109",
+            config + f'warmup = "{warmup}"\n', outs[warmup],
+        )  # fmt: skip
+    summary = pd.read_csv(outs["first"] / "locate_summary.csv").set_index("method")
     assert list(summary.index) == ["aacopf", "ekf"]
     # a 2.4 m labyrinth, 30 s, wheel odometry drifting 0.25 m/s: the EKF bank stays
-    # within about half a metre at the end, the AACOPF does not (docs/locate.md)
-    assert _late(out, "ekf", 10.0) < 0.6
-    assert np.isfinite(summary.loc["aacopf", "rmse_h"])
+    # within about half a metre at the end; the AACOPF only with warmup = "quiet" (the
+    # ring's fixed module alone never makes the cloud converge; docs/locate.md)
+    assert _late(outs["first"], "ekf", 10.0) < 0.6
+    assert _late(outs["quiet"], "aacopf", 10.0) < 0.8

@@ -59,7 +59,7 @@ from coopproc.stages.particle.modekeep import (
     resample_by_mode,
 )
 from coopproc.stages.particle.modes import find_modes
-from coopproc.stages.particle.monitor import AuxMonitor, ring_auxiliary
+from coopproc.stages.particle.monitor import AuxMonitor, ranging_noise_m2, ring_auxiliary
 from coopproc.stages.particle.params import LocateParams
 from coopproc.stages.particle.pf import first_copies, systematic_resample
 from coopproc.stages.particle.progress import ProgressFn
@@ -75,6 +75,9 @@ def run_aacopf(
     n_e, n_j = inputs.range_m.shape
     # several auxiliaries: the ring and the first reference from the quietest (issue 17)
     j_ring = ring_auxiliary(inputs) if n_j > 1 else 0
+    quiet = np.array(
+        [ranging_noise_m2(inputs.time_s, inputs.range_m[:, j]) <= params.Omega2 for j in range(n_j)]
+    )
     cloud = init_cloud(inputs, params, rng, ring=j_ring if n_j > 1 else None)
     builder = TrackBuilder("aacopf", inputs, params, rng)
     rejected = np.zeros((n_e, n_j), dtype=bool)
@@ -106,9 +109,13 @@ def run_aacopf(
                     if spread2 <= params.judge_spread_m**2:
                         monitor.add(j, float(z - d_pred))
         use, inflate = monitor.decide(nominal_var)
-        if params.warmup == "first" and n_j > 1:
-            # until judged, only the ring's auxiliary is used (epoch 0 too: issue 17)
-            use &= monitor.judged | (np.arange(n_j) == j_ring)
+        if params.warmup in ("first", "quiet") and n_j > 1:
+            # until judged, only the ring's auxiliary is used (epoch 0 too: issue 17);
+            # "quiet": from epoch 1 also those whose own ranges are quiet (fixed modules)
+            early = np.arange(n_j) == j_ring
+            if params.warmup == "quiet" and t > 0:
+                early |= quiet
+            use &= monitor.judged | early
         rejected[t] = ~use & np.isfinite(inputs.range_m[t])
         used[t] = use & np.isfinite(inputs.range_m[t])
         # step 4: weights, eq. (12)-(13)

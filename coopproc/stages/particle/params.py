@@ -56,7 +56,10 @@ class LocateParams:
     )
     warmup: str = field(
         default="first",
-        metadata={"help": "2+ auxiliaries before they are judged: first | floor | all"},
+        metadata={
+            "help": "2+ auxiliaries before they are judged: first | quiet | floor | all "
+            "(quiet: also those whose own ranges are quiet; fixed modules close by)"
+        },
     )
     outlier_sigmas: float = field(
         default=1.0,
@@ -191,6 +194,8 @@ class LocateParams:
             raise ValueError(f"lambda_ must be in [0, 1], found {self.lambda_}")
         if self.residual_window < 2:
             raise ValueError(f"residual_window must be >= 2, found {self.residual_window}")
+        if self.warmup not in ("first", "quiet", "floor", "all"):
+            raise ValueError(f"warmup must be first, quiet, floor or all, found {self.warmup!r}")
         if self.mode_every < 1:
             raise ValueError(f"mode_every must be >= 1, found {self.mode_every}")
         if self.mode_cell_m <= 0 or self.mode_az_deg <= 0:
