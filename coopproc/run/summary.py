@@ -105,9 +105,12 @@ def summarize(output: PipelineOutput) -> RunSummary:
         facts["pairs"][pair] = {"nlos_events": n_events} | {f"rmse_{m}": v for m, v in rmse.items()}
         obs = rmse.get("observed", math.nan)
         if math.isfinite(obs):
+            shown = [m for m in processed if math.isfinite(rmse[m])]
             parts = [f"range RMSE observed {obs:.3f} m"] + [
-                f"{_SHORT.get(m, m)} {rmse[m]:.3f} m ({_change(rmse[m], obs)})" for m in processed
+                f"{_SHORT.get(m, m)} {rmse[m]:.3f} m ({_change(rmse[m], obs)})" for m in shown
             ]
+            if processed and not shown:  # e.g. a tag's pair: no dead reckoning at one end
+                parts.append("not processed (no dead reckoning at one end)")
             lines.append(f"  {pair}: {_count(n_events, 'event')}, " + ", ".join(parts))
         else:
             lines.append(

@@ -128,6 +128,9 @@ def test_tag_in_a_mixed_session_leaves_the_dead_reckoning_methods_alone(
     out = tmp_path / "out"
     output = _run(mixed, out, TAG_CONFIG, tmp_path)
     assert "pairs with tag T2 are left out of fusion, rn, di" in output
+    t2_lines = [line for line in output.splitlines() if "T2: " in line and "RMSE" in line]
+    assert t2_lines and all("not processed (no dead reckoning at one end)" in x for x in t2_lines)
+    assert "nan m" not in output and "(n/a)" not in output
     pos = pd.read_csv(out / "positions.csv")
     before = pd.read_csv(alone / "positions.csv")
     for method in ("observed", "rn", "di", "nav"):
