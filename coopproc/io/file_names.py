@@ -28,7 +28,15 @@ from pathlib import Path
 
 from coopproc.errors import InputError
 
-__all__ = ["COPY_WORDS", "copy_id_note", "default_ranges", "unrecognised_note"]
+__all__ = [
+    "COPY_WORDS",
+    "copy_id_note",
+    "default_ranges",
+    "find_sensor_files",
+    "sensor_file_name",
+    "sensor_platform",
+    "unrecognised_note",
+]
 
 #: Words that mark a copy when an id ends in them (after a separator, digits may follow).
 COPY_WORDS = ("backup", "bak", "old", "copy", "orig", "tmp", "temp", "save", "saved", "prev")
@@ -81,3 +89,24 @@ def default_ranges(root: Path) -> tuple[Path | None, InputError | None]:
         names = ", ".join(p.name for p in found)
         return None, InputError(root, f"several ranges files ({names}); expected one")
     return (found[0] if found else None), None
+
+
+def sensor_file_name(prefix: str) -> re.Pattern[str]:
+    """The names of a raw-sensor file kind: ``<prefix>_<ID>.csv`` or ``.csv.gz``."""
+    return re.compile(rf"^{re.escape(prefix)}_(?P<id>[A-Za-z0-9_-]+?)\.csv(\.gz)?$")
+
+
+def sensor_platform(path: Path, name: re.Pattern[str]) -> str:
+    """The platform of a raw-sensor file named by ``name``; the file's stem otherwise."""
+    m = name.match(path.name)
+    return m["id"] if m else path.name.split(".")[0]
+
+
+def find_sensor_files(session_dir: Path, name: re.Pattern[str]) -> dict[str, Path]:
+    """The files of a session directory named by ``name``, by platform id (sorted)."""
+    found: dict[str, Path] = {}
+    for path in sorted(Path(session_dir).iterdir()):
+        m = name.match(path.name)
+        if m and path.is_file():
+            found.setdefault(m["id"], path)
+    return found

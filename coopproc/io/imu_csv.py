@@ -28,7 +28,6 @@ Checked, each one line naming the file (and line) and what was found:
 from __future__ import annotations
 
 import difflib
-import re
 from dataclasses import replace
 from pathlib import Path
 from typing import Literal
@@ -39,6 +38,7 @@ from numpy.typing import NDArray
 from coopproc.errors import InputError
 from coopproc.io._common import InputProblems, Locator, missing_column, numeric_column
 from coopproc.io.csv_traj import read_csv_table
+from coopproc.io.file_names import find_sensor_files, sensor_file_name, sensor_platform
 from coopproc.model import FloatArray, gap_limit_s
 from coopproc.sensors import ImuData
 
@@ -84,23 +84,17 @@ _GYRO_FULL_SCALE_RADPS = 2000.0 * np.pi / 180.0
 #: A unit at rest cannot turn about a horizontal axis faster than this, rad/s.
 _REST_TURN_RADPS = 0.1
 _HEADER = "time,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z (or dtheta_x..z, dvel_x..z)"
-_NAME = re.compile(r"^imu_(?P<id>[A-Za-z0-9_-]+?)\.csv(\.gz)?$")
+_NAME = sensor_file_name("imu")
 
 
 def imu_platform(path: Path) -> str:
     """The platform of ``imu_<ID>.csv[.gz]``; the file's stem for any other name."""
-    m = _NAME.match(path.name)
-    return m["id"] if m else path.name.split(".")[0]
+    return sensor_platform(path, _NAME)
 
 
 def find_imu_files(session_dir: Path) -> dict[str, Path]:
     """The ``imu_<ID>.csv[.gz]`` files of a session directory, by platform id (sorted)."""
-    found: dict[str, Path] = {}
-    for path in sorted(Path(session_dir).iterdir()):
-        m = _NAME.match(path.name)
-        if m and path.is_file():
-            found.setdefault(m["id"], path)
-    return found
+    return find_sensor_files(session_dir, _NAME)
 
 
 def _form(columns: list[str], where: Locator) -> tuple[Literal["rate", "increment"], list[str]]:

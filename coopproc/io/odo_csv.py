@@ -24,7 +24,6 @@ Checked, each one line naming the file (and line) and what was found:
 from __future__ import annotations
 
 import difflib
-import re
 from pathlib import Path
 from typing import Literal
 
@@ -33,6 +32,7 @@ import numpy as np
 from coopproc.errors import InputError
 from coopproc.io._common import InputProblems, Locator, missing_column, numeric_column
 from coopproc.io.csv_traj import read_csv_table
+from coopproc.io.file_names import find_sensor_files, sensor_file_name, sensor_platform
 from coopproc.model import FloatArray, gap_limit_s
 from coopproc.sensors import OdometerData
 
@@ -57,23 +57,17 @@ ODO_RATE_LIMITS_HZ = (1.0, 1000.0)
 MAX_GROUND_SPEED_MPS = 100.0
 _RATE_SLACK = 0.02
 _HEADER = "time,speed (or time,v_left,v_right)"
-_NAME = re.compile(r"^odo_(?P<id>[A-Za-z0-9_-]+?)\.csv(\.gz)?$")
+_NAME = sensor_file_name("odo")
 
 
 def odo_platform(path: Path) -> str:
     """The platform of ``odo_<ID>.csv[.gz]``; the file's stem for any other name."""
-    m = _NAME.match(path.name)
-    return m["id"] if m else path.name.split(".")[0]
+    return sensor_platform(path, _NAME)
 
 
 def find_odo_files(session_dir: Path) -> dict[str, Path]:
     """The ``odo_<ID>.csv[.gz]`` files of a session directory, by platform id (sorted)."""
-    found: dict[str, Path] = {}
-    for path in sorted(Path(session_dir).iterdir()):
-        m = _NAME.match(path.name)
-        if m and path.is_file():
-            found.setdefault(m["id"], path)
-    return found
+    return find_sensor_files(session_dir, _NAME)
 
 
 def _form(columns: list[str], where: Locator) -> tuple[Literal["speed", "wheels"], list[str]]:
