@@ -18,8 +18,28 @@ from coopproc.model import FloatArray, gap_limit_s
 __all__ = ["IMU_GRADE_FIGURES", "ImuData", "ImuGrade", "OdometerData"]
 
 
+class _Sampled:
+    """The timing of a sensor's samples (``time_s``, strictly increasing)."""
+
+    time_s: FloatArray
+
+    @property
+    def interval_s(self) -> float:
+        """The nominal sample interval (median), s."""
+        return float(np.median(np.diff(self.time_s)))
+
+    @property
+    def rate_hz(self) -> float:
+        """The nominal sample rate, Hz."""
+        return 1.0 / self.interval_s
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.time_s[-1] - self.time_s[0])
+
+
 @dataclass(frozen=True, eq=False)
-class ImuData:
+class ImuData(_Sampled):
     """IMU samples of one file, in rates, in the body frame (x forward, y left, z up).
 
     ``time_s`` strictly increasing (session time base); ``gyro_radps`` and ``accel_mps2``
@@ -37,20 +57,6 @@ class ImuData:
     static_fraction: float
     notes: tuple[str, ...] = ()
 
-    @property
-    def interval_s(self) -> float:
-        """The nominal sample interval (median), s."""
-        return float(np.median(np.diff(self.time_s)))
-
-    @property
-    def rate_hz(self) -> float:
-        """The nominal sample rate, Hz."""
-        return 1.0 / self.interval_s
-
-    @property
-    def duration_s(self) -> float:
-        return float(self.time_s[-1] - self.time_s[0])
-
     def gaps(self) -> int:
         """How many intervals are gaps (longer than 2.5 x the median, the gap rule of
         :func:`coopproc.model.gap_limit_s`)."""
@@ -58,7 +64,7 @@ class ImuData:
 
 
 @dataclass(frozen=True, eq=False)
-class OdometerData:
+class OdometerData(_Sampled):
     """Odometer samples of one platform (body x forward, z up).
 
     ``speed_mps`` forward speed; ``yaw_rate_radps`` the yaw rate (counter-clockwise
@@ -74,19 +80,6 @@ class OdometerData:
     yaw_rate_radps: FloatArray | None = None
     wheelbase_m: float | None = None
     notes: tuple[str, ...] = field(default=())
-
-    @property
-    def interval_s(self) -> float:
-        """The nominal sample interval (median), s."""
-        return float(np.median(np.diff(self.time_s)))
-
-    @property
-    def rate_hz(self) -> float:
-        return 1.0 / self.interval_s
-
-    @property
-    def duration_s(self) -> float:
-        return float(self.time_s[-1] - self.time_s[0])
 
     def distance_m(self) -> float:
         """Distance travelled (trapezoid of |speed|), m."""
