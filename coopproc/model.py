@@ -36,6 +36,7 @@ __all__ = [
     "RANGES_OUT_COLUMNS",
     "RANGE_COLUMNS",
     "ROLES",
+    "STATES_COLUMNS",
     "FloatArray",
     "ImuNoise",
     "Platform",
@@ -98,6 +99,11 @@ METRICS_COLUMNS: tuple[str, ...] = (
     "n",
 )
 POSITION_METRICS_COLUMNS: tuple[str, ...] = ("platform", "method", "max", "mean", "rmse", "n")
+#: states.csv (DATA.md): velocity (m/s, ENU) and attitude (deg; roll right side down,
+#: pitch nose up, yaw = heading clockwise from north) of the methods that estimate them.
+_STATE_VALUES = ("vel_east", "vel_north", "vel_up", "roll", "pitch", "yaw")
+STATES_COLUMNS: tuple[str, ...] = ("time", "platform", "method", *_STATE_VALUES)
+STATES_COLUMNS += tuple(f"sigma_{c}" for c in _STATE_VALUES)
 
 
 #: A gap in a time series: an interval between consecutive epochs longer than this many
@@ -409,3 +415,4 @@ class Result:
     positions: pd.DataFrame  # POSITIONS_COLUMNS -> positions.csv
     metrics: pd.DataFrame  # METRICS_COLUMNS -> metrics.csv
     position_metrics: pd.DataFrame  # POSITION_METRICS_COLUMNS -> position_metrics.csv
+    states: pd.DataFrame | None = None  # STATES_COLUMNS -> states.csv (INS methods)

@@ -81,6 +81,7 @@ def run_tables(
         injected_scores=injected,
         evaluation=evaluation(r.positions, methods=methods),
         rpe=rpe(r.positions, methods=methods),
+        states=r.states,
     )
 
 

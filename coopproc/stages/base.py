@@ -29,6 +29,7 @@ from coopproc.model import FloatArray, Session, Trajectory
 
 __all__ = [
     "RESERVED_NAMES",
+    "NavStates",
     "PositionInput",
     "PositionProduct",
     "PositionStage",
@@ -116,6 +117,22 @@ class PositionInput:
 
 
 @dataclass(frozen=True, eq=False)
+class NavStates:
+    """Velocity and attitude of one platform by a method that estimates them (states.csv).
+
+    ``time_s`` (n,); ``vel_enu_mps`` (n, 3); ``att_deg`` (n, 3) roll (right side down),
+    pitch (nose up), yaw (heading, clockwise from north, 0..360); the sigmas (n, 3) 1-sigma
+    of each, NaN where unknown.
+    """
+
+    time_s: FloatArray
+    vel_enu_mps: FloatArray
+    att_deg: FloatArray
+    sigma_vel_mps: FloatArray
+    sigma_att_deg: FloatArray
+
+
+@dataclass(frozen=True, eq=False)
 class PositionProduct:
     """What a position estimator gives for one range set."""
 
@@ -126,6 +143,8 @@ class PositionProduct:
     #: self-calibration facts for run.json (coopproc.stages.fusion.calibration), or None
     calibration: Any = None
     notes: tuple[str, ...] = ()
+    #: platform -> velocity and attitude, for estimators that have them (states.csv)
+    states: Mapping[str, NavStates] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
