@@ -82,6 +82,12 @@ COMMANDS: dict[str, Entry] = {
         "config",
         "Print the effective run configuration as TOML, each key with its help.",
     ),
+    "spp": Entry(
+        "spp",
+        "spp",
+        "GPS single-point positioning of OBS (RINEX 2/3 observations) with the broadcast "
+        "ephemerides of NAV, written as an RTKLIB .pos file (Q = 5).",
+    ),
 }
 
 
