@@ -84,6 +84,44 @@ def test_aco_with_every_candidate_is_eq14(alpha: float, beta: float, lam: float)
     np.testing.assert_array_equal(got, _aco_brute(east, north, w, alpha, beta, lam, 0.5))
 
 
+def _aco_local_brute(east, north, w, k, lam, cell_m, gate):
+    """Eq. (14) (alpha = beta = 1) over the candidate set aco.py documents: the k
+    heaviest particles and the heaviest particle of each cell of i's 3 x 3 neighbourhood."""
+    w1 = w / w.max()
+    cand = set(top_k(w1, k).tolist())
+    cx = np.floor((east - east.min()) / cell_m).astype(int)
+    cy = np.floor((north - north.min()) / cell_m).astype(int)
+    champ: dict[tuple[int, int], int] = {}
+    for j in range(w.shape[0]):
+        key = (int(cx[j]), int(cy[j]))
+        if key not in champ or w1[j] > w1[champ[key]]:
+            champ[key] = j
+    out = np.arange(w.shape[0])
+    for i in range(w.shape[0]):
+        if w1[i] >= gate:
+            continue
+        near = {champ.get((cx[i] + dx, cy[i] + dy), -1) for dx in (-1, 0, 1) for dy in (-1, 0, 1)}
+        js = np.array(sorted((cand | near) - {-1}))
+        dist = np.maximum(np.hypot(east[js] - east[i], north[js] - north[i]), 1e-3)
+        v = np.maximum(w1[js] - w1[i], 0.0) / dist
+        if v.sum() > 0 and v.max() / v.sum() > lam:
+            out[i] = int(js[np.argmax(v)])
+    return out
+
+
+@pytest.mark.parametrize("seed", [2, 3, 4])
+def test_aco_local_candidates_follow_the_documented_set(seed: int) -> None:
+    # a cloud much wider than the cells: most candidates are the local cell champions
+    rng = np.random.default_rng(seed)
+    east, north = rng.uniform(0, 6, 300), rng.uniform(0, 4, 300)
+    w = rng.random(300) ** 8
+    w /= w.sum()
+    got = aco_targets(east, north, w, 3, 1.0, 1.0, 0.2, 0.5, gate=0.2)
+    want = _aco_local_brute(east, north, w, 3, 0.2, 0.5, 0.2)
+    np.testing.assert_array_equal(got, want)
+    assert (got != np.arange(300)).sum() > 100  # the rule moved most light particles
+
+
 def test_aco_hand_case_and_weight_sharing() -> None:
     # particle 2 is light; 0 (w 1) is 10 m away, 1 (w 0.5) is 1 m away:
     # v_0 = (1 - 0)/10 = 0.1, v_1 = (0.5 - 0)/1 = 0.5 -> P_21 = 0.5/0.6 > lambda -> moves to 1

@@ -44,81 +44,116 @@ def top_k(w: FloatArray, k: int) -> np.ndarray:
     return np.asarray(part[np.lexsort((part, -w[part]))], dtype=np.int64)
 
 
-@numba.njit(cache=True)
-def _cell_champions(cx: np.ndarray, cy: np.ndarray, nx: int, ny: int, w: np.ndarray) -> np.ndarray:
-    best = np.full(nx * ny, -1, dtype=np.int64)
-    for i in range(cx.shape[0]):
-        c = cy[i] * nx + cx[i]
-        b = best[c]
-        if b < 0 or w[i] > w[b]:
-            best[c] = i
-    return best
+@numba.njit(cache=True, inline="always")
+def _numerator(dw: float, d2: float, alpha: float, beta: float) -> float:  # pragma: no cover
+    """Eq. (14) numerator w_ij^alpha eta_ij^beta, eta = 1 / distance (d2: squared,
+    clamped); 0 where j is not heavier than i (it never attracts)."""
+    if dw <= 0.0:
+        return 0.0
+    if alpha == 1.0 and beta == 1.0:
+        return dw / np.sqrt(d2)
+    return dw**alpha * d2 ** (-0.5 * beta)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=True)
 def _aco_targets(
     east: np.ndarray,
     north: np.ndarray,
     w: np.ndarray,
     cand: np.ndarray,
-    cx: np.ndarray,
-    cy: np.ndarray,
-    nx: int,
-    ny: int,
-    champ: np.ndarray,
+    e0: float,
+    n0: float,
+    cell: float,
     alpha: float,
     beta: float,
     lam: float,
     gate: float,
     out: np.ndarray,
 ) -> None:  # pragma: no cover - compiled
+    n_p = east.shape[0]
     n_cand = cand.shape[0]
-    is_cand = np.zeros(east.shape[0], dtype=np.bool_)
+    # cells of ``cell`` m from (e0, n0), one empty cell of padding on every side so that
+    # the 3 x 3 neighbourhood needs no bounds checks
+    cx = np.empty(n_p, dtype=np.int32)
+    cy = np.empty(n_p, dtype=np.int32)
+    nx = 0
+    ny = 0
+    for i in range(n_p):
+        cx[i] = int((east[i] - e0) / cell) + 1
+        cy[i] = int((north[i] - n0) / cell) + 1
+        nx = max(nx, cx[i] + 2)
+        ny = max(ny, cy[i] + 2)
+    champ = np.full(nx * ny, -1, dtype=np.int64)
+    for i in range(n_p):
+        c = cy[i] * nx + cx[i]
+        b = champ[c]
+        if b < 0 or w[i] > w[b]:
+            champ[c] = i
+    is_cand = np.zeros(n_p, dtype=np.bool_)
     for c in range(n_cand):
         is_cand[cand[c]] = True
-    local = np.empty(9, dtype=np.int64)
-    for i in range(east.shape[0]):
+    # each cell's champion (its heaviest particle) by cell, weight 0 where the cell is
+    # empty or its champion is a global candidate (counted once, among those): a zero
+    # weight never attracts, so the loops below are branch-free
+    # (weight, east, north) interleaved: a row of 3 cells is two cache lines
+    grid = np.zeros((nx * ny, 3))
+    for c in range(nx * ny):
+        j = champ[c]
+        if j >= 0 and not is_cand[j]:
+            grid[c, 0], grid[c, 1], grid[c, 2] = w[j], east[j], north[j]
+    # the global candidates' states in contiguous arrays (the loop over them vectorizes)
+    ce = np.empty(n_cand)
+    cn = np.empty(n_cand)
+    cw = np.empty(n_cand)
+    for c in range(n_cand):
+        ce[c], cn[c], cw[c] = east[cand[c]], north[cand[c]], w[cand[c]]
+    min2 = MIN_DISTANCE_M * MIN_DISTANCE_M
+    plain = alpha == 1.0 and beta == 1.0
+    v = np.empty(n_cand + 9)
+    for i in range(n_p):
         wi = w[i]
         if wi >= gate:  # a heavy particle keeps its position
             out[i] = i
             continue
-        n_local = 0
+        ei = east[i]
+        ni = north[i]
+        if plain:
+            for c in range(n_cand):
+                ex = ei - ce[c]
+                ey = ni - cn[c]
+                v[c] = max(cw[c] - wi, 0.0) / np.sqrt(max(ex * ex + ey * ey, min2))
+        else:
+            for c in range(n_cand):
+                ex = ei - ce[c]
+                ey = ni - cn[c]
+                v[c] = _numerator(cw[c] - wi, max(ex * ex + ey * ey, min2), alpha, beta)
+        n = n_cand
         for dy in range(-1, 2):
-            yy = cy[i] + dy
-            if yy < 0 or yy >= ny:
-                continue
+            row = (cy[i] + dy) * nx + cx[i]
             for dx in range(-1, 2):
-                xx = cx[i] + dx
-                if xx < 0 or xx >= nx:
-                    continue
-                j = champ[yy * nx + xx]
-                # a local champion that is also a global candidate counts once
-                if j >= 0 and not is_cand[j]:
-                    local[n_local] = j
-                    n_local += 1
+                c = row + dx
+                ex = ei - grid[c, 1]
+                ey = ni - grid[c, 2]
+                d2 = max(ex * ex + ey * ey, min2)
+                if plain:
+                    v[n] = max(grid[c, 0] - wi, 0.0) / np.sqrt(d2)
+                else:
+                    v[n] = _numerator(grid[c, 0] - wi, d2, alpha, beta)
+                n += 1
         best = -1
         best_v = 0.0
         total = 0.0
-        for c in range(n_cand + n_local):
-            j = cand[c] if c < n_cand else local[c - n_cand]
-            dw = w[j] - wi
-            if dw <= 0.0:
-                continue
-            ex = east[i] - east[j]
-            ey = north[i] - north[j]
-            dist = np.sqrt(ex * ex + ey * ey)
-            if dist < MIN_DISTANCE_M:
-                dist = MIN_DISTANCE_M
-            # eq. (14) numerator w_ij^alpha eta_ij^beta, eta = 1 / distance
-            a = dw if alpha == 1.0 else dw**alpha
-            b = 1.0 / dist if beta == 1.0 else dist ** (-beta)
-            v = a * b
-            total += v
-            if v > best_v:
-                best_v = v
-                best = j
+        for c in range(n):
+            total += v[c]
+            if v[c] > best_v:
+                best_v = v[c]
+                best = c
         if best >= 0 and best_v > lam * total:  # P_ij^best > lambda
-            out[i] = best
+            if best < n_cand:
+                out[i] = cand[best]
+            else:  # the champion of the best cell of the 3 x 3 neighbourhood
+                k = best - n_cand
+                out[i] = champ[(cy[i] + k // 3 - 1) * nx + cx[i] + k % 3 - 1]
         else:
             out[i] = i
 
@@ -147,26 +182,9 @@ def aco_targets(
     e0, n0 = float(east.min()), float(north.min())
     span = max(float(east.max()) - e0, float(north.max()) - n0, cell_m)
     cell = max(cell_m, span / np.sqrt(MAX_CELLS))
-    cx = ((east - e0) / cell).astype(np.int64)
-    cy = ((north - n0) / cell).astype(np.int64)
-    nx, ny = int(cx.max()) + 1, int(cy.max()) + 1
-    champ = _cell_champions(cx, cy, nx, ny, w1)
     out = np.empty(east.shape[0], dtype=np.int64)
     _aco_targets(
-        east,
-        north,
-        w1,
-        cand,
-        cx,
-        cy,
-        nx,
-        ny,
-        champ,
-        float(alpha),
-        float(beta),
-        float(lam),
-        float(gate),
-        out,
+        east, north, w1, cand, e0, n0, cell, float(alpha), float(beta), float(lam), float(gate), out
     )
     return out
 
