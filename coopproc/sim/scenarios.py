@@ -24,6 +24,12 @@ from coopproc.sim.formation import (
     speed_profile_s,
     wedge_layout,
 )
+from coopproc.sim.ins_worlds import (
+    HANDCART_DEFAULTS,
+    LAND_VEHICLE_DEFAULTS,
+    handcart,
+    land_vehicle,
+)
 from coopproc.sim.params import NavGapSpec, NlosSpec, OutageSpec, SimParams
 from coopproc.sim.paths import rounded_polygon, rounded_rectangle
 from coopproc.sim.scenario_types import Actor, World, named_rng
@@ -273,6 +279,24 @@ SCENARIOS: dict[str, Scenario] = {
             "outages": (OutageSpec(450.0, 480.0),),
         },
         unused={**_ANCHORS_UNUSED, **_TAG_UNUSED},
+    ),
+    "handcart": Scenario(
+        "handcart",
+        "paper 003 with raw IMU: a handcart (tactical IMU at 100 Hz, INS/odometer nav) "
+        "standing 20 s for the alignment, then pushed at 0.6 m/s along the '#' route among "
+        "7 anchors (one in the middle); pedestrians: 4-8 s NLOS bursts, an 8 s outage",
+        handcart,
+        HANDCART_DEFAULTS,
+        unused=_ANCHORS_UNUSED,
+    ),
+    "land-vehicle": Scenario(
+        "land-vehicle",
+        "a car (industrial IMU at 100 Hz, odometer: non-holonomic) standing 10 s, then "
+        "driving a 200 x 80 m road loop at 8 m/s among 6 roadside anchors on poles; a 40 s "
+        "UWB outage, two NLOS bursts",
+        land_vehicle,
+        LAND_VEHICLE_DEFAULTS,
+        unused=_ANCHORS_UNUSED,
     ),
     "single-auxiliary": Scenario(
         "single-auxiliary",

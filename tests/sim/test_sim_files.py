@@ -91,6 +91,8 @@ _SHORT = {
     "paper-table1": [],
     "anchors": ["--duration", "120"],
     "tag-only": ["--duration", "120"],
+    "handcart": ["--duration", "60"],
+    "land-vehicle": ["--duration", "60"],
     "single-auxiliary": ["--duration", "120", "--set", "second_aux=true"],
     "multi-auxiliary": ["--duration", "120"],
     "large": ["--duration", "300", "--platforms", "4"],

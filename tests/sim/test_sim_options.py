@@ -27,6 +27,8 @@ _BASE: dict[str, dict[str, Any]] = {
     "paper-table1": {"duration_s": 240.0},
     "anchors": {"duration_s": 120.0},
     "tag-only": {"duration_s": 120.0},
+    "handcart": {"duration_s": 120.0},
+    "land-vehicle": {"duration_s": 120.0},
     "single-auxiliary": {"duration_s": 120.0},
     "multi-auxiliary": {"duration_s": 120.0},
     "large": {"duration_s": 120.0, "platforms": 3},
@@ -104,7 +106,8 @@ _CHANGE: dict[str, Value] = {
     "aux1_moves_at_s": lambda sim: 30.0,
     "aux3_tail_m": lambda sim: 0.4,
     "imu_rate_hz": lambda sim: 50.0,
-    "imu_grade": lambda sim: "tactical",
+    # unlike the scenario's own (handcart: tactical)
+    "imu_grade": lambda sim: "consumer" if sim.truth.params.imu_grade != "consumer" else "tactical",
     "imu_earth_rate": _flip("imu_earth_rate"),
     "odo_rate_hz": lambda sim: 20.0,
 }
@@ -164,6 +167,9 @@ _REFUSED: dict[tuple[str, str], str] = {
     ("platforms", "multi-auxiliary"): "must be 2..4",
     **{(o, "anchors"): "no GNSS/INS platform" for o in _LEADER},
     ("distance_rate_mps", "anchors"): "no formation",
+    **{(o, s): "no GNSS/INS platform" for o in _LEADER for s in ("handcart", "land-vehicle")},
+    ("distance_rate_mps", "handcart"): "no formation",
+    ("distance_rate_mps", "land-vehicle"): "no formation",
     **{(o, "tag-only"): "no GNSS/INS platform" for o in _LEADER},
     **{(o, "tag-only"): "the tag has no dead reckoning" for o in _TAG_DR},
     ("distance_rate_mps", "tag-only"): "no formation",

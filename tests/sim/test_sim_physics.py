@@ -216,4 +216,6 @@ def test_bad_parameters_are_one_line_config_errors() -> None:
         "body-blocked",
         "nav-gaps",
         "tag-only",
+        "handcart",
+        "land-vehicle",
     }
