@@ -351,10 +351,14 @@ def run_ins(
         config.figures, np.full(3, config.sigma_pos_m), np.full(3, config.sigma_vel_mps),
         np.array([al.sigma_level, al.sigma_level, al.sigma_yaw]), config.scale_factors,
     )  # fmt: skip
-    # the compiled loop (coopproc.ins.kernels) and the smoother follow; plain for now
-    from coopproc.ins.loop import run_events
+    if config.engine == "plain":
+        from coopproc.ins.loop import run_events
 
-    run = run_events(t, dth, dv, nav0, ekf, plan, progress)
+        run = run_events(t, dth, dv, nav0, ekf, plan, progress)
+    else:
+        from coopproc.ins.kernels import forward
+
+        run = forward(t, dth, dv, nav0, ekf, plan, progress)
     forward_track = _track(run.nav, _held_variance(run, run.p_filt, t.size), origin)
     smoothed = None
     if config.smooth:
