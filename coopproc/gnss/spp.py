@@ -3,8 +3,9 @@
 Per epoch (docs/methods-gnss.md gives the equations and references):
 
 1. the transmission time t_tx = t_rx - P / c - dt_sv (receiver epoch time, satellite
-   clock with relativity and TGD, :mod:`coopproc.gnss.ephemeris`); the satellite states
-   at t_tx, moved by the estimated receiver clock (-v dt_r) as the iteration goes;
+   clock with relativity and TGD, :mod:`coopproc.gnss.ephemeris`): P / c holds the
+   receiver clock offset too, so t_tx is the true GPS time of transmission whatever
+   that offset is; the satellite states at t_tx;
 2. weighted least squares on x, y, z, c dt_r (Gauss-Newton, start at the previous
    epoch's solution or the earth's centre): the modelled pseudorange
    rho + c dt_r - c dt_sv + I + T, rho the range with the earth's rotation during the
@@ -13,7 +14,7 @@ Per epoch (docs/methods-gnss.md gives the equations and references):
    with the elevation-dependent sigma of :func:`~coopproc.gnss.corrections.code_variance_m2`;
 3. RAIM (``raim``): the chi-square test of the weighted residuals (false-alarm
    probability ``raim_alpha``); when it fails and at least 6 satellites are left, the
-   one with the largest normalised residual is excluded and the solution is recomputed
+   one with the largest standardised residual (Baarda's w-test) is excluded and the solution is recomputed
    and retested; an epoch still failing has no solution;
 4. an epoch with fewer than 4 satellites or a GDOP above ``max_gdop`` has no solution.
 """
@@ -214,8 +215,7 @@ def _solve_epoch(
     if opt.raim:
         passed = _chi2_ok(fit, opt)
         if not passed and fit.used.sum() >= 6:
-            normalised = np.where(fit.used, np.abs(fit.v) / np.sqrt(fit.var), -1.0)
-            worst = int(np.argmax(normalised))
+            worst = int(np.argmax(_standardised(fit)))
             keep[worst] = False
             retry = _wls(ep, keep, t_rx, eph, opt, fit.x)
             if retry is not None and _chi2_ok(retry, opt):
@@ -249,6 +249,18 @@ class _Fit:
     used: NDArray[np.bool_]
     cov: FloatArray
     gdop: float
+    h: FloatArray
+    q: FloatArray
+
+
+def _standardised(fit: _Fit) -> FloatArray:
+    """|v| / sigma_v of each used residual (Baarda's w-test; -1 for the unused), with
+    the residual covariance Q_v = R - H (H^T W H)^-1 H^T."""
+    h = fit.h[fit.used]
+    q_v = fit.var[fit.used] - np.einsum("ij,jk,ik->i", h, fit.q, h)
+    out = np.full(fit.v.shape[0], -1.0)
+    out[fit.used] = np.abs(fit.v[fit.used]) / np.sqrt(np.maximum(q_v, 1e-12))
+    return out
 
 
 def _chi2_ok(fit: _Fit, opt: SppOptions) -> bool:
@@ -272,8 +284,7 @@ def _wls(
     mask = np.radians(opt.elevation_mask_deg)
     s = ep.states
     for _ in range(opt.max_iterations):
-        dt_r = x[3] / SPEED_OF_LIGHT
-        sat = s.pos_ecef_m - s.vel_ecef_mps * dt_r
+        sat = s.pos_ecef_m
         d = sat - x[None, :3]
         # earth rotation during the travel: the first-order term of the rotated range
         rho = (
@@ -320,4 +331,4 @@ def _wls(
         return None
     # the residuals at the solution (one more model evaluation is not needed at 1e-4 m)
     v = v - h_mat @ dx
-    return _Fit(x=x, v=v, var=var, used=used, cov=q[:3, :3], gdop=gdop)
+    return _Fit(x=x, v=v, var=var, used=used, cov=q[:3, :3], gdop=gdop, h=h_mat, q=q)
