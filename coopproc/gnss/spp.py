@@ -14,8 +14,8 @@ Per epoch (docs/methods-gnss.md gives the equations and references):
    with the elevation-dependent sigma of :func:`~coopproc.gnss.corrections.code_variance_m2`;
 3. RAIM (``raim``): the chi-square test of the weighted residuals (false-alarm
    probability ``raim_alpha``); when it fails and at least 6 satellites are left, the
-   one with the largest standardised residual (Baarda's w-test) is excluded and the solution is recomputed
-   and retested; an epoch still failing has no solution;
+   one with the largest standardised residual (Baarda's w-test) is excluded, the
+   solution recomputed and retested; an epoch still failing has no solution;
 4. an epoch with fewer than 4 satellites or a GDOP above ``max_gdop`` has no solution.
 """
 
