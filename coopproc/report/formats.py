@@ -199,9 +199,11 @@ def format_tables(
     platforms: Sequence[str] | None = None,
     change: bool = True,
     latex_width: LatexWidth = "single",
+    axes: bool = False,
 ) -> str:
-    """Table 2, Table 3, the NLOS scores (and, for an injected session, the injected-NLOS
-    table) of a run in one format, separated by a blank line.
+    """Table 2, Table 3 (``axes``: and Table 3 per axis), the NLOS scores (and, for an
+    injected session, the injected-NLOS table) of a run in one format, separated by a
+    blank line.
 
     See :func:`coopproc.report.tables.build_tables` for the filters and
     :func:`render_table` for ``change`` and ``latex_width``. CSV output holds one block per
@@ -209,6 +211,6 @@ def format_tables(
     """
     if fmt not in ("terminal", "csv", "md", "latex"):
         raise ValueError(f"unknown table format {fmt!r}")
-    tables = build_tables(run, metrics=metrics, pairs=pairs, platforms=platforms)
+    tables = build_tables(run, metrics=metrics, pairs=pairs, platforms=platforms, axes=axes)
     tables += injected_tables(run, metrics=metrics, pairs=pairs)  # a run of `coopproc inject`
     return "\n".join(render_table(t, fmt, change=change, latex_width=latex_width) for t in tables)

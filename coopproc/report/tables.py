@@ -38,6 +38,7 @@ __all__ = [
     "MetricSpec",
     "Row",
     "Table",
+    "axis_table",
     "build_tables",
     "distance_table",
     "method_label",
@@ -96,6 +97,17 @@ METRIC_SPECS: dict[str, MetricSpec] = {
     "rms_north": MetricSpec("RMS N", "m"),
     "cep50": MetricSpec("CEP50", "m"),
     "cep95": MetricSpec("CEP95", "m"),
+    # Table 3 per axis (coopproc.report.axis_metrics)
+    "rms_up": MetricSpec("RMS U", "m"),
+    "max_east": MetricSpec("Max E", "m"),
+    "max_north": MetricSpec("Max N", "m"),
+    "max_up": MetricSpec("Max U", "m"),
+    "rms_vel_east": MetricSpec("RMS vE", "m/s"),
+    "rms_vel_north": MetricSpec("RMS vN", "m/s"),
+    "rms_vel_up": MetricSpec("RMS vU", "m/s"),
+    "rms_roll": MetricSpec("RMS roll", "deg", 3),
+    "rms_pitch": MetricSpec("RMS pitch", "deg", 3),
+    "rms_yaw": MetricSpec("RMS yaw", "deg", 3),
     "precision": MetricSpec("Precision", "", 3, "max"),
     "recall": MetricSpec("Recall", "", 3, "max"),
     "f1": MetricSpec("F1", "", 3, "max"),
@@ -108,6 +120,11 @@ _DISTANCE_DEFAULT = tuple(c for c in METRICS_COLUMNS if c not in ("pair", "metho
 _POSITION_DEFAULT = ("max", "mean", "rmse", "cep50", "cep95", "n")
 #: Every column of Table 3 (the HTML page shows them all).
 POSITION_ALL = ("max", "mean", "rmse", *POSITION_METRICS_EXTRA_COLUMNS, "n")
+#: Every column of Table 3 per axis (coopproc.report.axis_metrics).
+_AXIS_ALL = (
+    *(f"{s}_{a}" for s in ("rms", "max") for a in ("east", "north", "up")),
+    *(f"rms_{c}" for c in ("vel_east", "vel_north", "vel_up", "roll", "pitch", "yaw")),
+)
 _NLOS_DEFAULT = ("precision", "recall", "f1", "events", "estimate_mae")
 
 
@@ -257,6 +274,35 @@ def position_table(
     )
 
 
+def axis_table(
+    run: RunTables,
+    columns: Sequence[str] | None = None,
+    platforms: Sequence[str] | None = None,
+    order: Sequence[str] = (),
+) -> Table:
+    """Table 3 per axis (``coopproc report --axes``): E/N/U RMS and max of the position
+    error, and velocity / attitude RMS where states.csv has a reference
+    (:func:`coopproc.report.axis_metrics.axis_metrics`); columns without any value are
+    left out."""
+    from coopproc.report.axis_metrics import axis_metrics
+
+    frame = axis_metrics(run.positions, run.states, order[1:] if order else None)
+    frame = _filter(frame, "platform", platforms, "platform")
+    wanted = [c for c in (columns or _AXIS_ALL) if c in frame.columns]
+    shown = [c for c in wanted if c == "n" or frame[c].notna().any()]
+    return _build(
+        frame,
+        "platform",
+        shown,
+        key="table3_axes",
+        title="Table 3 per axis. Position errors per axis (E, N, U), velocity and attitude "
+        "errors per platform and method",
+        group_label="Platform",
+        with_change=True,
+        order=order,
+    )
+
+
 def nlos_table(
     nlos_scores: pd.DataFrame,
     columns: Sequence[str] = _NLOS_DEFAULT,
@@ -279,7 +325,7 @@ def nlos_table(
 
 
 def _check_metrics(names: Sequence[str]) -> None:
-    known = [*_DISTANCE_DEFAULT, *POSITION_ALL, *_NLOS_DEFAULT, "tp", "fp", "fn"]
+    known = [*_DISTANCE_DEFAULT, *POSITION_ALL, *_AXIS_ALL, *_NLOS_DEFAULT, "tp", "fp", "fn"]
     for name in names:
         if name not in known:
             near = difflib.get_close_matches(name, known, n=1)
@@ -304,8 +350,10 @@ def build_tables(
     metrics: Sequence[str] | None = None,
     pairs: Sequence[str] | None = None,
     platforms: Sequence[str] | None = None,
+    axes: bool = False,
 ) -> list[Table]:
-    """Table 2, Table 3 and (if the run has scores) the NLOS table, filtered as asked.
+    """Table 2, Table 3 (``axes``: and Table 3 per axis, :func:`axis_table`) and (if the
+    run has scores) the NLOS table, filtered as asked.
 
     ``metrics`` chooses the columns of every table (in the given order; names a table does
     not have are skipped there; ``n`` is shown only if asked for). Rows follow the run's
@@ -322,6 +370,9 @@ def build_tables(
             run.position_metrics, metrics or _POSITION_DEFAULT, platforms, order["table3"]
         ),
     ]
+    if axes:
+        picked = [m for m in metrics or () if m in _AXIS_ALL] or None
+        tables.append(axis_table(run, picked, platforms, order["table3"]))
     if run.nlos_scores is not None and len(run.nlos_scores):
         tables.append(nlos_table(run.nlos_scores, metrics or _NLOS_DEFAULT, pairs, order["nlos"]))
     return [t for t in tables if t.metrics and t.rows]
