@@ -115,6 +115,14 @@ def _alignments(value: str | None) -> list[str]:
     "table; implies --evaluate).",
 )
 @click.option(
+    "--outages",
+    "show_outages",
+    is_flag=True,
+    help="Print the drift inside the run's UWB outage windows instead of Table 2/3: each "
+    "method's horizontal error at the start and end of each window, its max and RMS "
+    "(OUT/outages.csv, written by `coopproc run --outage T0:T1`; paper 003 sec. 3.4).",
+)
+@click.option(
     "--stochastic",
     is_flag=True,
     help="Print the stochastic analysis instead of Table 2/3: UWB range residuals on "
@@ -150,6 +158,7 @@ def report(
     evaluate: bool,
     align: str | None,
     rpe_lengths: str | None,
+    show_outages: bool,
     stochastic: bool,
     imu_files: tuple[Path, ...],
 ) -> None:
@@ -166,6 +175,7 @@ def report(
     coopproc report out --plots --style single-column   one journal column wide
     coopproc report out --evaluate --align se3  3-D / vertical errors and RPE, evo-style
     coopproc report out --stochastic --plots    UWB noise model, IMU Allan deviation
+    coopproc report out --outages               drift inside the run's UWB outages
     """
     from coopproc.io.outdir import (
         check_output_file,
@@ -208,7 +218,22 @@ def report(
         from coopproc.run.stochastic import stochastic_report
 
         stoch = stochastic_report(out, run, imu_files=imu_files)
-    asked = stochastic or evaluate or show_table or fmt is not None or output is not None
+    if show_outages and run.outages is None:
+        from coopproc.errors import InputError
+
+        raise InputError(
+            out / "outages.csv",
+            "missing: the run had no outage windows (coopproc run --outage T0:T1, or "
+            "[run] outages)",
+        )
+    asked = (
+        stochastic
+        or evaluate
+        or show_outages
+        or show_table
+        or fmt is not None
+        or output is not None
+    )
     if asked or not (plots or make_html):
         if stoch is not None:  # the stochastic tables instead of Table 2 / Table 3
             from coopproc.report.stochastic_format import format_stochastic
@@ -226,6 +251,15 @@ def report(
                     latex_width=latex_width,  # type: ignore[arg-type]
                 )
                 text = f"{tables}\n{text}"
+        elif show_outages and run.outages is not None:  # drift inside the outage windows
+            from coopproc.report.outage import format_outages
+
+            text = format_outages(
+                run.outages,
+                fmt or "terminal",  # type: ignore[arg-type]
+                origin_s=run.time_origin_s,
+                latex_width=latex_width,  # type: ignore[arg-type]
+            )
         elif evaluate:  # the evaluation tables instead of Table 2 / Table 3
             from coopproc.report.evaluation_tables import format_evaluation
 

@@ -54,6 +54,15 @@ __all__ = ["run"]
     help="Per-epoch tables (ranges, di, nlos_estimates, positions) as CSV or Parquet "
     "(needs pyarrow); default: the config's [run] format, csv.",
 )
+@click.option(
+    "--outage",
+    "outages",
+    multiple=True,
+    metavar="T0:T1",
+    help="Withhold the UWB ranges of T0..T1 (seconds from the session start) from every "
+    "method and score each method's drift there (outages.csv, outage_drift.png; paper 003 "
+    "sec. 3.4); repeatable; replaces the config's [run] outages.",
+)
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def run(
     session: Path,
@@ -68,6 +77,7 @@ def run(
     max_panels: int | None,
     figure_style: str | None,
     table_format: str | None,
+    outages: tuple[str, ...],
     quiet: bool,
 ) -> None:
     """Process a recorded session: clean the ranges, detect and estimate NLOS errors,
@@ -80,6 +90,7 @@ def run(
     from coopproc.io.outdir import check_output_dir
 
     started = dt.datetime.now(dt.UTC)
+    windows = _outage_windows(outages)  # a mistyped window fails before the work
     # before the imports and the work: a read-only or mistyped OUT fails at once
     check_output_dir(out_dir, force=force, protect=[session])
 
@@ -111,6 +122,8 @@ def run(
                 config.run, format="parquet" if table_format == "parquet" else "csv"
             ),
         )
+    if windows:
+        config = dataclasses.replace(config, run=dataclasses.replace(config.run, outages=windows))
     if config.run.format == "parquet":
         from coopproc.io.parquet import require_pyarrow
 
@@ -163,6 +176,19 @@ def run(
     say(f"tables: {files.out_dir}/ ({kinds}), figures: {len(files.figures)}")
     if files.html is not None:
         say(f"report: {files.html}")
+
+
+def _outage_windows(given: tuple[str, ...]) -> tuple[tuple[float, float], ...]:
+    """``--outage T0:T1`` values as (t0, t1) pairs; a malformed one is a usage error."""
+    from coopproc.run.outages import parse_outage
+
+    out = []
+    for text in given:
+        try:
+            out.append(parse_outage(text))
+        except ValueError as err:
+            raise click.BadParameter(str(err), param_hint="'--outage'") from err
+    return tuple(out)
 
 
 def _figure_options(

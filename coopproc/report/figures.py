@@ -23,6 +23,7 @@ the keys of its panels in a ``Panels`` text chunk (``report.html`` checks it).
 | ``trajectories`` | tracks in the east-north plane with the reference | fig. 7 |
 | ``error_cdf`` | CDF of the horizontal error per platform, methods overlaid | |
 | ``error_track`` | the primary method's track coloured by horizontal error | |
+| ``outage_drift`` | error against time since each UWB outage started | 003 fig. 9-10 |
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ from coopproc.report.evaluation_plots import (
 )
 from coopproc.report.gaps import line_gap_limit_s, pair_gaps, platform_gaps
 from coopproc.report.methods import position_methods, primary_method, range_methods
+from coopproc.report.outage_figure import outage_panels
 from coopproc.report.pages import FigureOptions, page_ranges, page_stem
 from coopproc.report.panels import (
     Panels,
@@ -294,6 +296,7 @@ _BUILDERS: dict[str, Callable[[RunTables, FigureOptions, _Groups], Panels | None
     "trajectories": _trajectories,
     "error_cdf": _error_cdf,
     "error_track": _error_track,
+    "outage_drift": outage_panels,  # runs with [run] outages only (report/outage_figure.py)
 }
 FIGURE_NAMES: tuple[str, ...] = tuple(_BUILDERS)
 

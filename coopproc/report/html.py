@@ -47,6 +47,9 @@ FIGURE_CAPTIONS: dict[str, str] = {
     "trajectories": "Tracks in the east-north plane with the reference.",
     "error_cdf": "Cumulative distribution of the horizontal error per platform, methods "
     "overlaid (dotted: 50 % and 95 %, i.e. CEP50 and CEP95).",
+    "outage_drift": "Horizontal error against time since each UWB outage started (the ranges "
+    "withheld there: coopproc run --outage), one line per outage window, per method "
+    "(paper 003 fig. 9-10).",
     "error_track": "Track of the primary method coloured by its horizontal error (scale 0 to "
     "the 95th percentile), over the reference (thin black).",
 }

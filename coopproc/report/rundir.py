@@ -35,6 +35,7 @@ from coopproc.model import (
     STATES_COLUMNS,
 )
 from coopproc.report.methods import METHOD_KEYS, listed_methods, range_methods_of
+from coopproc.report.outage import OUTAGE_COLUMNS
 from coopproc.report.scores import NLOS_EVENT_SCORE_COLUMNS, NLOS_SCORE_COLUMNS
 
 __all__ = [
@@ -89,12 +90,14 @@ RUN_FILES: tuple[tuple[str, str, tuple[str, ...], bool], ...] = (
 #: Tables a run writes only when it has them (same layout as RUN_FILES; never required):
 #: ``injected_scores.csv`` for a session made by ``coopproc inject`` (report/injected.py);
 #: ``evaluation.csv`` and ``rpe.csv`` (report/evaluation.py, report/rpe.py), which older
-#: run directories lack; ``states.csv`` for a run with INS methods (coopproc/run/ins.py).
+#: run directories lack; ``states.csv`` for a run with INS methods (coopproc/run/ins.py);
+#: ``outages.csv`` for a run with ``[run] outages`` (coopproc/run/outages.py).
 RUN_EXTENSION_FILES: tuple[tuple[str, str, tuple[str, ...], bool], ...] = (
     ("injected_scores.csv", "injected_scores", ("pair", "method"), False),
     ("evaluation.csv", "evaluation", ("platform", "method", "alignment"), False),
     ("rpe.csv", "rpe", ("platform", "method", "alignment", "segment_m"), False),
     ("states.csv", "states", STATES_COLUMNS, False),
+    ("outages.csv", "outages", OUTAGE_COLUMNS, False),
 )
 
 
@@ -121,6 +124,8 @@ class RunTables:
     rpe: pd.DataFrame | None = None
     #: velocity and attitude of the INS methods (and the reference's where it has them)
     states: pd.DataFrame | None = None
+    #: outages.csv: drift inside the [run] outages windows (coopproc/report/outage.py)
+    outages: pd.DataFrame | None = None
 
     @property
     def time_origin_s(self) -> float:

@@ -62,6 +62,15 @@ class RunParams:
             "'double-column' (7.16 in, 9 pt) or 'default'; --style overrides it"
         },
     )
+    outages: tuple[tuple[float, float], ...] = field(
+        default=(),
+        metadata={
+            "help": "UWB outage windows [[t0, t1], ...], seconds from the session start: "
+            "the ranges inside are withheld from every method (paper 003 sec. 3.4), "
+            "positions.csv is at the navigation rate, outages.csv scores each method's "
+            "drift inside each window; --outage T0:T1 replaces them"
+        },
+    )
     format: Literal["csv", "parquet"] = field(
         default="csv",
         metadata={

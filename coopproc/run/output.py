@@ -32,6 +32,7 @@ from coopproc.report.rpe import rpe
 from coopproc.report.rundir import RUN_EXTENSION_FILES, RUN_FILES, RunTables, table_file_name
 from coopproc.run.calibration_summary import calibration_facts
 from coopproc.run.config import RunConfig
+from coopproc.run.outages import OutageOutput, OutageReport
 from coopproc.run.pipeline import PipelineOutput
 
 if TYPE_CHECKING:
@@ -82,6 +83,7 @@ def run_tables(
         evaluation=evaluation(r.positions, methods=methods),
         rpe=rpe(r.positions, methods=methods),
         states=r.states,
+        outages=outages.table if (outages := _outage_report(output)) is not None else None,
     )
 
 
@@ -153,6 +155,9 @@ def write_run(
         "timings_s": timings,
         "start_time": started.isoformat(timespec="seconds"),
     }
+    outages = _outage_report(output)
+    if outages is not None:  # [run] outages: the windows and the ranges withheld
+        info["outages"] = outages.facts()
     # a session made by `coopproc inject`: the methods scored against its injected.csv
     injected = session_injected(session.root)
     scores = None
@@ -221,6 +226,11 @@ def _write_table(
     if path.suffix == ".parquet":
         return write_parquet(frame, path, columns)
     return write_csv(frame, path, columns)
+
+
+def _outage_report(output: PipelineOutput) -> OutageReport | None:
+    """The outage windows' report of a run with [run] outages (coopproc.run.outages)."""
+    return output.outages if isinstance(output, OutageOutput) else None
 
 
 def _relative(path: Path, root: Path) -> str:
