@@ -52,9 +52,14 @@ def ecef_to_llh(xyz: FloatArray) -> tuple[float, float, float]:
     return float(lat), float(np.arctan2(y, x)), float(h)
 
 
-def azel(receiver_ecef: FloatArray, sat_ecef: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Azimuth (rad, from north, clockwise) and elevation (rad) of ``sat_ecef`` (n, 3)."""
-    lat, lon, _ = ecef_to_llh(receiver_ecef)
+def azel(
+    receiver_ecef: FloatArray,
+    sat_ecef: FloatArray,
+    lat_lon_rad: tuple[float, float] | None = None,
+) -> tuple[FloatArray, FloatArray]:
+    """Azimuth (rad, from north, clockwise) and elevation (rad) of ``sat_ecef`` (n, 3)
+    (``lat_lon_rad``: the receiver's, when the caller has them already)."""
+    lat, lon = lat_lon_rad if lat_lon_rad is not None else ecef_to_llh(receiver_ecef)[:2]
     d = sat_ecef - receiver_ecef[None, :]
     sl, cl, sp, cp = np.sin(lon), np.cos(lon), np.sin(lat), np.cos(lat)
     east = -sl * d[:, 0] + cl * d[:, 1]

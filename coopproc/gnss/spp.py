@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
@@ -268,7 +269,12 @@ def _chi2_ok(fit: _Fit, opt: SppOptions) -> bool:
     if dof < 1:
         return True
     stat = float(np.sum(fit.v[fit.used] ** 2 / fit.var[fit.used]))
-    return stat <= float(chi2.ppf(1.0 - opt.raim_alpha, dof))
+    return stat <= _chi2_limit(opt.raim_alpha, dof)
+
+
+@lru_cache(maxsize=256)
+def _chi2_limit(alpha: float, dof: int) -> float:
+    return float(chi2.ppf(1.0 - alpha, dof))
 
 
 def _wls(
@@ -296,7 +302,7 @@ def _wls(
         tropo = np.zeros_like(rho)
         if near_surface:
             lat, lon, h = ecef_to_llh(x[:3])
-            az, el = azel(x[:3], sat)
+            az, el = azel(x[:3], sat, (lat, lon))
             used = keep & (el >= mask)
             if opt.iono and eph.iono_alpha is not None and eph.iono_beta is not None:
                 iono = SPEED_OF_LIGHT * klobuchar_s(
