@@ -5,12 +5,14 @@ north/east/down axis, velocity RMS per axis, roll/pitch/yaw RMS).
 Pure functions of the output tables. For each platform and method with rows in
 ``positions`` (method ``reference`` excluded): the error per axis e = value - reference,
 the reference rows (method ``reference``) linearly interpolated at the method's epochs
-inside their span; ``rms_<axis>`` = sqrt(mean e^2), ``max_<axis>`` = max |e| over the
-epochs that have one (population statistics, as Table 3). Velocity and attitude come from
-``states`` (states.csv) against its ``reference`` rows, where the reference has them
-(velocity columns, heading): ``rms_vel_<axis>`` (m/s), ``rms_roll``, ``rms_pitch``,
-``rms_yaw`` (deg; angle differences wrapped to [-180, 180)). A statistic without epochs
-is NaN; ``n`` counts the position epochs with a horizontal error.
+inside their span and not across their gaps (an interval longer than 2.5 x their median
+and 1 s: epochs the reference dropped, outages); ``rms_<axis>`` = sqrt(mean e^2),
+``max_<axis>`` = max |e| over the epochs that have one (population statistics, as
+Table 3). Velocity and attitude come from ``states`` (states.csv) against its
+``reference`` rows where the reference has them (velocity columns, heading):
+``rms_vel_<axis>`` (m/s), ``rms_roll``, ``rms_pitch``, ``rms_yaw`` (deg; angle
+differences wrapped to [-180, 180)). A statistic without epochs is NaN; ``n`` counts the
+position epochs with a horizontal error.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from coopproc.model import FloatArray
+from coopproc.model import FloatArray, gap_limit_s
 from coopproc.report.methods import method_order, position_methods_of
 
 __all__ = ["AXIS_METRICS_COLUMNS", "axis_metrics"]
@@ -28,6 +30,8 @@ __all__ = ["AXIS_METRICS_COLUMNS", "axis_metrics"]
 _AXES = ("east", "north", "up")
 _STATES = ("vel_east", "vel_north", "vel_up", "roll", "pitch", "yaw")
 _ANGLES = ("roll", "pitch", "yaw")
+#: Reference intervals up to this long (s) are never gaps (bursty range epochs).
+MIN_GAP_S = 1.0
 
 #: Columns of the per-axis table.
 AXIS_METRICS_COLUMNS: tuple[str, ...] = (
@@ -60,6 +64,12 @@ def _errors(own: pd.DataFrame, ref: pd.DataFrame | None, columns: Sequence[str])
     t_ref = ref["time"].to_numpy(dtype=np.float64)
     t = own["time"].to_numpy(dtype=np.float64)
     inside = (t >= t_ref[0]) & (t <= t_ref[-1])
+    # nothing across the reference's gaps (epochs it dropped, outages): the interval
+    # around t must be at most GAP_FACTOR x its median, and at least 1 s is always one
+    limit = max(gap_limit_s(t_ref), MIN_GAP_S)
+    right = np.clip(np.searchsorted(t_ref, t), 1, t_ref.size - 1)
+    exact = t_ref[np.minimum(np.searchsorted(t_ref, t), t_ref.size - 1)] == t
+    inside &= exact | (t_ref[right] - t_ref[right - 1] <= limit)
     for i, col in enumerate(columns):
         values = ref[col].to_numpy(dtype=np.float64, na_value=np.nan)
         ok = np.isfinite(values)

@@ -96,3 +96,18 @@ def test_report_axes_table() -> None:
     assert "rms_up" in header and "rms_yaw" in header
     assert "rms_roll" not in header  # no reference roll anywhere: the column is left out
     assert "Table 3 per axis" not in format_tables(run, "csv")
+
+
+def test_nothing_across_reference_gaps() -> None:
+    """The reference rows drop 5 s (epochs its Q filter refused): a method's epochs in
+    that gap have no error, though the straight line across it would give one."""
+    t = np.concatenate([np.arange(0.0, 10.0, 0.5), np.arange(15.0, 25.0, 0.5)])
+    ref = pd.DataFrame({"time": t, "platform": "A", "method": "reference"})
+    ref["east"], ref["north"], ref["up"] = np.where(t < 12, 0.0, 10.0), 0.0, 0.0
+    tm = np.arange(0.25, 25.0, 0.5)
+    own = pd.DataFrame({"time": tm, "platform": "A", "method": "lsq", "east": 0.1, "north": 0.0})
+    own.loc[tm > 12, "east"] = 10.1
+    own["up"], own["error_h"] = 0.0, 0.1
+    row = axis_metrics(pd.concat([ref, own], ignore_index=True)).iloc[0]
+    assert row["rms_east"] == pytest.approx(0.1)
+    assert row["max_east"] == pytest.approx(0.1)
