@@ -222,3 +222,19 @@ def test_cli_one_line_error_for_a_truncated_file(tmp_path: Path) -> None:
         f"error: {cut}:18: truncated: epoch has 3 of 8 satellites complete"
     ]
     assert not (tmp_path / "x").exists()
+
+
+def test_progress_lines_on_long_files(capsys: pytest.CaptureFixture[str]) -> None:
+    from coopproc.cli.spp import _Progress
+
+    progress = _Progress(True)
+    progress.bar = False
+    for done in range(1, 5001):
+        progress(done, 5000)
+    lines = capsys.readouterr().err.splitlines()
+    assert [line.split(" (")[0] for line in lines] == [f"spp: {p}0%" for p in range(1, 10)]
+    quiet = _Progress(True)
+    quiet.bar = False
+    for done in range(1, 121):
+        quiet(done, 120)  # a short file: nothing
+    assert capsys.readouterr().err == ""
