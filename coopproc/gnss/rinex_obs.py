@@ -17,7 +17,7 @@ A malformed epoch or number, or a file cut short in an epoch, raises a one-line
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -40,7 +40,8 @@ class GnssObservations:
     ``prn`` (k,); ``values`` observation code as written in the file (RINEX 2 ``C1``,
     ``P2`` ...; RINEX 3 ``C1C``, ``D1C``, ``S1C`` ...) -> (k,) values, NaN where blank;
     ``types`` the codes per system; ``line`` (k,) the file line of each row (for errors);
-    ``approx_position_ecef_m`` the header's APPROX POSITION XYZ (None when absent or zero).
+    ``approx_position_ecef_m`` the header's APPROX POSITION XYZ (None when absent or zero);
+    ``epoch_line`` (m,) the file line of each epoch (None for tables not read from a file).
     """
 
     epoch_gpst_s: FloatArray
@@ -56,6 +57,7 @@ class GnssObservations:
     interval_s: float | None = None
     source: str = ""
     leap_seconds: int | None = field(default=None)
+    epoch_line: IntArray | None = None
 
     def code(self, candidates: tuple[str, ...]) -> FloatArray:
         """The first of ``candidates`` present per row (NaN where none is)."""
@@ -193,6 +195,7 @@ def read_obs(path: str | Path) -> GnssObservations:
     head, i = _read_header(lines, p)
     v3 = head.version >= 3
     epochs: list[float] = []
+    epoch_lines: list[int] = []
     rows: list[tuple[int, str, int, int]] = []  # epoch, system, prn, line
     data: dict[str, list[list[float]]] = {s: [] for s in head.types}
     row_sys: list[str] = []
@@ -235,6 +238,7 @@ def read_obs(path: str | Path) -> GnssObservations:
             sats += [sat_text[3 * k : 3 * k + 3] for k in range(n_sat - len(sats))]
         epoch = len(epochs)
         epochs.append(t)
+        epoch_lines.append(number)
         for s in range(n_sat):
             if v3:
                 if i >= total:
@@ -275,7 +279,10 @@ def read_obs(path: str | Path) -> GnssObservations:
             rows.append((epoch, sys_char, prn, start + 1))
             row_sys.append(sys_char)
             data[sys_char].append(vals)
-    return _assemble(p, head, epochs, rows, data)
+    return replace(
+        _assemble(p, head, epochs, rows, data),
+        epoch_line=np.array(epoch_lines, dtype=np.int64),
+    )
 
 
 def _assemble(

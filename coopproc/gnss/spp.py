@@ -110,7 +110,10 @@ def _check_validity(obs: GnssObservations, eph: GpsEphemerides, valid: NDArray[n
     if bad.size == 0:
         return
     first = int(bad[0])
-    row = int(np.flatnonzero(obs.epoch_index == first)[0])
+    if obs.epoch_line is not None:
+        line = int(obs.epoch_line[first])
+    else:  # the first satellite's line
+        line = int(obs.line[np.flatnonzero(obs.epoch_index == first)[0]])
     cover = (
         f"{_text(eph.toe_gpst_s.min() - 7200)} .. {_text(eph.toe_gpst_s.max() + 7200)}"
         if len(eph)
@@ -121,7 +124,7 @@ def _check_validity(obs: GnssObservations, eph: GpsEphemerides, valid: NDArray[n
         f"epoch {_text(obs.epoch_gpst_s[first])} GPST ({bad.size} of {m} epochs) outside the "
         f"ephemerides' validity (the navigation file(s) cover {cover}); give the navigation "
         "file of that day",
-        line=max(int(obs.line[row]) - 1, 1),
+        line=line,
     )
 
 

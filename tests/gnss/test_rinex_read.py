@@ -146,6 +146,8 @@ def test_obs_v2_and_v3_read_to_the_same_numbers(tmp_path: Path) -> None:
     np.testing.assert_array_equal(v2.epoch_gpst_s, v3.epoch_gpst_s)
     assert v2.epoch_gpst_s[0] == 1316 * 604800.0 + 518400.0  # Saturday 2005-04-02 00:00
     assert v2.prn.tolist() == [3, 7, 3] and v2.epoch_index.tolist() == [0, 0, 1]
+    assert v2.epoch_line is not None and v2.epoch_line.tolist() == [7, 14]
+    assert v3.epoch_line is not None and v3.epoch_line.tolist() == [7, 11]
     g = v3.system == "G"
     assert v3.system.tolist() == ["G", "G", "R", "G"]
     np.testing.assert_array_equal(v2.values["C1"], v3.values["C1C"][g])

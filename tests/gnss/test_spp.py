@@ -149,7 +149,7 @@ def test_times_outside_the_ephemerides_are_a_one_line_error() -> None:
     eph = constellation()
     obs = simulate(eph, 2)
     late = replace(obs, epoch_gpst_s=obs.epoch_gpst_s + 3 * 3600.0)
-    with pytest.raises(InputError, match=r"sim\.05o:9: epoch 2005-04-02 05:00:00 GPST \(2 of 2"):
+    with pytest.raises(InputError, match=r"sim\.05o:10: epoch 2005-04-02 05:00:00 GPST \(2 of 2"):
         solve_spp(late, eph, EXACT)
 
 
@@ -238,3 +238,19 @@ def test_progress_lines_on_long_files(capsys: pytest.CaptureFixture[str]) -> Non
     for done in range(1, 121):
         quiet(done, 120)  # a short file: nothing
     assert capsys.readouterr().err == ""
+
+
+def test_cli_one_line_error_for_a_navigation_file_of_another_day(tmp_path: Path) -> None:
+    obs, nav = _real("0759")
+    # every record a week later (toc date and toe week)
+    text = nav.read_text().replace(" 05  4  2 ", " 05  4  9 ")
+    text = text.replace("1.316000000000D+03", "1.317000000000D+03")
+    later = tmp_path / "later.05n"
+    later.write_text(text)
+    res = CliRunner().invoke(
+        main, ["spp", str(obs), "--nav", str(later), "-o", str(tmp_path / "x")]
+    )
+    assert res.exit_code == 1
+    (line,) = res.output.strip().splitlines()
+    assert line.startswith(f"error: {obs}:18: epoch 2005-04-02 00:00:00 GPST (120 of 120 epochs)")
+    assert "outside the ephemerides' validity" in line
