@@ -53,6 +53,12 @@ def _alignments(value: str | None) -> list[str]:
 @click.argument("out", type=click.Path(path_type=Path, file_okay=False))
 @click.option("--table", "show_table", is_flag=True, help="Print Table 2 and Table 3 (default).")
 @click.option(
+    "--axes",
+    is_flag=True,
+    help="Also print Table 3 per axis: E/N/U RMS and max of the position error, velocity "
+    "and attitude RMS where states.csv has a reference (implies --table).",
+)
+@click.option(
     "--format",
     "fmt",
     type=click.Choice(["terminal", "csv", "md", "latex"]),
@@ -141,6 +147,7 @@ def _alignments(value: str | None) -> list[str]:
 def report(
     out: Path,
     show_table: bool,
+    axes: bool,
     fmt: str | None,
     output: Path | None,
     latex_width: str,
@@ -167,6 +174,7 @@ def report(
 
     \b
     coopproc report out --table                 Table 2 and Table 3 in the terminal
+    coopproc report out --axes                  and Table 3 per axis (E/N/U, velocity, attitude)
     coopproc report out --format latex -o t.tex LaTeX (booktabs) to a file
     coopproc report out --format latex --latex-width double --no-change
     coopproc report out --metrics max,rmse --pairs A-B
@@ -231,6 +239,7 @@ def report(
         or evaluate
         or show_outages
         or show_table
+        or axes
         or fmt is not None
         or output is not None
     )
@@ -282,6 +291,7 @@ def report(
                 platforms=comma_names(platforms),
                 change=not no_change,
                 latex_width=latex_width,  # type: ignore[arg-type]
+                axes=axes,
             )
         if output is not None:
             write_text_atomic(output, text)
