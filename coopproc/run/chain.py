@@ -131,6 +131,8 @@ def resolve(params: PipelineParams) -> tuple[Step, ...]:
         position_steps.append(_position_step(provider, "observed", True, reason))
     for name in params.positions:
         for range_set in ("observed", *params.ranges):
+            if POSITION_STAGES[name].observed_only and range_set != "observed":
+                continue
             gives_cp = name == provider and range_set == "observed"
             position_steps.append(_position_step(name, range_set, gives_cp))
 

@@ -170,6 +170,8 @@ class PositionStage:
     #: True: it positions from ranges alone (no navigation needed), so it also positions
     #: ``tag`` platforms; False: it runs on the session without tags and their ranges
     uwb_only: bool = False
+    #: True: it runs on the observed ranges only, not on each processed range set
+    observed_only: bool = False
 
     def method(self, range_set: str) -> str:
         """The positions.csv method of this estimator on ``range_set``."""

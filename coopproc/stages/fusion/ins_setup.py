@@ -1,0 +1,157 @@
+"""From a session to the INS engine's inputs: aiding, start and alignment of one platform
+(the INS position methods, :mod:`coopproc.stages.fusion.ins_stage`; docs/methods-ins.md,
+"In the pipeline").
+
+- **Ranges**: the platform's UWB ranges to anchors (tightly coupled, with the UWB lever
+  arm ``[platforms.X] uwb_lever_arm``); ranges to moving platforms are left to the
+  cooperative fusion (their positions are estimates, correlated with this platform's).
+- **Odometer and NHC** (``nhc=True``): the odometer's forward speed when the platform has
+  one, and the non-holonomic constraints unless the session says ``nhc = false``.
+- **Start**: the position of the first robust least-squares fix (paper 003 sec. 2.2) at
+  or after the first IMU sample, its height from the platform's own navigation (else a 3D
+  fix); without UWB (dead reckoning) the navigation file's first epoch.
+- **Alignment**: from a static start of at least 5 s, levelling (paper 003 eq. (1)-(5))
+  and the heading of the navigation file, else of the first motion of the fixes; in
+  motion from the first sample, levelling from the mean specific force of the first
+  second (its error is the acceleration over g: about 1 deg for 0.2 m/s^2) with the
+  configured sigmas.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from coopproc.errors import StageError
+from coopproc.ins.align import Alignment, coarse_align, heading_from_motion, level, static_start
+from coopproc.model import FloatArray, Session, Trajectory
+from coopproc.sensors import ImuData
+from coopproc.stages.fusion.data import anchor_positions, range_sigma_default
+from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
+
+__all__ = ["InsStart", "anchor_ranges", "ins_start"]
+
+#: Static seconds at the start that allow levelling at rest (coopproc.ins.align).
+MIN_STATIC_S = 5.0
+
+
+@dataclass(frozen=True)
+class InsStart:
+    """Where and how the INS of one platform starts."""
+
+    alignment: Alignment
+    enu_m: FloatArray
+    vel_enu_mps: FloatArray
+    #: what the start was taken from, for the notes
+    how: str
+
+
+def anchor_ranges(
+    session: Session, platform: str, ranges: pd.DataFrame, fallback_sigma_m: float
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The platform's ranges to anchors in time order: time (n,), anchor ENU (n, 3),
+    range (n,), sigma (n,) (missing sigmas: session.toml [uwb] sigma, else the fallback)."""
+    anchors = anchor_positions(session)
+    frame = ranges[["time", "from", "to", "range", "sigma"]]
+    first = frame["from"].astype(str)
+    second = frame["to"].astype(str)
+    names = second.where(first == platform, first.where(second == platform, ""))
+    names = names.reset_index(drop=True)
+    keep = names.isin(list(anchors)).to_numpy() & np.isfinite(frame["range"].to_numpy(float))
+    t = frame["time"].to_numpy(np.float64)[keep]
+    order = np.argsort(t, kind="stable")
+    point = np.array([anchors[str(a)] for a in names[keep]], dtype=np.float64).reshape(-1, 3)
+    rng = frame["range"].to_numpy(np.float64)[keep]
+    sigma = frame["sigma"].to_numpy(np.float64)[keep]
+    sigma = np.where(
+        np.isfinite(sigma) & (sigma > 0), sigma, range_sigma_default(session, fallback_sigma_m)
+    )
+    return t[order], point[order], rng[order], sigma[order]
+
+
+def _at(traj: Trajectory, t: float) -> FloatArray:
+    return np.array([np.interp(t, traj.time_s, traj.enu_m[:, i]) for i in range(3)])
+
+
+def _nav_heading_yaw(nav: Trajectory | None, t: float) -> float | None:
+    """Yaw (rad, counter-clockwise from east) of the navigation's heading at ``t``."""
+    if nav is None or nav.heading_deg is None or not len(nav):
+        return None
+    h = np.unwrap(np.radians(nav.heading_deg))
+    return float(np.pi / 2 - np.interp(t, nav.time_s, h))
+
+
+def _velocity(traj: Trajectory, t: float, span_s: float = 1.0) -> FloatArray:
+    """Mean velocity of a trajectory over (t, t + span_s) (m/s)."""
+    a, b = _at(traj, t), _at(traj, min(t + span_s, float(traj.time_s[-1])))
+    dt = min(span_s, float(traj.time_s[-1]) - t)
+    return (b - a) / dt if dt > 0 else np.zeros(3)
+
+
+def _fixes(session: Session, platform: str, ranges: pd.DataFrame) -> Trajectory | None:
+    """The platform's robust least-squares fixes (2D with its own height, else 3D)."""
+    dims = 2 if platform in session.nav else 3
+    fixes = robust_lsq_positions(session, ranges, LsqParams(dims=dims))
+    traj = fixes.get(platform)
+    return traj if traj is not None and len(traj) >= 2 else None
+
+
+def ins_start(
+    session: Session,
+    imu: ImuData,
+    ranges: pd.DataFrame | None,
+    *,
+    level_sigma_deg: float,
+    heading_sigma_deg: float,
+) -> InsStart:
+    """The start of one platform's INS (module docstring); ``ranges`` None: dead
+    reckoning from the navigation file."""
+    from coopproc.ins.models import imu_figures
+
+    platform = imu.platform
+    nav = session.nav.get(platform)
+    figures = imu_figures(session.platforms[platform].imu)
+    lat = np.radians(session.origin_llh[0])
+    t0 = float(imu.time_s[0])
+    source = None if ranges is None else _fixes(session, platform, ranges)
+    if source is None:
+        if nav is None or len(nav) < 2:
+            raise StageError(
+                f"INS of {platform}: no start position (no least-squares fix from its "
+                "ranges to anchors and no navigation file)"
+            )
+        source, how = nav, f"navigation {nav.source or 'file'}"
+    else:
+        how = "first UWB least-squares fix"
+    t_start = max(t0, float(source.time_s[0]))
+    enu = _at(source, t_start)
+    if nav is not None and len(nav) and source is not nav:
+        enu[2] = _at(nav, t_start)[2]  # 2D fixes: the platform's own height
+    yaw = _nav_heading_yaw(nav, t_start)
+    motion = (source.time_s, source.enu_m)
+    n_static = static_start(imu.time_s, imu.gyro_radps, imu.accel_mps2)
+    static_s = float(imu.time_s[n_static - 1] - t0) if n_static > 1 else 0.0
+    if static_s >= MIN_STATIC_S:
+        al = coarse_align(
+            imu.time_s, imu.gyro_radps, imu.accel_mps2, lat, figures, yaw=yaw, motion=motion
+        )
+        return InsStart(al, enu, np.zeros(3), f"{how}, aligned at rest ({static_s:.0f} s)")
+    first = imu.time_s <= t0 + 1.0
+    roll, pitch = level(imu.accel_mps2[first].mean(axis=0))
+    heading_from = "navigation heading"
+    if yaw is None:
+        _, yaw = heading_from_motion(*motion)
+        heading_from = "first motion of the fixes"
+    al = Alignment(
+        roll,
+        pitch,
+        float(yaw),
+        "given",
+        float(np.radians(level_sigma_deg)),
+        float(np.radians(heading_sigma_deg)),
+        0,
+    )
+    vel = _velocity(nav if nav is not None and len(nav) >= 2 else source, t_start)
+    return InsStart(al, enu, vel, f"{how}, aligned in motion (heading: {heading_from})")
