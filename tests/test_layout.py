@@ -18,6 +18,7 @@ FORBIDDEN: dict[str, tuple[str, ...]] = {
     "report": ("io", "run", "cli", "sim", "checks", "stages.ranging", "stages.fusion"),
     "sim": ("stages", "run", "report", "checks", "cli"),
     "ins": ("io", "run", "report", "cli", "sim", "checks"),
+    "gnss": ("stages", "run", "report", "cli", "sim", "checks"),
     "run": ("cli",),
 }
 
