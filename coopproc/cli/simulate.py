@@ -56,6 +56,22 @@ _SCENARIO_HELP = "\n".join(f"  {name}" for name in SCENARIOS)
     help="Also write imu_<ID>.csv at this rate, Hz (50-1000), and odo_<ID>.csv "
     "(= --set imu_rate_hz=RATE; grade: --set imu_grade=...).",
 )
+@click.option(
+    "--gnss-obs",
+    "gnss_obs",
+    is_flag=True,
+    default=None,
+    help="Also write RINEX GPS observations obs_<ID>.rnx of every platform and nav.rnx "
+    "(= --set gnss_obs=true; docs/simulator.md).",
+)
+@click.option(
+    "--gnss-nav",
+    "gnss_nav",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="RINEX navigation file the simulated satellites fly (= --set gnss_nav=FILE; "
+    "default: the shared GEONET file).",
+)
 @click.option("--mcap", is_flag=True, help="Also write the session as one MCAP file in OUT/mcap/.")
 @click.option(
     "--mcap-encoding",
@@ -79,6 +95,8 @@ def simulate(
     duration: float | None,
     platforms: int | None,
     imu_rate: float | None,
+    gnss_obs: bool | None,
+    gnss_nav: Path | None,
     mcap: bool,
     mcap_encoding: Literal["json", "ros2"],
     force: bool,
@@ -93,6 +111,8 @@ def simulate(
         ("--duration", "duration_s", duration),
         ("--platforms", "platforms", platforms),
         ("--imu", "imu_rate_hz", imu_rate),
+        ("--gnss-obs", "gnss_obs", gnss_obs),
+        ("--gnss-nav", "gnss_nav", None if gnss_nav is None else str(gnss_nav)),
     ):
         if value is not None and key in overrides:
             raise ConfigError(f"{option} and --set {key} both given: use one")

@@ -18,6 +18,7 @@ import pandas as pd
 from coopproc.errors import ConfigError
 from coopproc.model import Platform, RangeTable, Session, SessionConfig, Trajectory
 from coopproc.sim.gnss import ppk_reference
+from coopproc.sim.gnss_obs import add_gnss_obs, gnss_session_params
 from coopproc.sim.imu import add_raw_sensors
 from coopproc.sim.navigate import actor_platform, dr_fault_rows, heading_of, navigate, own_frame
 from coopproc.sim.params import NlosSpec, OutageSpec, SimParams
@@ -78,6 +79,7 @@ def simulate(
     params, given, changed = resolve(
         scenario, {"duration_s": duration_s, "platforms": platforms, **overrides}
     )
+    params = gnss_session_params(params, given)  # the ephemerides' time (gnss_obs only)
     t_rel = nav_times_rel(params)
     world = SCENARIOS[scenario].build(params, seed, t_rel)
     start = params.start_tow_s
@@ -214,4 +216,5 @@ def simulate(
         nav_faults=pd.DataFrame(fault_rows, columns=list(NAV_FAULT_COLUMNS)),
     )
     sim = Simulation(scenario=scenario, seed=seed, session=session, truth=truth_obj)
-    return add_raw_sensors(sim)  # imu_<ID>.csv, odo_<ID>.csv: only with imu_rate_hz > 0
+    sim = add_raw_sensors(sim)  # imu_<ID>.csv, odo_<ID>.csv: only with imu_rate_hz > 0
+    return add_gnss_obs(sim)  # obs_<ID>, nav: only with gnss_obs

@@ -99,6 +99,18 @@ def _imu(p: SimParams) -> str | None:
     return None if p.imu_rate_hz > 0 else "without IMU data (imu_rate_hz = 0; e.g. --imu 100)"
 
 
+#: What only acts with ``gnss_obs`` (coopproc.sim.gnss_obs).
+GNSS_OPTIONS = (
+    "gnss_nav", "gnss_rinex_version", "gnss_rate_hz", "gnss_mask_deg", "gnss_code_sigma_m",
+    "gnss_doppler_sigma_hz", "gnss_multipath_m", "gnss_multipath_tau_s", "gnss_tropo_error",
+    "gnss_iono_error", "canyon",
+)  # fmt: skip
+
+
+def _gnss(p: SimParams) -> str | None:
+    return None if p.gnss_obs else "without GNSS observations (gnss_obs = false; --gnss-obs)"
+
+
 #: Parameters that act only together with another one, or in a session long enough:
 #: name -> a function of the effective parameters that says why not (None: it acts).
 NEEDS: dict[str, Callable[[SimParams], str | None]] = {
@@ -119,6 +131,7 @@ NEEDS: dict[str, Callable[[SimParams], str | None]] = {
     "imu_grade": _imu,
     "imu_earth_rate": _imu,
     "odo_rate_hz": _imu,
+    **dict.fromkeys(GNSS_OPTIONS, _gnss),
 }
 
 

@@ -17,7 +17,15 @@ from coopproc.configtools import from_table, nearest
 from coopproc.errors import ConfigError
 from coopproc.sensors import IMU_GRADE_FIGURES
 
-__all__ = ["NavGapSpec", "NlosSpec", "OutageSpec", "SimParams", "apply_overrides", "sparse_table"]
+__all__ = [
+    "CanyonSpec",
+    "NavGapSpec",
+    "NlosSpec",
+    "OutageSpec",
+    "SimParams",
+    "apply_overrides",
+    "sparse_table",
+]
 
 #: Metadata of the fields added after ``sample_logs/`` was made: ``truth/params.toml``
 #: lists them only when they differ from their default, so the files of every scenario
@@ -65,6 +73,18 @@ class NavGapSpec:
     platform: str = field(default="", metadata={"help": "platform id, e.g. 'A'"})
     start_s: float = field(default=0.0, metadata={"help": "start, seconds from session start"})
     end_s: float = field(default=0.0, metadata={"help": "end, seconds from session start"})
+
+
+@dataclass(frozen=True)
+class CanyonSpec:
+    """An urban-canyon segment: in [start_s, end_s] ``platform``'s receiver (every
+    platform's when empty) sees only ``satellites`` satellites: the highest ones above the
+    mask at the segment's first epoch, as long as they stay above it."""
+
+    start_s: float = field(default=0.0, metadata={"help": "start, seconds from session start"})
+    end_s: float = field(default=0.0, metadata={"help": "end, seconds from session start"})
+    satellites: int = field(default=3, metadata={"help": "satellites left visible (0-3)"})
+    platform: str = field(default="", metadata={"help": "platform id; empty: every platform"})
 
 
 def _f(default: Any, help_text: str, *, sparse: bool = False) -> Any:
@@ -203,6 +223,52 @@ class SimParams:
     )
     odo_rate_hz: float = _f(10.0, "odometer rate, Hz (1-1000), with imu_rate_hz", sparse=True)
 
+    # raw GNSS (issue 13): off unless gnss_obs (coopproc.sim.gnss_obs)
+    gnss_obs: bool = _f(
+        False,
+        "write RINEX GPS L1 observations obs_<ID> of every platform and the navigation file",
+        sparse=True,
+    )
+    gnss_nav: str = _f(
+        "",
+        "RINEX GPS navigation file whose ephemerides the satellites fly; empty: the shared "
+        "GEONET file (../shared/data/gnss/07590920.05n)",
+        sparse=True,
+    )
+    gnss_rinex_version: int = _f(
+        3, "RINEX version of the files written: 3 (3.04) or 2 (2.11)", sparse=True
+    )
+    gnss_rate_hz: float = _f(1.0, "GNSS observation rate, Hz (0.1-20)", sparse=True)
+    gnss_mask_deg: float = _f(10.0, "elevation mask, deg", sparse=True)
+    gnss_code_sigma_m: float = _f(
+        0.5, "pseudorange white noise at C/N0 45 dB-Hz, 1-sigma, m", sparse=True
+    )
+    gnss_doppler_sigma_hz: float = _f(
+        0.1, "Doppler white noise at C/N0 45 dB-Hz, 1-sigma, Hz", sparse=True
+    )
+    gnss_multipath_m: float = _f(
+        0.3, "code multipath at zenith, 1-sigma, m (grows as 1 / sin(elevation))", sparse=True
+    )
+    gnss_multipath_tau_s: float = _f(
+        20.0, "correlation time of the multipath (Gauss-Markov), s", sparse=True
+    )
+    gnss_tropo_error: float = _f(
+        0.05,
+        "troposphere: true delay = Saastamoinen x (1 + e), e ~ N(0, this) once per session",
+        sparse=True,
+    )
+    gnss_iono_error: float = _f(
+        0.3,
+        "ionosphere: true delay = Klobuchar x (1 + e), e ~ N(0, this) per satellite",
+        sparse=True,
+    )
+    canyon: tuple[CanyonSpec, ...] = _f(
+        (),
+        "urban-canyon segments (start_s, end_s, satellites[, platform]): only that many "
+        "satellites seen",
+        sparse=True,
+    )
+
     def __post_init__(self) -> None:
         positive = ("duration_s", "nav_rate_hz", "range_rate_hz", "ref_rate_hz")
         for name in positive:
@@ -247,11 +313,34 @@ class SimParams:
                 raise ValueError(
                     f"outage at {outage.start_s:g}-{outage.end_s:g} s ends before it starts"
                 )
+        self._check_gnss()
         low, high = self.odo_scale_fault
         if not 0.0 <= low <= high:
             raise ValueError(
                 f"odo_scale_fault must be [low, high] with 0 <= low <= high, found {[low, high]}"
             )
+
+    def _check_gnss(self) -> None:
+        if self.gnss_rinex_version not in (2, 3):
+            raise ValueError(f"gnss_rinex_version must be 2 or 3, found {self.gnss_rinex_version}")
+        if not 0.1 <= self.gnss_rate_hz <= 20.0:
+            raise ValueError(f"gnss_rate_hz must be 0.1-20 Hz, found {self.gnss_rate_hz}")
+        if not 0.0 <= self.gnss_mask_deg < 90.0:
+            raise ValueError(f"gnss_mask_deg must be in [0, 90), found {self.gnss_mask_deg}")
+        for name in (
+            "gnss_code_sigma_m", "gnss_doppler_sigma_hz", "gnss_multipath_m",
+            "gnss_multipath_tau_s", "gnss_tropo_error", "gnss_iono_error",
+        ):  # fmt: skip
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, found {getattr(self, name)}")
+        for seg in self.canyon:
+            if seg.end_s < seg.start_s:
+                raise ValueError(f"canyon segment at {seg.start_s:g} s ends before it starts")
+            if not 0 <= seg.satellites <= 3:
+                raise ValueError(
+                    f"canyon segment at {seg.start_s:g} s: satellites must be 0-3, "
+                    f"found {seg.satellites}"
+                )
 
 
 def _convert_specs(key: str, value: Any, kind: type) -> tuple[Any, ...]:
@@ -276,6 +365,7 @@ _SPEC_FIELDS: dict[str, type] = {
     "nlos_events": NlosSpec,
     "outages": OutageSpec,
     "nav_gaps": NavGapSpec,
+    "canyon": CanyonSpec,
 }
 
 

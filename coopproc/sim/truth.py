@@ -4,11 +4,15 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import pandas as pd
 
 from coopproc.model import Session, Trajectory
 from coopproc.sim.params import SimParams
+
+if TYPE_CHECKING:
+    from coopproc.sim.gnss_obs import SimulatedGnss
 
 __all__ = [
     "DISTANCE_COLUMNS",
@@ -115,3 +119,5 @@ class Simulation:
     seed: int
     session: Session
     truth: Truth
+    #: Simulated GNSS observations and their truth (``gnss_obs``; coopproc.sim.gnss_obs).
+    gnss: SimulatedGnss | None = None

@@ -15,6 +15,10 @@ Layout of ``OUT``::
     truth/params.toml          the effective simulation parameters, scenario and seed
     imu_<ID>.csv, odo_<ID>.csv (imu_rate_hz > 0) raw IMU and odometer (coopproc.sim.imu)
     truth/imu_errors.csv       (imu_rate_hz > 0) the IMU errors and odometer scale drawn
+    obs_<ID>.rnx, nav.rnx      (gnss_obs) RINEX 3.04 GPS observations per platform and the
+                               ephemerides flown (RINEX 2.11: obs_<ID>.<yy>o, nav.<yy>n)
+    truth/gnss_clock.csv       (gnss_obs) receiver clock bias and drift at every epoch
+    truth/gnss_errors.csv      (gnss_obs) the terms of every pseudorange written
     README.md                  what this is and the command that makes it again
 
 The output directory is written atomically (``coopproc.io.outdir.atomic_output_dir``).
@@ -32,8 +36,10 @@ import numpy as np
 import pandas as pd
 import tomli_w
 
+from coopproc.gnss.rinex_write import gpst_to_calendar, write_nav, write_obs
 from coopproc.io.outdir import atomic_output_dir, write_csv
 from coopproc.model import Session
+from coopproc.sim.gnss_obs import GNSS_CLOCK_COLUMNS, GNSS_ERROR_COLUMNS, SimulatedGnss
 from coopproc.sim.params import SimParams, sparse_table
 from coopproc.sim.truth import (
     DISTANCE_COLUMNS,
@@ -52,6 +58,7 @@ __all__ = [
     "command_line",
     "describe_simulation",
     "session_as_written",
+    "write_gnss",
     "write_simulation",
     "write_truth",
 ]
@@ -116,6 +123,8 @@ def write_simulation(
     out_dir = Path(out_dir)
     with atomic_output_dir(out_dir, force=force) as tmp:
         written = list(write_session(sim.session, tmp))
+        if sim.gnss is not None:
+            written.extend(write_gnss(sim.gnss, sim.truth.params, tmp))
         if mcap:
             (tmp / "mcap").mkdir()
             target = tmp / "mcap" / f"{sim.scenario}.mcap"
@@ -130,6 +139,24 @@ def write_simulation(
         written.append(readme)
         relative = [Path(p).resolve().relative_to(tmp.resolve()) for p in written]
     return [out_dir / rel for rel in relative]
+
+
+def write_gnss(gnss: SimulatedGnss, params: SimParams, directory: Path) -> list[Path]:
+    """The RINEX observation files, the navigation file and the GNSS truth tables."""
+    version = gnss.rinex_version
+    year = gpst_to_calendar(params.gps_week * 604800.0 + params.start_tow_s)[0]
+    suffix = "rnx" if version == 3 else f"{year % 100:02d}"
+    written = [
+        write_obs(table, directory / f"obs_{pid}.{suffix}{'' if version == 3 else 'o'}", version)
+        for pid, table in sorted(gnss.observations.items())
+    ]
+    nav = directory / f"nav.{suffix}{'' if version == 3 else 'n'}"
+    written.append(write_nav(gnss.ephemerides, nav, version))
+    truth = directory / "truth"
+    truth.mkdir(exist_ok=True)
+    written.append(write_csv(gnss.clock, truth / "gnss_clock.csv", GNSS_CLOCK_COLUMNS))
+    written.append(write_csv(gnss.errors, truth / "gnss_errors.csv", GNSS_ERROR_COLUMNS))
+    return written
 
 
 def session_as_written(session: Session, scratch: Path) -> tuple[Session, dict[str, np.ndarray]]:
