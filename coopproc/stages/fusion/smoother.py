@@ -80,18 +80,26 @@ def mbf_backward(
     xs = np.empty((n_rec, dim))
     var = np.empty((n_rec, dim))
     lam = np.zeros(n)
-    big_lam = np.zeros((n, n))
+    # Lambda stored transposed (lam_t[j, i] = Lambda[i, j]): Lambda g is then a sum of
+    # contiguous rows, vectorized, in the same order of additions per entry as the row
+    # dot products (Lambda is symmetric only up to rounding, so the transpose is kept
+    # exactly rather than assumed).
+    lam_t = np.zeros((n, n))
     max_m = max_epoch_obs(obs_ptr)
     width = 2 * dim
     h_idx, h_val, h_cnt, v, d, ph, x_prior = epoch_buffers(max_m, dim, n)
-    # one block's filtered states, covariances and scalar-update records
-    bx = np.empty((block, n))
-    bc = np.empty((block, n, n))
     most = 0
+    most_rec = 0
     for b in range(cp_x.shape[0]):
         lo = b * block
         hi = min(lo + block, n_epochs)
         most = max(most, obs_ptr[hi] - obs_ptr[lo])
+        most_rec = max(most_rec, rec_ptr[hi] - rec_ptr[lo])
+    # one block's filtered states and, of its covariances, only what the backward pass
+    # reads: the rows of the recorded platforms (whole matrices when ``with_var``)
+    bx = np.empty((block, n))
+    bc = np.empty((block if with_var else 1, n, n))
+    b_rows = np.empty((max(most_rec, 1) * dim, n))
     b_idx = np.zeros((max(most, 1), width), dtype=np.int64)
     b_val = np.zeros((max(most, 1), width))
     b_cnt = np.zeros(max(most, 1), dtype=np.int64)
@@ -104,6 +112,7 @@ def mbf_backward(
         first = b * block
         last = min(first + block, n_epochs)
         base = obs_ptr[first]
+        rec_base = rec_ptr[first]
         x = cp_x[b].copy()
         c = cp_c[b].copy()
         for k in range(first, last):  # re-run the forward filter over the block
@@ -126,25 +135,31 @@ def mbf_backward(
                     b_idx[at + j, p] = h_idx[j, p]
                     b_val[at + j, p] = h_val[j, p]
             bx[k - first] = x
-            bc[k - first] = c
+            if with_var:
+                bc[k - first] = c
+            for r in range(rec_ptr[k], rec_ptr[k + 1]):
+                p = rec_plat[r]
+                for ax in range(dim):
+                    b_rows[(r - rec_base) * dim + ax] = c[p * dim + ax]
         for k in range(last - 1, first - 1, -1):
-            cf = bc[k - first]
             xf = bx[k - first]
             for r in range(rec_ptr[k], rec_ptr[k + 1]):  # X_k - C_k lambda, C_k - C_k L C_k
                 p = rec_plat[r]
                 for ax in range(dim):
                     i = p * dim + ax
+                    c_row = b_rows[(r - rec_base) * dim + ax]
                     acc = xf[i]
                     for jj in range(n):
-                        acc -= cf[i, jj] * lam[jj]
+                        acc -= c_row[jj] * lam[jj]
                     xs[r, ax] = acc
                     if not with_var:
                         var[r, ax] = np.nan
                         continue
+                    cf = bc[k - first]
                     for jj in range(n):
                         s = 0.0
                         for ll in range(n):
-                            s += big_lam[jj, ll] * cf[ll, i]
+                            s += lam_t[ll, jj] * cf[ll, i]
                         col[jj] = s
                     quad = 0.0
                     for jj in range(n):
@@ -160,26 +175,30 @@ def mbf_backward(
                 shift = g_lam + b_y[j] / b_s[j]
                 for p in range(cnt):
                     lam[b_idx[j, p]] -= b_val[j, p] * shift
-                for i in range(n):  # Lambda g (Lambda symmetric)
-                    acc = 0.0
-                    for jj in range(n):
-                        acc += big_lam[i, jj] * g[jj]
-                    lam_g[i] = acc
+                # Lambda g: lam_g[i] = sum over jj of Lambda[i, jj] g[jj], jj ascending
+                for i in range(n):
+                    lam_g[i] = 0.0
+                for jj in range(n):
+                    gj = g[jj]
+                    row_t = lam_t[jj]
+                    for i in range(n):
+                        lam_g[i] += row_t[i] * gj
                 g_lam_g = 0.0
                 for i in range(n):
                     g_lam_g += g[i] * lam_g[i]
-                for p in range(cnt):
+                for p in range(cnt):  # Lambda[row, :] -= h lam_g (a column of lam_t)
                     row = b_idx[j, p]
                     hv = b_val[j, p]
                     for i in range(n):
-                        big_lam[row, i] -= hv * lam_g[i]
-                for p in range(cnt):
+                        lam_t[i, row] -= hv * lam_g[i]
+                for p in range(cnt):  # Lambda[:, column] -= lam_g h (a row of lam_t)
                     column = b_idx[j, p]
                     hv = b_val[j, p]
+                    row_t = lam_t[column]
                     for i in range(n):
-                        big_lam[i, column] -= lam_g[i] * hv
+                        row_t[i] -= lam_g[i] * hv
                 extra = g_lam_g + 1.0 / b_s[j]
                 for p in range(cnt):
                     for s_ in range(cnt):
-                        big_lam[b_idx[j, p], b_idx[j, s_]] += b_val[j, p] * b_val[j, s_] * extra
+                        lam_t[b_idx[j, s_], b_idx[j, p]] += b_val[j, p] * b_val[j, s_] * extra
     return xs, var
