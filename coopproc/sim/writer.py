@@ -257,6 +257,15 @@ def describe_simulation(
         f"{100 * p.ref_sigma_m:g} cm noise, a few float (Q = 2) segments",
         "- `session.toml`: roles, drift sigmas, origin, time base, UWB sigma",
     ]
+    if sim.gnss is not None:
+        v3 = sim.gnss.rinex_version == 3
+        lines.append(
+            f"- `{'obs_<ID>.rnx' if v3 else 'obs_<ID>.<yy>o'}`, "
+            f"`{'nav.rnx' if v3 else 'nav.<yy>n'}`: simulated GPS L1 observations of every "
+            f"platform at {p.gnss_rate_hz:g} Hz (RINEX {'3.04' if v3 else '2.11'}) and the "
+            "broadcast ephemerides they fly; truth in `truth/gnss_clock.csv`, "
+            "`truth/gnss_errors.csv` (e.g. `coopproc spp obs_<ID>.rnx --nav nav.rnx -o ID.pos`)"
+        )
     if mcap:
         encoding = "ROS 2 CDR" if mcap_encoding == "ros2" else "JSON"
         lines.append(
