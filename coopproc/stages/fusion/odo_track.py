@@ -52,7 +52,7 @@ class OdoUwbParams:
         metadata={"help": "choose the yaw-rate scale (sign, wheelbase) by maximum likelihood"},
     )
     calib_distance_m: float = field(
-        default=30.0,
+        default=15.0,
         metadata={"help": "travel (odometer) over which the heading and yaw scale are chosen"},
     )
     speed_scale_sigma: float = field(

@@ -13,9 +13,11 @@ What the data decides (maximum likelihood of the range innovations, the kernel's
 1. the initial heading (24 candidates, 15 deg apart) and the yaw-rate scale (1, or with
    ``search_yaw_scale`` +-{0.5, 0.71, 1, 1.41, 2}: a wrong wheelbase or swapped wheels),
    on the first ``calib_distance_m`` of travel;
-2. the wheel-speed noise (speed and yaw-rate 1-sigma per sample) on a grid, unless given;
-3. step 1 again with that noise. The filter then runs with these as its start, the scales
-   and the yaw-rate bias remain states.
+2. the wheel-speed noise (speed and yaw-rate 1-sigma per sample) on a grid, unless given
+   (speed, then yaw rate, then speed again, the other held);
+3. step 1 again with that noise, around the first choice (+-30 deg, one scale step). The
+   filter then runs with these as its start; the scales, the yaw-rate bias and the range
+   bias remain states.
 
 The inputs (steps, ranges, initial fix, yaw-rate source) are made by
 :mod:`coopproc.stages.fusion.odo_track`. The noise search runs on at most the first
@@ -115,39 +117,66 @@ def _run(
     )
 
 
+def _nll(
+    track: OdoTrack,
+    params: OdoUwbParams,
+    heading: float,
+    scale: float,
+    sigmas: tuple[float, float],
+) -> float:
+    return float(_run(track, params, heading, scale, sigmas, params.search_yaw_scale)[-1][0])
+
+
 def _search_start(
-    track: OdoTrack, params: OdoUwbParams, sigmas: tuple[float, float]
+    track: OdoTrack,
+    params: OdoUwbParams,
+    sigmas: tuple[float, float],
+    near: tuple[float, float] | None = None,
 ) -> tuple[float, float]:
-    """Initial heading and yaw-rate scale of least NLL on the calibration stretch."""
+    """Initial heading and yaw-rate scale of least NLL on the calibration stretch: every
+    candidate, or (``near``) the neighbours of an earlier choice (+-30 deg, one scale step)."""
     n = int(np.searchsorted(track.distance, params.calib_distance_m, side="right"))
     head = head_of(track, max(min(n, len(track.t)), 1))
     scales = [1.0]
     if params.search_yaw_scale:
         scales = [s * m for s in (1.0, -1.0) for m in YAW_SCALES]
+    headings = [float(h) for h in HEADINGS]
+    if near is not None:
+        step = float(HEADINGS[1] - HEADINGS[0])
+        headings = [near[0] + k * step for k in (-2, -1, 0, 1, 2)]
+        scales = [s for s in scales if s * near[1] > 0 and 0.7 <= s / near[1] <= 1.42]
     best = (np.inf, 0.0, 1.0)
     for scale in scales:
-        for psi in HEADINGS:
-            nll = float(_run(head, params, psi, scale, sigmas, params.search_yaw_scale)[-1][0])
+        for psi in headings:
+            nll = _nll(head, params, psi, scale, sigmas)
             if nll < best[0]:
-                best = (nll, float(psi), scale)
+                best = (nll, psi, scale)
     return best[1], best[2]
 
 
 def _search_sigmas(
-    track: OdoTrack, params: OdoUwbParams, heading: float, scale: float
+    track: OdoTrack,
+    params: OdoUwbParams,
+    heading: float,
+    scale: float,
+    start: tuple[float, float],
 ) -> tuple[float, float]:
+    """Wheel-speed noise of least NLL: speed, yaw rate, speed again, each on its grid
+    with the other held (the given ones are kept)."""
     speeds = (params.speed_sigma_mps,) if params.speed_sigma_mps > 0 else SPEED_SIGMAS
     yaws = (params.yaw_rate_sigma_radps,) if params.yaw_rate_sigma_radps > 0 else YAW_SIGMAS
-    best = (np.inf, speeds[0], yaws[0])
     track = head_of(track, min(len(track.t), NOISE_STEPS))
-    for sv in speeds:
-        for sw in yaws:
-            nll = float(
-                _run(track, params, heading, scale, (sv, sw), params.search_yaw_scale)[-1][0]
-            )
-            if nll < best[0]:
-                best = (nll, sv, sw)
-    return best[1], best[2]
+    sv, sw = start
+    for grid, axis in ((speeds, 0), (yaws, 1), (speeds, 0)):
+        if len(grid) == 1:
+            sv, sw = (grid[0], sw) if axis == 0 else (sv, grid[0])
+            continue
+        scores = [
+            _nll(track, params, heading, scale, (g, sw) if axis == 0 else (sv, g)) for g in grid
+        ]
+        pick = grid[int(np.argmin(scores))]
+        sv, sw = (pick, sw) if axis == 0 else (sv, pick)
+    return sv, sw
 
 
 def fit_track(track: OdoTrack, params: OdoUwbParams) -> OdoFit:
@@ -157,8 +186,8 @@ def fit_track(track: OdoTrack, params: OdoUwbParams) -> OdoFit:
         params.yaw_rate_sigma_radps or START_SIGMAS[1],
     )
     heading, scale = _search_start(track, params, given)
-    sigmas = _search_sigmas(track, params, heading, scale)
-    heading, scale = _search_start(track, params, sigmas)
+    sigmas = _search_sigmas(track, params, heading, scale, given)
+    heading, scale = _search_start(track, params, sigmas, near=(heading, scale))
     xf, cf, xp, cp, fs, innov, _ = _run(
         track, params, heading, scale, sigmas, params.search_yaw_scale
     )
