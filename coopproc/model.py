@@ -22,6 +22,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 if TYPE_CHECKING:  # coopproc.sensors imports this module
+    from coopproc.gnss.receiver import GnssReceiver
     from coopproc.sensors import ImuData, OdometerData
 
 __all__ = [
@@ -390,6 +391,8 @@ class Session:
     imu: Mapping[str, ImuData] = field(default_factory=dict)
     #: Odometer samples by platform (odo_<ID>.csv, nav_msgs/msg/Odometry twist).
     odometer: Mapping[str, OdometerData] = field(default_factory=dict)
+    #: Raw GPS observations by platform (obs_<ID>.* with the session's nav files).
+    gnss: Mapping[str, GnssReceiver] = field(default_factory=dict)
 
     @property
     def name(self) -> str:

@@ -17,6 +17,7 @@ from coopproc.errors import CoopprocError, InputError
 from coopproc.io import assemble
 from coopproc.io._common import InputProblems, RawTrajectory, expand, flat
 from coopproc.io.csv_mapping import CsvForms
+from coopproc.io.gnss_session import read_gnss
 from coopproc.io.mcap_read import McapContent, decode_mcap, read_mcap_raw
 from coopproc.io.ranges_csv import RangesRead, read_ranges_csv
 from coopproc.io.raw_sensors import attach_decoded, bag_imu, read_raw_sensors
@@ -30,7 +31,7 @@ from coopproc.model import SensorFile, Session, SessionConfig, Trajectory
 __all__ = ["inspect_session", "read_session", "validate_session"]
 
 #: Raw-sensor kinds read into the session (the others are listed, with a note).
-RAW_READ = ("imu", "odo")
+RAW_READ = ("imu", "odo", "gnss_obs", "gnss_nav")
 
 
 class _Loader:
@@ -243,6 +244,15 @@ class _Loader:
         if self.bag is not None:
             bag, samples = self.bag
             imu.update(bag_imu(samples.imu, bag, platforms, self.problems, self.notes))
+        span = ranges.table.frame["time"] if ranges is not None else None
+        gnss = read_gnss(  # obs_<ID>.* and the nav files (io.gnss_session)
+            self.sensors,
+            platforms,
+            config,
+            None if span is None or not len(span) else (float(span.min()), float(span.max())),
+            self.problems,
+            self.notes,
+        )
         if self.problems or ranges is None:
             return None
         return Session(
@@ -258,6 +268,7 @@ class _Loader:
             sensor_files=tuple(self.sensors),
             imu=imu,
             odometer=odometer,
+            gnss=gnss,
         )
 
     def _time_base(
