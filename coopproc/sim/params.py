@@ -83,7 +83,9 @@ class CanyonSpec:
 
     start_s: float = field(default=0.0, metadata={"help": "start, seconds from session start"})
     end_s: float = field(default=0.0, metadata={"help": "end, seconds from session start"})
-    satellites: int = field(default=3, metadata={"help": "satellites left visible (0-3)"})
+    satellites: int = field(
+        default=3, metadata={"help": "satellites left visible (paper 002: 4, 3, 2, 1)"}
+    )
     platform: str = field(default="", metadata={"help": "platform id; empty: every platform"})
 
 
@@ -336,9 +338,9 @@ class SimParams:
         for seg in self.canyon:
             if seg.end_s < seg.start_s:
                 raise ValueError(f"canyon segment at {seg.start_s:g} s ends before it starts")
-            if not 0 <= seg.satellites <= 3:
+            if seg.satellites < 0:
                 raise ValueError(
-                    f"canyon segment at {seg.start_s:g} s: satellites must be 0-3, "
+                    f"canyon segment at {seg.start_s:g} s: satellites must be >= 0, "
                     f"found {seg.satellites}"
                 )
 

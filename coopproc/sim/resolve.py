@@ -39,7 +39,10 @@ def scenario_params(scenario: str, **overrides: Any) -> SimParams:
     (:func:`coopproc.sim.options.check_options`). The scenario's own NLOS events, outages
     and nav gaps move with ``duration_s`` (:func:`_rescale`); given ones stay as given.
     """
-    return resolve(scenario, overrides)[0]
+    from coopproc.sim.gnss_obs import gnss_session_params  # needs the nav file: late
+
+    params, given, _ = resolve(scenario, overrides)
+    return gnss_session_params(params, given)  # with gnss_obs: the ephemerides' time
 
 
 def resolve(

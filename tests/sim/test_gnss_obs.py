@@ -34,7 +34,7 @@ SETTINGS = {
     "gnss_multipath_tau_s": 1.0,
     "gnss_tropo_error": 0.1,
     "gnss_iono_error": 0.3,
-    "canyon": [[20.0, 30.0, 3], [40.0, 45.0, 1, "T"]],
+    "canyon": [[20.0, 30.0, 3], [40.0, 45.0, 1, "T"], [50.0, 55.0, 4]],
 }
 
 
@@ -173,10 +173,10 @@ def test_canyon_leaves_exactly_the_configured_satellites(session: Path) -> None:
         rel = np.round(counts.index.to_numpy() % 604800.0 - start, 6)
         counts = pd.Series(counts.to_numpy(), index=rel)
         assert len(counts) == 61  # every epoch written
-        assert (counts.loc[20.0:30.0] == 3).all()
+        assert (counts.loc[20.0:30.0] == 3).all() and (counts.loc[50.0:55.0] == 4).all()
         if pid == "T":
             assert (counts.loc[40.0:45.0] == 1).all()
-        outside = counts.drop(counts.loc[20.0:30.0].index)
+        outside = counts.drop(counts.loc[20.0:30.0].index).drop(counts.loc[50.0:55.0].index)
         if pid == "T":
             outside = outside.drop(outside.loc[40.0:45.0].index)
         assert outside.min() >= 6
