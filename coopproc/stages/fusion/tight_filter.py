@@ -1,0 +1,249 @@
+"""The tightly coupled GPS/UWB robust Kalman filter of paper 002 (eq. 6-20), all platforms
+in one time-ordered pass.
+
+State of each platform with GPS observations (session ENU frame):
+``[e, n, u, v_e, v_n, v_u, c dt_r, c dt_r']`` - position, velocity (constant-velocity
+model, white acceleration of PSD ``q_h`` horizontally, ``q_v`` vertically), receiver
+clock bias and drift (eq. 6-7, a two-state clock with the TCXO figures h0 = 2e-19,
+h-2 = 2e-20 of Brown & Hwang 2012 Table 9.1: S_b = c^2 h0 / 2, S_d = c^2 2 pi^2 h-2).
+
+Updates, in time order over every platform's GPS epochs and the UWB range rows:
+
+- a GPS epoch (eq. 9, 11): one pseudorange row and one Doppler row (range rate
+  -lambda D) per satellite above the mask (:mod:`coopproc.gnss.tight`);
+- a UWB range (eq. 10) to an anchor (its known position) or to another platform: that
+  platform's current estimate predicted to the range time (its position covariance
+  projected on the line of sight is added to the range variance), or, for a platform
+  without GPS observations, its navigation file (with its sigma). Both ends of an
+  inter-platform range are updated, each with the other's prior.
+
+Robust factor (eq. 14-20): every innovation is standardised by its predicted variance
+diag(H C H^T + R); per update the unit-weight sigma is the MAD estimate of eq. (20)
+floored at 1 (the "adaptive" part: it widens the acceptance band when a whole epoch is
+worse than its model, never narrows it); IGG-III (eq. 18) scales R by 1 / gamma; rows
+with gamma = 1e-30 are dropped. ``robust = False`` is the standard Kalman filter.
+
+The first GPS epoch of a platform starts its filter: position from its navigation file
+(else the session origin) with 30 m sigma, clock bias and drift from the median
+pseudorange and Doppler residuals.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from coopproc.gnss.ephemeris import SPEED_OF_LIGHT
+from coopproc.gnss.tight import GnssEpochs, LocalFrame, epoch_model
+from coopproc.model import FloatArray
+from coopproc.stages.filters import kf_update, robust_factors
+
+__all__ = ["RangeRows", "TightOptions", "TrackOutput", "run_tight"]
+
+_H0, _H2 = 2e-19, 2e-20  # TCXO Allan-variance coefficients (Brown & Hwang Table 9.1)
+
+
+@dataclass(frozen=True)
+class TightOptions:
+    """Figures of one filter run."""
+
+    uwb: bool = True
+    robust: bool = True
+    k0: float = 3.0
+    k1: float = 4.5
+    mask_deg: float = 10.0
+    q_h: float = 0.5
+    q_v: float = 0.05
+    doppler_sigma_mps: float = 0.1
+    start_sigma_m: float = 30.0
+    #: session time -> satellites kept at that epoch (highest elevations; None: all)
+    keep: Callable[[float], int | None] = field(default=lambda t: None)
+    #: (platform, epoch index) -> {prn: metres added to its pseudorange}
+    gross: Mapping[tuple[str, int], Mapping[int, float]] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class RangeRows:
+    """UWB ranges in time order: ``a`` / ``b`` platform ids, range and sigma (m)."""
+
+    time_s: FloatArray
+    a: tuple[str, ...]
+    b: tuple[str, ...]
+    range_m: FloatArray
+    sigma_m: FloatArray
+
+
+@dataclass
+class TrackOutput:
+    """One platform's states after each of its updates (and at its range epochs)."""
+
+    time_s: list[float] = field(default_factory=list)
+    state: list[FloatArray] = field(default_factory=list)
+    sigma: list[FloatArray] = field(default_factory=list)
+    n_sat: list[int] = field(default_factory=list)
+
+
+class _Track:
+    def __init__(self, name: str, epochs: GnssEpochs, start_enu: FloatArray) -> None:
+        self.name = name
+        self.ep = epochs
+        self.x = np.zeros(8)
+        self.x[:3] = start_enu
+        self.c = np.eye(8)
+        self.t: float | None = None
+        self.out = TrackOutput()
+        self.last_nsat = 0
+
+    def predict(self, t: float, opt: TightOptions) -> None:
+        if self.t is None:
+            return
+        dt = t - self.t
+        if dt <= 0.0:
+            return
+        f = np.eye(8)
+        f[0, 3] = f[1, 4] = f[2, 5] = dt
+        f[6, 7] = dt
+        q = np.zeros((8, 8))
+        for i, qa in ((0, opt.q_h), (1, opt.q_h), (2, opt.q_v)):
+            q[i, i] = qa * dt**3 / 3.0
+            q[i, i + 3] = q[i + 3, i] = qa * dt**2 / 2.0
+            q[i + 3, i + 3] = qa * dt
+        sb, sd = SPEED_OF_LIGHT**2 * _H0 / 2.0, SPEED_OF_LIGHT**2 * 2.0 * np.pi**2 * _H2
+        q[6, 6] = sb * dt + sd * dt**3 / 3.0
+        q[6, 7] = q[7, 6] = sd * dt**2 / 2.0
+        q[7, 7] = sd * dt
+        self.x = f @ self.x
+        c = f @ self.c @ f.T + q
+        self.c = 0.5 * (c + c.T)
+        self.t = t
+
+    def record(self, t: float) -> None:
+        out = self.out
+        if out.time_s and out.time_s[-1] == t:
+            out.state[-1] = self.x.copy()
+            out.sigma[-1] = np.sqrt(np.diag(self.c)[:6])
+            out.n_sat[-1] = self.last_nsat
+            return
+        out.time_s.append(t)
+        out.state.append(self.x.copy())
+        out.sigma.append(np.sqrt(np.diag(self.c)[:6]))
+        out.n_sat.append(self.last_nsat)
+
+
+def _update(track: _Track, v: FloatArray, h: FloatArray, r: FloatArray, opt: TightOptions) -> None:
+    d = np.einsum("ij,jk,ik->i", h, track.c, h) + r
+    if opt.robust:
+        gamma = robust_factors(v, d, opt.k0, opt.k1)
+        keep = gamma > 1e-29
+        if not keep.any():
+            return
+        v, h, r, gamma = v[keep], h[keep], r[keep], gamma[keep]
+        track.x, track.c = kf_update(track.x, track.c, v, h, r, gamma)
+    else:
+        track.x, track.c = kf_update(track.x, track.c, v, h, r)
+
+
+def _gnss_epoch(track: _Track, k: int, frame: LocalFrame, opt: TightOptions) -> None:
+    m = epoch_model(track.ep, k, frame, track.x[:3], track.x[3:6], opt.mask_deg)
+    n = m.prn.shape[0]
+    keep_n = opt.keep(float(track.ep.time_s[k]))
+    order = np.argsort(-m.el, kind="stable")
+    take = order if keep_n is None else order[: max(keep_n, 0)]
+    code = m.code_obs_m.copy()
+    for prn, meters in opt.gross.get((track.name, k), {}).items():
+        code[m.prn == prn] += meters
+    take = np.sort(take)
+    track.last_nsat = int(take.size)
+    if n == 0 or take.size == 0:
+        return
+    los = m.los_enu[take]
+    if track.t is None:  # start: the clock from the median residuals
+        track.x[6] = float(np.median(code[take] - m.code_model_m[take]))
+        rate = m.rate_obs_mps[take] - m.rate_model_mps[take]
+        track.x[7] = float(np.nanmedian(rate)) if np.isfinite(rate).any() else 0.0
+        track.c = np.diag([opt.start_sigma_m**2] * 3 + [4.0] * 3 + [opt.start_sigma_m**2, 100.0])
+        track.t = float(track.ep.time_s[k])
+    v_code = code[take] - (m.code_model_m[take] + track.x[6])
+    h_code = np.zeros((take.size, 8))
+    h_code[:, :3] = -los
+    h_code[:, 6] = 1.0
+    rate_ok = np.isfinite(m.rate_obs_mps[take])
+    v_rate = (m.rate_obs_mps[take] - (m.rate_model_mps[take] + track.x[7]))[rate_ok]
+    h_rate = np.zeros((int(rate_ok.sum()), 8))
+    h_rate[:, 3:6] = -los[rate_ok]
+    h_rate[:, 7] = 1.0
+    v = np.concatenate([v_code, v_rate])
+    h = np.vstack([h_code, h_rate])
+    r = np.concatenate([m.code_var_m2[take], np.full(v_rate.shape[0], opt.doppler_sigma_mps**2)])
+    _update(track, v, h, r, opt)
+
+
+def _range_update(
+    track: _Track,
+    other: FloatArray,
+    other_cov: FloatArray,
+    rng: float,
+    sigma: float,
+    opt: TightOptions,
+) -> None:
+    d = track.x[:3] - other
+    dist = float(np.linalg.norm(d))
+    if dist < 1e-3:
+        return
+    u = d / dist
+    h = np.zeros((1, 8))
+    h[0, :3] = u
+    r = np.array([sigma**2 + float(u @ other_cov @ u)])
+    _update(track, np.array([rng - dist]), h, r, opt)
+
+
+def run_tight(
+    epochs: Mapping[str, GnssEpochs],
+    starts: Mapping[str, FloatArray],
+    frame: LocalFrame,
+    ranges: RangeRows,
+    fixed: Callable[[str, float], tuple[FloatArray, FloatArray] | None],
+    opt: TightOptions,
+) -> dict[str, TrackOutput]:
+    """Run the filter of every platform of ``epochs`` over its GPS epochs and (``uwb``)
+    the ``ranges``. ``fixed(id, t)``: the position (3,) and covariance (3, 3) of an anchor
+    or of a platform without GPS at time t, or None when it has none."""
+    tracks = {p: _Track(p, ep, starts[p]) for p, ep in epochs.items()}
+    kinds: list[np.ndarray] = []
+    for i, (_, ep) in enumerate(sorted(tracks.items())):
+        n = len(ep.ep)
+        kinds.append(np.column_stack([ep.ep.time_s, np.zeros(n), np.full(n, i), np.arange(n)]))
+    names = sorted(tracks)
+    if ranges.time_s.size:  # without UWB: only the epochs (predictions) of the ranges
+        n = ranges.time_s.size
+        kinds.append(np.column_stack([ranges.time_s, np.ones(n), np.zeros(n), np.arange(n)]))
+    events = np.vstack(kinds) if kinds else np.empty((0, 4))
+    events = events[np.lexsort((events[:, 1], events[:, 0]))]
+    for t, kind, who, idx in events:
+        if kind == 0.0:
+            track = tracks[names[int(who)]]
+            track.predict(float(t), opt)
+            _gnss_epoch(track, int(idx), frame, opt)
+            if track.t is not None:
+                track.record(float(t))
+            continue
+        j = int(idx)
+        a, b = ranges.a[j], ranges.b[j]
+        ends = [tracks.get(a), tracks.get(b)]
+        live = [tr for tr in ends if tr is not None and tr.t is not None]
+        if not live:
+            continue
+        for tr in live:
+            tr.predict(float(t), opt)
+        # each end's prior, for the other end
+        priors = {tr.name: (tr.x[:3].copy(), tr.c[:3, :3].copy()) for tr in live}
+        for tr in live:
+            other_id = b if tr.name == a else a
+            there = priors.get(other_id) or fixed(other_id, float(t))
+            if opt.uwb and there is not None:
+                rng, sig = float(ranges.range_m[j]), float(ranges.sigma_m[j])
+                _range_update(tr, there[0], there[1], rng, sig, opt)
+            tr.record(float(t))
+    return {p: tr.out for p, tr in tracks.items()}
