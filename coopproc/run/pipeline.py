@@ -43,6 +43,9 @@ from coopproc.report.metrics import distance_metrics, nlos_scores, position_metr
 from coopproc.report.scores import nlos_event_scores
 from coopproc.run.chain import Step, resolve
 from coopproc.run.config import RunConfig
+from coopproc.run.gnss_methods import gnss_pipeline
+from coopproc.run.ins import ins_navigation, ins_pipeline, states_table
+from coopproc.run.odo_methods import odo_pipeline
 from coopproc.run.tags import tag_pipeline, tag_rows, widen, without_tags
 from coopproc.stages.base import PositionInput, PositionProduct, RangeInput, RangeProduct
 from coopproc.stages.fusion.dr_quality import DeadReckoningQuality, dead_reckoning_quality
@@ -198,6 +201,10 @@ def run_pipeline(
     progress: Callable[[str], None] | None = None,
 ) -> PipelineOutput:
     """Run the configured stage chain on a session (see the module docstring)."""
+    if config.run.outages:  # ranges withheld in the windows, listed again (run.outages)
+        from coopproc.run.outages import run_with_outages
+
+        return run_with_outages(session, config, run_pipeline, progress)
     step_label = progress or (lambda label: None)
     timings: dict[str, float] = {}
 
@@ -208,8 +215,17 @@ def run_pipeline(
         yield
         timings[label] = round(time.perf_counter() - start, 3)
 
+    # [ins] navigation = "ins": the INS dead reckoning as platforms' navigation (run.ins)
+    session, ins_notes = ins_navigation(session, config.params_for("ins"))
     # tags (no navigation): the DR-based stages run on the session without them (run.tags)
     pipeline, tag_notes = tag_pipeline(config.pipeline, session)
+    # platforms with an odometer and anchors: odo_uwb, odo_uwb_rts (run.odo_methods)
+    pipeline, odo_notes = odo_pipeline(pipeline, session, config.params_for("odo_uwb"))
+    tag_notes = [*tag_notes, *odo_notes]
+    # platforms with an IMU and anchors: the INS modes of paper 003 Table 1 (run.ins)
+    pipeline, more = ins_pipeline(pipeline, session, config.params_for("ins"))
+    pipeline, more = gnss_pipeline(pipeline, session, config.params_for("gnss"), more)
+    tag_notes += ins_notes + more
     dr_session = without_tags(session)
     steps = resolve(pipeline)
     for step in steps:
@@ -281,6 +297,7 @@ def run_pipeline(
             positions=positions,
             metrics=distance_metrics(table, methods=("observed", *columns)),
             position_metrics=position_metrics(positions, methods=tuple(products)),
+            states=states_table(session, products),
         )
     cp_positions = cp_product or products.get("observed")
     return PipelineOutput(

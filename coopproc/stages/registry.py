@@ -10,6 +10,9 @@ from __future__ import annotations
 
 from coopproc.stages.base import PositionStage, RangeStage
 from coopproc.stages.fusion import entry as fusion_entry
+from coopproc.stages.fusion import odo_uwb
+from coopproc.stages.fusion.ins_stage import INS_STAGES
+from coopproc.stages.fusion.tight_stage import GNSS_STAGES
 from coopproc.stages.ranging import entry as ranging_entry
 from coopproc.stages.ranging import median
 
@@ -32,6 +35,10 @@ POSITION_STAGES: dict[str, PositionStage] = {
         fusion_entry.LSQ,  # robust least squares from anchors (paper 003)
         fusion_entry.LSQ_KF,  # lsq + constant-velocity KF (UWB only)
         fusion_entry.LSQ_RTS,  # lsq + constant-velocity KF + RTS (UWB only, paper 003)
+        odo_uwb.ODO_UWB,  # odometer + UWB EKF (platforms with odo_<ID>.csv)
+        odo_uwb.ODO_UWB_RTS,  # odo_uwb + RTS smoother
+        *INS_STAGES,  # ins, ins_nhc, ins_rts, ins_nhc_rts (UWB/INS, paper 003 Table 1)
+        *GNSS_STAGES,  # gnss, gnss_kf, tight, tight_kf (GPS/UWB, paper 002)
     )
 }
 
