@@ -205,10 +205,6 @@ def run_pipeline(
         from coopproc.run.outages import run_with_outages
 
         return run_with_outages(session, config, run_pipeline, progress)
-    if config.run.outages:  # ranges withheld in the windows, listed again (run.outages)
-        from coopproc.run.outages import run_with_outages
-
-        return run_with_outages(session, config, run_pipeline, progress)
     step_label = progress or (lambda label: None)
     timings: dict[str, float] = {}
 
