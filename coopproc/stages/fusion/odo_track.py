@@ -47,6 +47,13 @@ class OdoUwbParams:
         default=0.0,
         metadata={"help": "yaw-rate noise, 1-sigma per sample (rad/s); 0: maximum likelihood"},
     )
+    range_sigma_scale: float = field(
+        default=0.0,
+        metadata={
+            "help": "factor on the declared range sigma (rows' sigma, else [uwb] sigma); "
+            "0: maximum likelihood"
+        },
+    )
     search_yaw_scale: bool = field(
         default=True,
         metadata={"help": "choose the yaw-rate scale (sign, wheelbase) by maximum likelihood"},
@@ -94,8 +101,10 @@ class OdoUwbParams:
     )
 
     def __post_init__(self) -> None:
-        if self.speed_sigma_mps < 0 or self.yaw_rate_sigma_radps < 0:
-            raise ValueError("speed_sigma_mps and yaw_rate_sigma_radps must be >= 0")
+        if min(self.speed_sigma_mps, self.yaw_rate_sigma_radps, self.range_sigma_scale) < 0:
+            raise ValueError(
+                "speed_sigma_mps, yaw_rate_sigma_radps and range_sigma_scale must be >= 0"
+            )
         if not 0 < self.k0 < self.k1:
             raise ValueError(f"k0 = {self.k0}, k1 = {self.k1}: expected 0 < k0 < k1")
         for name in ("calib_distance_m", "speed_scale_sigma", "yaw_scale_sigma", "range_sigma_m"):

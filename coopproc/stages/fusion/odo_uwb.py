@@ -13,8 +13,9 @@ What the data decides (maximum likelihood of the range innovations, the kernel's
 1. the initial heading (24 candidates, 15 deg apart) and the yaw-rate scale (1, or with
    ``search_yaw_scale`` +-{0.5, 0.71, 1, 1.41, 2}: a wrong wheelbase or swapped wheels),
    on the first ``calib_distance_m`` of travel;
-2. the wheel-speed noise (speed and yaw-rate 1-sigma per sample) on a grid, unless given
-   (speed, then yaw rate, then speed again, the other held);
+2. the wheel-speed noise (speed and yaw-rate 1-sigma per sample) and a factor on the
+   declared range sigma, each on a grid unless given (speed, yaw rate, range, speed, yaw
+   rate: one at a time, the others held);
 3. step 1 again with that noise, around the first choice (+-30 deg, one scale step). The
    filter then runs with these as its start; the scales, the yaw-rate bias and the range
    bias remain states.
@@ -43,8 +44,10 @@ HEADINGS = np.radians(np.arange(0.0, 360.0, 15.0))
 YAW_SCALES = (0.5, 2**-0.5, 1.0, 2**0.5, 2.0)
 SPEED_SIGMAS = (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5)
 YAW_SIGMAS = (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0)
-#: the defaults the first heading / yaw-scale search runs with
-START_SIGMAS = (0.05, 0.1)
+#: factors on the declared range sigma
+RANGE_SCALES = (0.35, 0.5, 0.71, 1.0, 1.41, 2.0, 2.83)
+#: the speed and yaw-rate noise and range-sigma factor the first heading search runs with
+START_SIGMAS = (0.05, 0.1, 1.0)
 MAD_WINDOW = 50
 #: the most steps the wheel-speed noise search runs on
 NOISE_STEPS = 5000
@@ -63,6 +66,7 @@ class OdoFit:
     yaw_scale0: float
     speed_sigma_mps: float
     yaw_sigma_radps: float
+    range_scale: float
     sigmas_estimated: bool
 
 
@@ -71,7 +75,7 @@ def _run(
     params: OdoUwbParams,
     heading: float,
     yaw_scale: float,
-    sigmas: tuple[float, float],
+    sigmas: tuple[float, float, float],
     searched: bool,
 ) -> tuple[FloatArray, ...]:
     x0 = np.array([track.init_pos[0], track.init_pos[1], heading, 1.0, yaw_scale, 0.0, 0.0])
@@ -105,7 +109,7 @@ def _run(
         track.ptr,
         track.anchor,
         track.rng,
-        track.var,
+        track.var * sigmas[2] ** 2,
         track.up,
         x0,
         c0,
@@ -122,7 +126,7 @@ def _nll(
     params: OdoUwbParams,
     heading: float,
     scale: float,
-    sigmas: tuple[float, float],
+    sigmas: tuple[float, float, float],
 ) -> float:
     return float(_run(track, params, heading, scale, sigmas, params.search_yaw_scale)[-1][0])
 
@@ -130,7 +134,7 @@ def _nll(
 def _search_start(
     track: OdoTrack,
     params: OdoUwbParams,
-    sigmas: tuple[float, float],
+    sigmas: tuple[float, float, float],
     near: tuple[float, float] | None = None,
 ) -> tuple[float, float]:
     """Initial heading and yaw-rate scale of least NLL on the calibration stretch: every
@@ -159,24 +163,28 @@ def _search_sigmas(
     params: OdoUwbParams,
     heading: float,
     scale: float,
-    start: tuple[float, float],
-) -> tuple[float, float]:
-    """Wheel-speed noise of least NLL: speed, yaw rate, speed again, each on its grid
-    with the other held (the given ones are kept)."""
-    speeds = (params.speed_sigma_mps,) if params.speed_sigma_mps > 0 else SPEED_SIGMAS
-    yaws = (params.yaw_rate_sigma_radps,) if params.yaw_rate_sigma_radps > 0 else YAW_SIGMAS
+    start: tuple[float, float, float],
+) -> tuple[float, float, float]:
+    """Wheel-speed noise and range-sigma factor of least NLL, one at a time on its grid
+    with the others held (speed, yaw rate, range, speed, yaw rate; given ones kept)."""
+    grids = (
+        (params.speed_sigma_mps,) if params.speed_sigma_mps > 0 else SPEED_SIGMAS,
+        (params.yaw_rate_sigma_radps,) if params.yaw_rate_sigma_radps > 0 else YAW_SIGMAS,
+        (params.range_sigma_scale,) if params.range_sigma_scale > 0 else RANGE_SCALES,
+    )
     track = head_of(track, min(len(track.t), NOISE_STEPS))
-    sv, sw = start
-    for grid, axis in ((speeds, 0), (yaws, 1), (speeds, 0)):
-        if len(grid) == 1:
-            sv, sw = (grid[0], sw) if axis == 0 else (sv, grid[0])
-            continue
-        scores = [
-            _nll(track, params, heading, scale, (g, sw) if axis == 0 else (sv, g)) for g in grid
-        ]
-        pick = grid[int(np.argmin(scores))]
-        sv, sw = (pick, sw) if axis == 0 else (sv, pick)
-    return sv, sw
+    current = list(start)
+    for axis in (0, 1, 2, 0, 1):
+        grid = grids[axis]
+        scores = []
+        for g in grid:
+            trial = list(current)
+            trial[axis] = g
+            scores.append(
+                np.inf if len(grid) == 1 else _nll(track, params, heading, scale, tuple(trial))
+            )
+        current[axis] = grid[int(np.argmin(scores))]
+    return current[0], current[1], current[2]
 
 
 def fit_track(track: OdoTrack, params: OdoUwbParams) -> OdoFit:
@@ -184,6 +192,7 @@ def fit_track(track: OdoTrack, params: OdoUwbParams) -> OdoFit:
     given = (
         params.speed_sigma_mps or START_SIGMAS[0],
         params.yaw_rate_sigma_radps or START_SIGMAS[1],
+        params.range_sigma_scale or START_SIGMAS[2],
     )
     heading, scale = _search_start(track, params, given)
     sigmas = _search_sigmas(track, params, heading, scale, given)
@@ -192,8 +201,8 @@ def fit_track(track: OdoTrack, params: OdoUwbParams) -> OdoFit:
         track, params, heading, scale, sigmas, params.search_yaw_scale
     )
     xs, cs = odo_backward(xf, cf, xp, cp, fs)
-    estimated = params.speed_sigma_mps == 0 or params.yaw_rate_sigma_radps == 0
-    return OdoFit(xf, cf, xs, cs, innov, heading, scale, sigmas[0], sigmas[1], estimated)
+    estimated = 0 in (params.speed_sigma_mps, params.yaw_rate_sigma_radps, params.range_sigma_scale)
+    return OdoFit(xf, cf, xs, cs, innov, heading, scale, sigmas[0], sigmas[1], sigmas[2], estimated)
 
 
 def _trajectory(track: OdoTrack, x: FloatArray, c: FloatArray, source: str) -> Trajectory:
@@ -228,7 +237,8 @@ def fit_note(track: OdoTrack, fit: OdoFit, method: str) -> str:
     text += (
         f"initial heading {np.degrees(fit.heading0_rad):.0f} deg (from the ranges); "
         f"wheel-speed noise ({how}) {fit.speed_sigma_mps:g} m/s, yaw rate "
-        f"{fit.yaw_sigma_radps:g} rad/s per sample; range NIS mean {np.mean(nis):.2f} "
+        f"{fit.yaw_sigma_radps:g} rad/s per sample, range sigma x {fit.range_scale:g} of the "
+        f"declared; range NIS mean {np.mean(nis):.2f} "
         f"(kept ranges {np.mean(nis[kept]) if kept.any() else np.nan:.2f}, expected 1), "
         f"{np.count_nonzero(~kept)} of {nis.shape[0]} ranges down-weighted by IGG-III"
     )
