@@ -25,6 +25,7 @@ from coopproc.gnss.tight import GnssEpochs, local_frame, prepare
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.stages.base import NavStates, PositionInput, PositionProduct, PositionStage
 from coopproc.stages.fusion.data import anchor_positions, range_sigma_default
+from coopproc.stages.fusion.tight_dop import dop_note, dop_table
 from coopproc.stages.fusion.tight_filter import (
     RangeRows,
     TightOptions,
@@ -218,14 +219,21 @@ def _trajectories(
 
 
 def solve(
-    session: Session, ranges: pd.DataFrame, params: GnssParams, uwb: bool, robust: bool
-) -> dict[str, TrackOutput]:
-    """The filter's outputs per platform (see the module docstring)."""
+    session: Session,
+    ranges: pd.DataFrame,
+    params: GnssParams,
+    uwb: bool,
+    robust: bool,
+    with_dop: bool = False,
+) -> tuple[dict[str, TrackOutput], pd.DataFrame | None]:
+    """The filter's outputs per platform (see the module docstring) and, ``with_dop``,
+    the DOP table of :func:`coopproc.stages.fusion.tight_dop.dop_table`."""
     ids = gnss_platforms(session)
     epochs = {p: prepare(session.gnss[p]) for p in ids}
     starts = {
         p: _start(session, p, float(ep.time_s[0]) if len(ep) else 0.0) for p, ep in epochs.items()
     }
+    keep = _keep_fn(params)
     opt = TightOptions(
         uwb=uwb,
         robust=robust,
@@ -235,18 +243,25 @@ def solve(
         q_h=params.accel_psd,
         q_v=params.accel_psd_up,
         doppler_sigma_mps=params.doppler_sigma_mps,
-        keep=_keep_fn(params),
+        keep=keep,
         gross=_gross_map(params, epochs),
     )
     rows = _range_rows(session, ranges, params.range_sigma_m)
-    return run_tight(epochs, starts, local_frame(session.origin_llh), rows, _fixed(session), opt)
+    frame = local_frame(session.origin_llh)
+    fixed = _fixed(session)
+    outputs = run_tight(epochs, starts, frame, rows, fixed, opt)
+    if not with_dop:
+        return outputs, None
+    dop = dop_table(epochs, outputs, frame, rows, fixed, keep, params.elevation_mask_deg)
+    return outputs, dop
 
 
-def _runner(uwb: bool, robust: bool):  # type: ignore[no-untyped-def]
+def _runner(name: str, uwb: bool, robust: bool):  # type: ignore[no-untyped-def]
     def run(inp: PositionInput, params: GnssParams) -> PositionProduct:
-        outputs = solve(inp.session, inp.ranges, params, uwb, robust)
+        outputs, dop = solve(inp.session, inp.ranges, params, uwb, robust, name == "tight")
         positions, states = _trajectories(inp.session, outputs, inp.output)
-        return PositionProduct(positions=positions, states=states)
+        notes = tuple(dop_note(name, dop)) if dop is not None else ()
+        return PositionProduct(positions=positions, states=states, notes=notes)
 
     return run
 
@@ -256,7 +271,7 @@ def _stage(name: str, uwb: bool, robust: bool, what: str) -> PositionStage:
         name=name,
         params_type=GnssParams,
         section="gnss",
-        run=_runner(uwb, robust),
+        run=_runner(name, uwb, robust),
         help=what,
         check=_check,
         uwb_only=True,
