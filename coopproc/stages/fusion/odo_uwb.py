@@ -180,9 +180,8 @@ def _search_sigmas(
         for g in grid:
             trial = list(current)
             trial[axis] = g
-            scores.append(
-                np.inf if len(grid) == 1 else _nll(track, params, heading, scale, tuple(trial))
-            )
+            sigmas = (trial[0], trial[1], trial[2])
+            scores.append(np.inf if len(grid) == 1 else _nll(track, params, heading, scale, sigmas))
         current[axis] = grid[int(np.argmin(scores))]
     return current[0], current[1], current[2]
 
