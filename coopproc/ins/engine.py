@@ -312,10 +312,11 @@ def _track(
     return InsTrack(enu, ecef @ c0.T, att, np.sqrt(np.maximum(var_pos, 0.0)))
 
 
-def _held_variance(run: ForwardRun, p: FloatArray, k_n: int) -> FloatArray:
-    """(K, 3) position variances, each sample holding its last propagation epoch's."""
+def _held_variance(run: ForwardRun, p_diag: FloatArray, k_n: int) -> FloatArray:
+    """(K, 3) position variances, each sample holding its last propagation epoch's
+    (``p_diag`` (J, n) the covariance diagonal per epoch)."""
     j = np.searchsorted(run.epoch_k, np.arange(k_n), side="right") - 1
-    return np.stack([p[:, i, i] for i in range(3)], axis=1)[j]
+    return p_diag[j, 0:3]
 
 
 def _stats(run: ForwardRun) -> tuple[InnovationStats, ...]:
@@ -359,8 +360,12 @@ def run_ins(
         from coopproc.ins.kernels import forward
 
         run = forward(t, dth, dv, nav0, ekf, plan, progress)
-    forward_track = _track(run.nav, _held_variance(run, run.p_filt, t.size), origin)
+    p_diag = np.diagonal(run.p_filt, axis1=1, axis2=2)
+    forward_track = _track(run.nav, _held_variance(run, p_diag, t.size), origin)
     smoothed = None
     if config.smooth:
-        raise StageError("INS: the RTS smoother is not there yet")
+        from coopproc.ins.smoother import smooth
+
+        sm = smooth(t, run, config.figures)
+        smoothed = _track(sm.nav, _held_variance(run, sm.p_diag, t.size), origin)
     return InsResult(t, forward_track, smoothed, _stats(run), al, origin)
