@@ -51,9 +51,14 @@ def imu_note(imu: ImuData) -> str:
 
 def odometer_note(odo: OdometerData) -> str:
     form = {"wheels": "wheel speeds", "twist": "twists"}.get(odo.form, "speeds")
+    use = (
+        "for odo_uwb with ranges to anchors"
+        if odo.yaw_rate_radps is not None
+        else "for odo_uwb with ranges to anchors and an IMU (the yaw rate)"
+    )
     return (
         f"{odo.source}: odometer {form} of {odo.platform} read ({odo.time_s.size} at "
-        f"{odo.rate_hz:.4g} Hz, {odo.duration_s:.1f} s); not used by this version's methods"
+        f"{odo.rate_hz:.4g} Hz, {odo.duration_s:.1f} s); {use}"
     )
 
 

@@ -153,7 +153,7 @@ def test_raw_sensor_files_are_listed_and_noted_once(sample_dir: Path, tmp_path: 
         f"note: {sample_dir / 'obs_A.21o'}: GNSS observations (RINEX) of A {NOT_USED}",
         f"note: {sample_dir / 'obs_C.rnx'}: GNSS observations (RINEX) of C {NOT_USED}",
         f"note: {sample_dir / 'odo_B.csv.gz'}: odometer speeds of B read (100 at 10 Hz, "
-        f"9.9 s); {read}",
+        "9.9 s); for odo_uwb with ranges to anchors and an IMU (the yaw rate)",
     ]
     res = CliRunner().invoke(main, ["validate", str(sample_dir)])
     assert res.exit_code == 0
@@ -217,7 +217,7 @@ def test_real_tuc_session_reads_validates_and_runs(real_data: Path, tmp_path: Pa
     assert session.sensor_files == (SensorFile("odo", tuc / "odo_robot.csv", "robot"),)
     note = (
         f"{tuc / 'odo_robot.csv'}: odometer wheel speeds of robot read (233 at 7.813 Hz, "
-        "29.8 s); not used by this version's methods"
+        "29.8 s); for odo_uwb with ranges to anchors"
     )
     assert session.odometer["robot"].form == "wheels"
     res = CliRunner().invoke(main, ["validate", str(tuc)])
