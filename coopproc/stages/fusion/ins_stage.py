@@ -16,7 +16,6 @@ solution; velocity and attitude go to states.csv.
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -196,12 +195,7 @@ def _run_platform(
         sigma_vel_mps=params.start_sigma_mps,
         smooth=uwb,
     )
-    try:
-        result = run_ins(imu, aiding, config)
-    except StageError as err:  # TEMPORARY: until coopproc.ins has the RTS smoother
-        if not config.smooth or "smoother" not in str(err):
-            raise
-        result = run_ins(imu, aiding, dataclasses.replace(config, smooth=False))
+    result = run_ins(imu, aiding, config)
     used = ["UWB ranges to anchors" if uwb else "no UWB"]
     used += ["NHC"] if use_nhc else []
     used += ["odometer"] if speed is not None else []
@@ -278,8 +272,6 @@ def _stage(mode: str) -> Callable[[PositionInput, InsParams], PositionProduct]:
         states: dict[str, NavStates] = {}
         for platform, result in results.items():
             track = result.smoothed if smoothed else result.forward
-            if track is None:  # TEMPORARY: until coopproc.ins has the RTS smoother
-                continue
             t = output_epochs(inp.session, platform, inp.ranges, inp.output)
             positions[platform], states[platform] = track_at(
                 platform, t, result.time_s, track, f"INS ({mode})"
