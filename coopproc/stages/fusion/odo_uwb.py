@@ -264,9 +264,7 @@ def odo_uwb_positions(
 
 def _stage(inp: PositionInput, params: OdoUwbParams, smooth: bool) -> PositionProduct:
     positions, notes = odo_uwb_positions(inp.session, inp.ranges, params, smooth=smooth)
-    # the fit's facts once, on the observed ranges (the processed sets repeat them)
-    shown = tuple(notes) if inp.range_set == "observed" else ()
-    return PositionProduct(positions=positions, notes=shown)
+    return PositionProduct(positions=positions, notes=tuple(notes))
 
 
 def odo_uwb_stage(inp: PositionInput, params: OdoUwbParams) -> PositionProduct:
@@ -298,9 +296,10 @@ ODO_UWB = PositionStage(
     section="odo_uwb",
     run=odo_uwb_stage,
     help="odometer + UWB: 2D EKF (wheel speeds, ranges to anchors, IGG-III) of every "
-    "platform with an odometer (causal); method odo_uwb or odo_uwb_<set>",
+    "platform with an odometer (causal), on the observed ranges; method odo_uwb",
     check=_check,
     uwb_only=True,
+    observed_only=True,
 )
 
 ODO_UWB_RTS = PositionStage(
@@ -309,7 +308,8 @@ ODO_UWB_RTS = PositionStage(
     section="odo_uwb",
     run=odo_uwb_rts_stage,
     help="the odo_uwb filter followed by the RTS smoother (paper 003 sec. 2.8); method "
-    "odo_uwb_rts or odo_uwb_rts_<set>",
+    "odo_uwb_rts",
     check=_check,
     uwb_only=True,
+    observed_only=True,
 )
