@@ -25,7 +25,6 @@ from coopproc.ins.errorstate import ErrorStateEkf
 from coopproc.ins.loop import KIND_NAMES, POSITION, RANGE, SPEED, EventPlan, ForwardRun
 from coopproc.ins.mechanize import increments_from_rates, make_nav
 from coopproc.ins.models import ImuFigures
-from coopproc.ins.quat import quat_to_euler
 from coopproc.model import FloatArray
 from coopproc.sensors import ImuData
 
@@ -37,8 +36,11 @@ __all__ = [
     "InsResult",
     "InsTrack",
     "PositionObs",
+    "Prepared",
     "RangeObs",
     "SpeedObs",
+    "prepare",
+    "run_forward",
     "run_ins",
     "static_mask",
 ]
@@ -294,6 +296,19 @@ def _start(
     return al, _arr(start, (3,))
 
 
+def _euler(q: FloatArray) -> FloatArray:
+    """(K, 3) roll, pitch, yaw (rad) of (K, 4) quaternions: quat.quat_to_euler, vectorized."""
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    c21 = 2.0 * (y * z + w * x)
+    c22 = w * w - x * x - y * y + z * z
+    c20 = 2.0 * (x * z - w * y)
+    c10 = 2.0 * (x * y + w * z)
+    c00 = w * w + x * x - y * y - z * z
+    return np.column_stack(
+        [np.arctan2(c21, c22), np.arcsin(np.clip(-c20, -1.0, 1.0)), np.arctan2(c10, c00)]
+    )
+
+
 def _track(
     run_nav: FloatArray, var_pos: FloatArray, origin: tuple[float, float, float]
 ) -> InsTrack:
@@ -308,7 +323,7 @@ def _track(
                             co * ve - sl * so * vn + cl * so * vu,
                             cl * vn + sl * vu])  # fmt: skip
     c0 = ecef_to_enu_matrix(np.radians(origin[0]), np.radians(origin[1]))
-    att = np.degrees(np.array([quat_to_euler(q) for q in run_nav[:, 6:10]]))
+    att = np.degrees(_euler(run_nav[:, 6:10]))
     return InsTrack(enu, ecef @ c0.T, att, np.sqrt(np.maximum(var_pos, 0.0)))
 
 
@@ -329,14 +344,23 @@ def _stats(run: ForwardRun) -> tuple[InnovationStats, ...]:
     return tuple(out)
 
 
-def run_ins(
-    imu: ImuData,
-    aiding: InsAiding,
-    config: InsConfig,
-    progress: Callable[[float], None] | None = None,
-) -> InsResult:
-    """The INS solution of one platform (see the module docstring); ``progress(fraction)``
-    is called now and then during the forward pass."""
+@dataclass(frozen=True, eq=False)
+class Prepared:
+    """The inputs of the forward loops (:func:`prepare`): IMU increments, the start nav,
+    the filter's start (P0, figures) and the aiding plan."""
+
+    time_s: FloatArray
+    dtheta: FloatArray
+    dvel: FloatArray
+    nav0: FloatArray
+    ekf: ErrorStateEkf
+    plan: EventPlan
+    alignment: Alignment
+    origin_llh: tuple[float, float, float]
+
+
+def prepare(imu: ImuData, aiding: InsAiding, config: InsConfig) -> Prepared:
+    """Align, build the start nav and P0, tie the aiding to the IMU samples."""
     origin = config.origin_llh if config.origin_llh is not None else DEFAULT_ORIGIN_LLH
     t = np.asarray(imu.time_s, dtype=np.float64)
     if t.size < 3:
@@ -352,14 +376,37 @@ def run_ins(
         config.figures, np.full(3, config.sigma_pos_m), np.full(3, config.sigma_vel_mps),
         np.array([al.sigma_level, al.sigma_level, al.sigma_yaw]), config.scale_factors,
     )  # fmt: skip
-    if config.engine == "plain":
+    return Prepared(t, dth, dv, nav0, ekf, plan, al, origin)
+
+
+def run_forward(
+    prep: Prepared,
+    engine: Literal["compiled", "plain"] = "compiled",
+    progress: Callable[[float], None] | None = None,
+) -> ForwardRun:
+    """The forward filter of a :class:`Prepared` run (P0 copied: repeatable)."""
+    ekf = ErrorStateEkf(prep.ekf.noise, prep.ekf.p.copy())
+    if engine == "plain":
         from coopproc.ins.loop import run_events
 
-        run = run_events(t, dth, dv, nav0, ekf, plan, progress)
-    else:
-        from coopproc.ins.kernels import forward
+        return run_events(prep.time_s, prep.dtheta, prep.dvel, prep.nav0, ekf, prep.plan,
+                          progress)  # fmt: skip
+    from coopproc.ins.kernels import forward
 
-        run = forward(t, dth, dv, nav0, ekf, plan, progress)
+    return forward(prep.time_s, prep.dtheta, prep.dvel, prep.nav0, ekf, prep.plan, progress)
+
+
+def run_ins(
+    imu: ImuData,
+    aiding: InsAiding,
+    config: InsConfig,
+    progress: Callable[[float], None] | None = None,
+) -> InsResult:
+    """The INS solution of one platform (see the module docstring); ``progress(fraction)``
+    is called now and then during the forward pass."""
+    prep = prepare(imu, aiding, config)
+    t, origin = prep.time_s, prep.origin_llh
+    run = run_forward(prep, config.engine, progress)
     p_diag = np.diagonal(run.p_filt, axis1=1, axis2=2)
     forward_track = _track(run.nav, _held_variance(run, p_diag, t.size), origin)
     smoothed = None
@@ -368,4 +415,4 @@ def run_ins(
 
         sm = smooth(t, run, config.figures)
         smoothed = _track(sm.nav, _held_variance(run, sm.p_diag, t.size), origin)
-    return InsResult(t, forward_track, smoothed, _stats(run), al, origin)
+    return InsResult(t, forward_track, smoothed, _stats(run), prep.alignment, origin)
