@@ -46,10 +46,15 @@ from coopproc.stages.particle.core import (
     Track,
     TrackBuilder,
     init_cloud,
-    kernel_jitter,
-    log_likelihood,
     normalize_log,
     propagate,
+    update_weights,
+)
+from coopproc.stages.particle.fused import (
+    jitter_kernel,
+    move_and_jitter,
+    posterior_moments,
+    resample_and_jitter,
 )
 from coopproc.stages.particle.inputs import LocateInputs
 from coopproc.stages.particle.modekeep import (
@@ -61,7 +66,6 @@ from coopproc.stages.particle.modekeep import (
 from coopproc.stages.particle.modes import find_modes
 from coopproc.stages.particle.monitor import AuxMonitor, ranging_noise_m2, ring_auxiliary
 from coopproc.stages.particle.params import LocateParams
-from coopproc.stages.particle.pf import first_copies, systematic_resample
 from coopproc.stages.particle.progress import ProgressFn
 
 __all__ = ["AuxMonitor", "run_aacopf"]  # AuxMonitor: see monitor.py
@@ -119,7 +123,7 @@ def run_aacopf(
         rejected[t] = ~use & np.isfinite(inputs.range_m[t])
         used[t] = use & np.isfinite(inputs.range_m[t])
         # step 4: weights, eq. (12)-(13)
-        cloud.log_w += log_likelihood(
+        w = update_weights(
             cloud,
             inputs,
             t,
@@ -129,8 +133,13 @@ def run_aacopf(
             outlier_sigmas=outlier,
             floor_mask=~monitor.judged,
         )
-        w = normalize_log(cloud.log_w)
-        builder.record(t, cloud, w)  # step 6, eq. (15)-(16)
+        # the posterior's weighted moments: eq. (15)'s estimate and the kernel of the
+        # jitters after the moves and the resampling (fused.py)
+        cos_phi, sin_phi = cloud.trig()
+        mean, cov, phi_mean, total = posterior_moments(
+            cloud.east, cloud.north, cloud.phi, cos_phi, sin_phi, cloud.scale, w, 1e-12
+        )
+        builder.record(t, cloud, w, estimate=(mean[0], mean[1], phi_mean))  # step 6
         if progress is not None:
             progress("aacopf", t + 1, n_e)
         if keeping and t % params.mode_every == 0:
@@ -168,18 +177,43 @@ def run_aacopf(
             params.aco_cell_m,
             params.aco_weight_gate,
         )
-        if cloud.mode is not None:
-            idx = cancel_cross_mode(idx, cloud.mode)
+        # every auxiliary used now is judged (or the ring's, alone in the warm-up)
+        settled = n_j == 1 or bool((monitor.judged | (np.arange(n_j) == j_ring))[used[t]].all())
+        if cloud.mode is None:
+            chol, h, a = jitter_kernel(cov, cloud.size, params.kernel_scale, params.kernel_shrink)
+            if total <= 0:
+                h, a = 0.0, 1.0
+            east, north, phi, phi0, scale, w, ess = move_and_jitter(
+                cloud.east, cloud.north, cloud.phi, cloud.phi0, cloud.scale, w, idx, cloud.noise,
+                chol, mean, phi_mean, h, a,
+            )  # fmt: skip
+            if settled and ess < params.ess_min * cloud.size:
+                # degeneracy guard (once every auxiliary is judged): systematic
+                # resampling, weights 1 / (N x M) as step 5 says
+                east, north, phi, phi0, scale = resample_and_jitter(
+                    east, north, phi, phi0, scale, w, float(rng.random()), cloud.noise,
+                    chol, mean, phi_mean, h, a,
+                )  # fmt: skip
+                cloud.log_w = np.full(cloud.size, -np.log(cloud.size))
+            else:
+                with np.errstate(divide="ignore"):
+                    cloud.log_w = np.log(w)
+            cloud.cos_phi = cloud.sin_phi = None
+            cloud.east, cloud.north, cloud.phi, cloud.phi0, cloud.scale = (
+                east,
+                north,
+                phi,
+                phi0,
+                scale,
+            )
+            continue
+        # modes kept (mode_keep): the moves and the resampling of each mode on its own
+        idx = cancel_cross_mode(idx, cloud.mode)
         w_before = w
         cloud.take(idx)
         w = share_weights(w, idx)
-        if cloud.mode is not None:
-            jitter_by_mode(cloud, w_before, idx != np.arange(cloud.size), params, rng)
-        else:
-            kernel_jitter(cloud, w_before, idx != np.arange(cloud.size), params, rng)
-        # every auxiliary used now is judged (or the ring's, alone in the warm-up)
-        settled = n_j == 1 or bool((monitor.judged | (np.arange(n_j) == j_ring))[used[t]].all())
-        if settled and cloud.mode is not None and 1.0 / float(w @ w) < params.ess_min * cloud.size:
+        jitter_by_mode(cloud, w_before, idx != np.arange(cloud.size), params, rng)
+        if settled and 1.0 / float(w @ w) < params.ess_min * cloud.size:
             # modes kept: each resampled on its own, none below min_particles
             res, w_new = resample_by_mode(w, cloud.mode, min_particles, rng)
             cloud.take(res)
@@ -187,15 +221,6 @@ def run_aacopf(
             dup[np.unique(res, return_index=True)[1]] = False  # res not sorted here
             jitter_by_mode(cloud, w_new, dup, params, rng)
             cloud.log_w = np.log(w_new)
-        elif settled and 1.0 / float(w @ w) < params.ess_min * cloud.size:
-            # degeneracy guard (once every auxiliary is judged): systematic resampling,
-            # weights 1 / (N x M) as step 5 says
-            res = systematic_resample(w, float(rng.random()))
-            cloud.take(res)
-            dup = first_copies(res)
-            np.logical_not(dup, out=dup)  # first copies stay exact
-            kernel_jitter(cloud, w, dup, params, rng)
-            cloud.log_w = np.full(cloud.size, -np.log(cloud.size))
         else:
             with np.errstate(divide="ignore"):
                 cloud.log_w = np.log(w)

@@ -37,11 +37,31 @@ MIN_DISTANCE_M = 1e-3
 MAX_CELLS = 4_000_000
 
 
+@numba.njit(cache=True)
+def _top_k(w: np.ndarray, k: int) -> np.ndarray:  # pragma: no cover - compiled
+    """One pass keeping the k heaviest so far sorted (heaviest first, the lower index
+    first among equal weights): most particles are rejected by one comparison."""
+    out = np.empty(k, dtype=np.int64)
+    kept = 0
+    for i in range(w.shape[0]):
+        wi = w[i]
+        if kept == k and not wi > w[out[k - 1]]:
+            continue
+        c = kept if kept < k else k - 1
+        while c > 0 and wi > w[out[c - 1]]:  # equal weights keep the earlier index first
+            if c < k:
+                out[c] = out[c - 1]
+            c -= 1
+        out[c] = i
+        if kept < k:
+            kept += 1
+    return out
+
+
 def top_k(w: FloatArray, k: int) -> np.ndarray:
-    """Indices of the ``k`` largest weights (ties broken by index, deterministic)."""
-    k = min(k, w.shape[0])
-    part = np.argpartition(-w, k - 1)[:k]
-    return np.asarray(part[np.lexsort((part, -w[part]))], dtype=np.int64)
+    """Indices of the ``k`` largest weights, heaviest first (ties broken by index,
+    deterministic)."""
+    return np.asarray(_top_k(np.ascontiguousarray(w, dtype=float), min(k, w.shape[0])))
 
 
 @numba.njit(cache=True, inline="always")
@@ -140,15 +160,19 @@ def _aco_targets(
                 else:
                     v[n] = _numerator(grid[c, 0] - wi, d2, alpha, beta)
                 n += 1
-        best = -1
-        best_v = 0.0
+        # the sum and the largest numerator as two reductions that vectorize, then the
+        # first candidate that has it
         total = 0.0
+        best_v = 0.0
         for c in range(n):
             total += v[c]
-            if v[c] > best_v:
-                best_v = v[c]
-                best = c
-        if best >= 0 and best_v > lam * total:  # P_ij^best > lambda
+            best_v = max(best_v, v[c])
+        best = -1
+        if best_v > 0.0 and best_v > lam * total:
+            best = 0
+            while v[best] != best_v:
+                best += 1
+        if best >= 0:  # P_ij^best > lambda
             if best < n_cand:
                 out[i] = cand[best]
             else:  # the champion of the best cell of the 3 x 3 neighbourhood

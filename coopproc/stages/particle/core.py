@@ -8,11 +8,12 @@ Particle r = n * M + i starts at position n of the ring and initial azimuth i, s
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from coopproc.model import FloatArray
+from coopproc.stages.particle.fused import range_update
 from coopproc.stages.particle.increments import wrap_pi
 from coopproc.stages.particle.inputs import LocateInputs
 from coopproc.stages.particle.kernels import (
@@ -22,6 +23,7 @@ from coopproc.stages.particle.kernels import (
     weighted_moments,
 )
 from coopproc.stages.particle.modes import Mode
+from coopproc.stages.particle.normal import seed_state
 from coopproc.stages.particle.params import LocateParams
 
 __all__ = [
@@ -30,9 +32,9 @@ __all__ = [
     "TrackBuilder",
     "init_cloud",
     "kernel_jitter",
-    "log_likelihood",
     "normalize_log",
     "propagate",
+    "update_weights",
 ]
 
 
@@ -50,6 +52,18 @@ class Cloud:
     scale: FloatArray
     #: Mode label of each particle (modes.find_modes; -1 none), None when not tracked.
     mode: np.ndarray | None = None
+    #: State of the compiled kernels' random numbers (normal.seed_state, from the
+    #: filter's Generator at step 1): process noise and kernel jitter.
+    noise: np.ndarray = field(default_factory=lambda: np.ones(4, dtype=np.uint64))
+    #: cos and sin of ``phi`` where known (set by :func:`propagate`; None after a move).
+    cos_phi: FloatArray | None = None
+    sin_phi: FloatArray | None = None
+
+    def trig(self) -> tuple[FloatArray, FloatArray]:
+        """(cos phi, sin phi) of the current azimuths."""
+        if self.cos_phi is None or self.sin_phi is None:
+            self.cos_phi, self.sin_phi = np.cos(self.phi), np.sin(self.phi)
+        return self.cos_phi, self.sin_phi
 
     @property
     def size(self) -> int:
@@ -62,6 +76,7 @@ class Cloud:
         self.phi = self.phi[idx]
         self.phi0 = self.phi0[idx]
         self.scale = self.scale[idx]
+        self.cos_phi = self.sin_phi = None
         if self.mode is not None:
             self.mode = self.mode[idx]
 
@@ -120,7 +135,15 @@ def init_cloud(
     log_w = np.full(n * m, -np.log(n * m))
     # odometer scale error of each particle, drawn from its prior (0: eq. (3) exactly)
     scale = params.odometer_scale_sigma * rng.standard_normal(n * m)
-    return Cloud(east=east, north=north, phi=phi, log_w=log_w, phi0=phi.copy(), scale=scale)
+    return Cloud(
+        east=east,
+        north=north,
+        phi=phi,
+        log_w=log_w,
+        phi0=phi.copy(),
+        scale=scale,
+        noise=seed_state(rng),
+    )
 
 
 def propagate(
@@ -140,20 +163,23 @@ def propagate(
     inc = inputs.increments
     delta_l = float(inc.delta_l_m[k])
     root_dt = float(np.sqrt(max(inc.time_s[k + 1] - inc.time_s[k], 0.0)))
-    noise = rng.standard_normal((3, cloud.size))
     sigma_xy = params.step_sigma_m * root_dt + params.step_sigma_rel * delta_l
     sigma_phi = float(np.radians(params.heading_sigma_deg)) * root_dt
+    cos_phi, sin_phi = np.empty(cloud.size), np.empty(cloud.size)
     propagate_kernel(
         cloud.east,
         cloud.north,
         cloud.phi,
         cloud.scale,
-        noise,
+        cloud.noise,
         delta_l,
         float(inc.delta_phi_rad[k]),
         sigma_xy,
         sigma_phi,
+        cos_phi,
+        sin_phi,
     )
+    cloud.cos_phi, cloud.sin_phi = cos_phi, sin_phi
 
 
 def kernel_jitter(
@@ -221,7 +247,7 @@ def kernel_jitter(
     )
 
 
-def log_likelihood(
+def update_weights(
     cloud: Cloud,
     inputs: LocateInputs,
     k: int,
@@ -231,30 +257,40 @@ def log_likelihood(
     outlier_sigmas: float = 0.0,
     floor_mask: np.ndarray | None = None,
 ) -> FloatArray:
-    """Gaussian range log-likelihood, summed over the auxiliaries used at epoch k.
+    """Eq. (12)-(13): add the ranges' log-likelihood at epoch k to ``cloud.log_w`` (in
+    place) and return the normalized weights.
 
-    Eq. (11) predicted distance per particle, Algorithm 1 line 12 weight
+    Gaussian range log-likelihood, summed over the auxiliaries used at epoch k: eq. (11)
+    predicted distance per particle, Algorithm 1 line 12 weight
     exp(-sum_j (d_hat - d_1j)^2 / (2 s_j^2)) with s_j^2 = sigma_j^2 + floor^2 (+ inflate_j^2).
     ``outlier_sigmas`` > 0 mixes in a flat outlier floor per auxiliary, exp(-k^2 / 2) with
     k = outlier_sigmas: one range that disagrees by more than k sigma then costs at most
     that factor instead of removing the particle; ``floor_mask`` (J,) limits the floor to
     some auxiliaries.
     """
-    out = np.zeros(cloud.size)
-    for j in range(inputs.range_m.shape[1]):
-        z = inputs.range_m[k, j]
-        if not np.isfinite(z) or (use is not None and not use[j]):
-            continue
-        s2 = inputs.sigma_m[k, j] ** 2 + params.likelihood_floor_m**2
-        if inflate_m is not None:
-            s2 += float(inflate_m[j]) ** 2
-        ax, ay = inputs.aux_en_m[k, j]
-        d_hat = np.hypot(cloud.east - ax, cloud.north - ay)  # eq. (11)
-        term = -0.5 * (d_hat - z) ** 2 / s2
-        if outlier_sigmas > 0 and (floor_mask is None or floor_mask[j]):
-            term = np.logaddexp(term, -0.5 * outlier_sigmas**2)
-        out += term
-    return out
+    js = [
+        j
+        for j in range(inputs.range_m.shape[1])
+        if np.isfinite(inputs.range_m[k, j]) and (use is None or use[j])
+    ]
+    s2 = inputs.sigma_m[k, js] ** 2 + params.likelihood_floor_m**2
+    if inflate_m is not None:
+        s2 = s2 + np.asarray(inflate_m, dtype=float)[js] ** 2
+    floor = np.full(len(js), -np.inf)
+    if outlier_sigmas > 0:
+        mask = np.ones(len(js), dtype=bool) if floor_mask is None else floor_mask[js]
+        floor[mask] = -0.5 * outlier_sigmas**2
+    aux = inputs.aux_en_m[k, js]
+    return range_update(
+        cloud.log_w,
+        cloud.east,
+        cloud.north,
+        np.ascontiguousarray(aux[:, 0], dtype=float),
+        np.ascontiguousarray(aux[:, 1], dtype=float),
+        np.ascontiguousarray(inputs.range_m[k, js], dtype=float),
+        np.ascontiguousarray(s2, dtype=float),
+        floor,
+    )
 
 
 def normalize_log(log_w: FloatArray) -> FloatArray:
@@ -295,13 +331,22 @@ class TrackBuilder:
         self.turned = inc.heading_own_rad() - inc.theta0_rad
         self.mean_implied = np.empty(e)
 
-    def record(self, k: int, cloud: Cloud, w: FloatArray) -> None:
+    def record(
+        self,
+        k: int,
+        cloud: Cloud,
+        w: FloatArray,
+        estimate: tuple[float, float, float] | None = None,
+    ) -> None:
         """Eq. (15) weighted mean position, circular weighted mean azimuth at epoch k.
 
         Particles lighter than 1e-12 x the heaviest are left out of the sums (they change
-        them by less than the float precision of the output).
+        them by less than the float precision of the output). ``estimate``: (east, north,
+        azimuth) already computed so (kernels.weighted_moments, the same sums).
         """
-        e, n, p = weighted_estimate(cloud.east, cloud.north, cloud.phi, w, 1e-12)
+        if estimate is None:
+            estimate = weighted_estimate(cloud.east, cloud.north, cloud.phi, w, 1e-12)
+        e, n, p = estimate
         self.east[k], self.north[k], self.phi[k] = e, n, p
         # eq. (16) literally: the initial azimuth of the largest-weight particle's lineage
         # (index r mod M of the initial grid). With process noise on the azimuth a lineage

@@ -3,14 +3,18 @@
 At 400 x 400 = 160,000 particles every numpy expression of a step is a pass over the
 cloud plus a temporary array; the propagation, the weighted moments behind the kernel
 jitter and the estimate of eq. (15) took about 60 % of an AACOPF step. These kernels
-do each in one pass without temporaries. The random numbers still come from the
-filter's numpy Generator, drawn in the same order, so a seed gives the same cloud.
+do each in one pass without temporaries. The propagation draws its random numbers inside
+the kernel (normal.standard_normal, seeded from the filter's Generator), one particle
+after another, so a seed gives the same cloud (fused.py has the AACOPF's
+other per-epoch passes).
 """
 
 from __future__ import annotations
 
 import numba
 import numpy as np
+
+from coopproc.stages.particle.normal import standard_normal
 
 __all__ = [
     "jitter_apply",
@@ -39,14 +43,23 @@ def propagate_kernel(
     delta_phi: float,
     sigma_xy: float,
     sigma_phi: float,
+    cos_phi: np.ndarray,
+    sin_phi: np.ndarray,
 ) -> None:  # pragma: no cover - compiled
-    """Eq. (3) with process noise, in place (see core.propagate): noise is (3, P)."""
+    """Eq. (3) with process noise, in place (see core.propagate); the three standard
+    normals of a particle (azimuth, east, north) drawn in turn from the generator
+    state ``noise`` (normal.standard_normal); the cosine and sine of each new azimuth
+    into ``cos_phi`` and ``sin_phi`` (the posterior's circular mean needs them)."""
     for i in range(east.shape[0]):
-        p = phi[i] + delta_phi + sigma_phi * noise[2, i]
+        p = phi[i] + delta_phi + sigma_phi * standard_normal(noise)
         phi[i] = p
+        c = np.cos(p)
+        sn = np.sin(p)
+        cos_phi[i] = c
+        sin_phi[i] = sn
         step = delta_l * (1.0 + scale[i])
-        east[i] += step * np.cos(p) + sigma_xy * noise[0, i]
-        north[i] += step * np.sin(p) + sigma_xy * noise[1, i]
+        east[i] += step * c + sigma_xy * standard_normal(noise)
+        north[i] += step * sn + sigma_xy * standard_normal(noise)
 
 
 @numba.njit(cache=True)

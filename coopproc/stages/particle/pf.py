@@ -14,9 +14,8 @@ from coopproc.stages.particle.core import (
     Track,
     TrackBuilder,
     init_cloud,
-    log_likelihood,
-    normalize_log,
     propagate,
+    update_weights,
 )
 from coopproc.stages.particle.inputs import LocateInputs
 from coopproc.stages.particle.kernels import systematic_indices
@@ -53,8 +52,7 @@ def run_pf(
     for t in range(n_e):
         if t > 0:
             propagate(cloud, inputs, t - 1, params, rng)
-        cloud.log_w += log_likelihood(cloud, inputs, t, params)
-        w = normalize_log(cloud.log_w)
+        w = update_weights(cloud, inputs, t, params)
         builder.record(t, cloud, w)
         if progress is not None:
             progress("pf", t + 1, n_e)
