@@ -29,6 +29,8 @@ from click.testing import CliRunner
 from coopproc.cli import main
 from coopproc.io.session import read_session
 from coopproc.model import Session, Trajectory
+from coopproc.run.chain import PipelineParams
+from coopproc.run.odo_methods import odo_pipeline
 from coopproc.stages.fusion.lsq import LsqParams
 from coopproc.stages.fusion.odo_track import OdoUwbParams, odo_tracks
 from coopproc.stages.fusion.odo_uwb import fit_track, odo_uwb_positions
@@ -128,3 +130,16 @@ def test_simulated_odometer_and_gyro_meet_the_noise_targets(simulated: Session) 
     nav = simulated.nav["tag"]
     nav_rmse = _rmse_at(simulated, nav, nav.time_s)
     assert f_rmse < min(lsq_rmse, nav_rmse), (f_rmse, lsq_rmse, nav_rmse)
+
+
+def test_the_methods_are_added_only_for_platforms_with_an_odometer(simulated: Session) -> None:
+    params = PipelineParams(positions=("fusion",))
+    chain, notes = odo_pipeline(params, simulated, OdoUwbParams())
+    assert chain.positions == ("fusion", "odo_uwb", "odo_uwb_rts") and len(notes) == 1
+    assert odo_pipeline(params, simulated, OdoUwbParams(auto=False)) == (params, [])
+    named = PipelineParams(positions=("odo_uwb_rts",))
+    assert odo_pipeline(named, simulated, OdoUwbParams()) == (named, [])
+    # a session without odometer files: the very same chain (its outputs stay byte-identical)
+    plain = read_session(Path(__file__).resolve().parents[2] / "sample_logs")
+    assert not plain.odometer
+    assert odo_pipeline(params, plain, OdoUwbParams())[0] is params
