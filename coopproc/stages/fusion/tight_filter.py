@@ -18,10 +18,12 @@ Updates, in time order over every platform's GPS epochs and the UWB range rows:
   inter-platform range are updated, each with the other's prior.
 
 Robust factor (eq. 14-20): every innovation is standardised by its predicted variance
-diag(H C H^T + R); per update the unit-weight sigma is the MAD estimate of eq. (20)
-floored at 1 (the "adaptive" part: it widens the acceptance band when a whole epoch is
-worse than its model, never narrows it); IGG-III (eq. 18) scales R by 1 / gamma; rows
-with gamma = 1e-30 are dropped. ``robust = False`` is the standard Kalman filter.
+diag(H C H^T + R); in an update of 5 or more rows (a GPS epoch) the unit-weight sigma
+is the MAD estimate of eq. (20) floored at 1 (the "adaptive" part: it widens the
+acceptance band when a whole epoch is worse than its model, never narrows it), for a
+single range it is 1 (the MAD of one innovation is the innovation itself); IGG-III
+(eq. 18) scales R by 1 / gamma; rows with gamma = 1e-30 are dropped. ``robust = False``
+is the standard Kalman filter.
 
 The first GPS epoch of a platform starts its filter: position from its navigation file
 (else the session origin) with 30 m sigma, clock bias and drift from the median
@@ -38,11 +40,13 @@ import numpy as np
 from coopproc.gnss.ephemeris import SPEED_OF_LIGHT
 from coopproc.gnss.tight import GnssEpochs, LocalFrame, epoch_model
 from coopproc.model import FloatArray
-from coopproc.stages.filters import kf_update, robust_factors
+from coopproc.stages.filters import igg3_factor, kf_update, robust_factors
 
 __all__ = ["RangeRows", "TightOptions", "TrackOutput", "run_tight"]
 
 _H0, _H2 = 2e-19, 2e-20  # TCXO Allan-variance coefficients (Brown & Hwang Table 9.1)
+#: fewest innovations of one update for the MAD unit-weight sigma of eq. (20)
+_MAD_MIN = 5
 
 
 @dataclass(frozen=True)
@@ -135,7 +139,10 @@ class _Track:
 def _update(track: _Track, v: FloatArray, h: FloatArray, r: FloatArray, opt: TightOptions) -> None:
     d = np.einsum("ij,jk,ik->i", h, track.c, h) + r
     if opt.robust:
-        gamma = robust_factors(v, d, opt.k0, opt.k1)
+        if v.shape[0] >= _MAD_MIN:
+            gamma = robust_factors(v, d, opt.k0, opt.k1)
+        else:  # too few for a median: the predicted variance alone (unit sigma 1)
+            gamma = igg3_factor(v / np.sqrt(d), opt.k0, opt.k1)
         keep = gamma > 1e-29
         if not keep.any():
             return
