@@ -77,6 +77,7 @@ from coopproc.report.trajectory_plots import (
 __all__ = [
     "FIGURE_NAMES",
     "FORMATS",
+    "OUTAGE_FIGURE_NAMES",
     "FigurePage",
     "figure_pages",
     "make_figures",
@@ -298,7 +299,10 @@ _BUILDERS: dict[str, Callable[[RunTables, FigureOptions, _Groups], Panels | None
     "error_track": _error_track,
     "outage_drift": outage_panels,  # runs with [run] outages only (report/outage_figure.py)
 }
-FIGURE_NAMES: tuple[str, ...] = tuple(_BUILDERS)
+#: Figures of a run with UWB outage windows only (report/outage_figure.py); like the
+#: stochastic ones, not among FIGURE_NAMES, the figures a run draws from its tables.
+OUTAGE_FIGURE_NAMES: tuple[str, ...] = ("outage_drift",)
+FIGURE_NAMES: tuple[str, ...] = tuple(n for n in _BUILDERS if n not in OUTAGE_FIGURE_NAMES)
 
 
 @dataclass(frozen=True)
@@ -376,7 +380,7 @@ def make_figures(run: RunTables, options: FigureOptions | None = None) -> dict[s
 def _stale_pages(fig_dir: Path, fmt: str, keep: set[str]) -> list[Path]:
     """Further pages of our figures left by an earlier call (``name_<n>.fmt``)."""
     out = []
-    for name in FIGURE_NAMES:
+    for name in (*FIGURE_NAMES, *OUTAGE_FIGURE_NAMES):
         for path in fig_dir.glob(f"{name}_*.{fmt}"):
             suffix = path.stem[len(name) + 1 :]
             if suffix.isdigit() and path.stem not in keep:
