@@ -128,7 +128,7 @@ def test_run_leaves_uncovered_ranges_out_and_notes_them(holed: Path, tmp_path: P
     assert session.notes[-3:] == tuple(notes)
 
     out = tmp_path / "out"
-    res = CliRunner().invoke(main, ["run", str(holed), "-o", str(out)])
+    res = CliRunner().invoke(main, ["run", str(holed), "-o", str(out), "--no-figures"])
     assert res.exit_code == 0, res.output
     for note in notes:
         assert res.output.count(f"note: {note}\n") == 1

@@ -192,7 +192,9 @@ def test_tag_is_read_and_run_with_a_note(sample_dir: Path, tmp_path: Path) -> No
     assert (res.exit_code, res.output) == (0, f"{sample_dir}: ok\n")
     # coopproc run positions tags by the UWB-only methods (coopproc.run.tags); this one
     # ranges to one anchor only, so it gets no fix, and says so
-    res = CliRunner().invoke(main, ["run", str(sample_dir), "-o", str(tmp_path / "out")])
+    res = CliRunner().invoke(
+        main, ["run", str(sample_dir), "-o", str(tmp_path / "out"), "--no-figures"]
+    )
     assert res.exit_code == 0, res.output
     assert "note: tag T (no navigation of its own): UWB-only positioning lsq, lsq_rts" in (
         res.output
