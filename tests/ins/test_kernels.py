@@ -51,3 +51,23 @@ def test_compiled_loop_equals_the_plain_loop(scale_factors: bool) -> None:
     assert kinds["range"].rejected >= 1 and kinds["range"].downweighted >= 1
     # and the solution is a good one (not two equal failures)
     assert np.abs(compiled.forward.enu_m[400:] - sc.truth_enu[400:]).max() < 0.1
+
+
+def test_zero_velocity_updates_hold_a_resting_imu_in_both_loops() -> None:
+    fig = GRADES["industrial"]
+    sc = aided_scenario("straight", fig, 10.0, seed=9, speed_mps=0.0, odo_sigma_mps=0.002)
+    aid = InsAiding(speed=sc.aiding.speed, zupt=True)
+    cfg = InsConfig(fig, sc.origin_llh, sc.alignment, start_enu=np.zeros(3), engine="plain")
+    plain = run_ins(sc.imu, aid, cfg)
+    compiled = run_ins(sc.imu, aid, replace(cfg, engine="compiled"))
+    assert np.abs(plain.forward.enu_m - compiled.forward.enu_m).max() < 1e-6
+    kinds = {s.kind: s for s in compiled.stats}
+    # at rest every 0.1 s (the odometer says 0 too): 3 rows each
+    assert kinds["zupt"].count == 3 * 100
+    assert kinds["speed"].count == sc.aiding.speed.time_s.size  # type: ignore[union-attr]
+    free = run_ins(sc.imu, InsAiding(), replace(cfg, engine="compiled"))
+    drift_free = np.abs(free.forward.enu_m[-1, :2]).max()
+    # turn-on biases of 5 mg: 1/2 b t^2 of metres in 10 s without the updates
+    assert drift_free > 0.5
+    assert np.abs(compiled.forward.enu_m[:, :2]).max() < 0.02 * drift_free
+    assert np.abs(compiled.forward.vel_enu).max() < 0.01
