@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from coopproc.cli.options import comma_names, max_panels_option, style_option
+
+if TYPE_CHECKING:
+    from coopproc.report.rundir import RunTables
 
 __all__ = ["report"]
 
@@ -47,6 +51,15 @@ def _alignments(value: str | None) -> list[str]:
                 param_hint="'--align'",
             )
     return names
+
+
+def _outage_origin(run: RunTables) -> float:
+    """The session start the run's outage windows count from (run.json ``outages``), else
+    the run's time origin."""
+    windows = (run.info.get("outages") or {}).get("windows") or []
+    if windows and all(k in windows[0] for k in ("start", "start_s")):
+        return float(windows[0]["start"]) - float(windows[0]["start_s"])
+    return run.time_origin_s
 
 
 @click.command("report")
@@ -266,7 +279,7 @@ def report(
             text = format_outages(
                 run.outages,
                 fmt or "terminal",  # type: ignore[arg-type]
-                origin_s=run.time_origin_s,
+                origin_s=_outage_origin(run),
                 latex_width=latex_width,  # type: ignore[arg-type]
             )
         elif evaluate:  # the evaluation tables instead of Table 2 / Table 3
