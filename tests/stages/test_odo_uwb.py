@@ -10,7 +10,7 @@ SIGMA_R * HDOP with HDOP about 1 inside the square; the odometer carries the pos
 between rounds with a drift of SIGMA_V sqrt(T dt) along and v dt SIGMA_W sqrt(T dt)
 across the track (T = 0.1 s) that stays below SIGMA_R for several rounds, so the filter
 averages several rounds: its RMSE must stay below 0.7 SIGMA_R, the smoother's below
-0.4 SIGMA_R (measured 0.44..0.57 and 0.20..0.31 SIGMA_R over seeds 0..4). The odometer
+0.4 SIGMA_R (measured 0.43..0.58 and 0.20..0.31 SIGMA_R over seeds 0..4). The odometer
 alone (dead reckoning from the true start) must be far worse.
 """
 

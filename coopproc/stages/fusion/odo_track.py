@@ -86,7 +86,7 @@ class OdoUwbParams:
         },
     )
     position_psd: float = field(
-        default=1e-4,
+        default=1e-5,
         metadata={"help": "position random walk per axis (m^2/s): slip, antenna sway"},
     )
     robust: bool = field(default=True, metadata={"help": "IGG-III factor on the ranges"})

@@ -42,8 +42,8 @@ __all__ = ["ODO_UWB", "ODO_UWB_RTS", "OdoFit", "fit_note", "fit_track", "odo_uwb
 
 HEADINGS = np.radians(np.arange(0.0, 360.0, 15.0))
 YAW_SCALES = (0.5, 2**-0.5, 1.0, 2**0.5, 2.0)
-SPEED_SIGMAS = (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5)
-YAW_SIGMAS = (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0)
+SPEED_SIGMAS = (0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5)
+YAW_SIGMAS = (0.001, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0)
 #: factors on the declared range sigma
 RANGE_SCALES = (0.35, 0.5, 0.71, 1.0, 1.41, 2.0, 2.83)
 #: the speed and yaw-rate noise and range-sigma factor the first heading search runs with
@@ -307,8 +307,7 @@ ODO_UWB_RTS = PositionStage(
     params_type=OdoUwbParams,
     section="odo_uwb",
     run=odo_uwb_rts_stage,
-    help="the odo_uwb filter followed by the RTS smoother (paper 003 sec. 2.8); method "
-    "odo_uwb_rts",
+    help="the odo_uwb filter followed by the RTS smoother (paper 003 sec. 2.8); method odo_uwb_rts",
     check=_check,
     uwb_only=True,
     observed_only=True,
