@@ -196,3 +196,24 @@ def test_run_and_report_through_files(session_dir: Path, tmp_path: Path) -> None
         assert len(bad.output.strip().splitlines()[-1:]) == 1 and "Traceback" not in bad.output
     usage = runner.invoke(main, [*args, "--force", "--outage", "abc"])
     assert usage.exit_code == 2 and "expected T0:T1" in usage.output
+
+
+REAL_TUC = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "real" / "tuc"
+
+
+def test_real_tuc_windows_withheld_and_fusion_bridges_them() -> None:
+    # real wheel odometry and UWB to 4 anchors (../shared/data/real/tuc, 30 s): two
+    # windows; inside them the fused solution stays far better than the odometry
+    if not REAL_TUC.is_dir():
+        pytest.skip("shared/data/real is not present")
+    session = prepare_run(read_session(REAL_TUC))[0]
+    output = run_pipeline(session, _config((10.0, 15.0), (18.0, 25.0)))
+    assert isinstance(output, OutageOutput) and output.outages is not None
+    t = session.ranges.frame["time"].to_numpy() - session_start_s(session)
+    inside = ((t >= 10.0) & (t <= 15.0)) | ((t >= 18.0) & (t <= 25.0))
+    assert sum(output.outages.withheld) == int(inside.sum()) > 50
+    table = output.outages.table.set_index(["window", "method"])
+    for window in (1, 2):
+        assert table.loc[(window, "observed"), "epochs"] > 30
+        nav_max = table.loc[(window, "nav"), "error_max"]
+        assert table.loc[(window, "observed"), "error_max"] < 0.5 * nav_max
