@@ -70,6 +70,9 @@ class OdoFit:
     sigmas_estimated: bool
 
 
+Fits = tuple[dict[str, OdoTrack], dict[str, OdoFit], list[str]]
+
+
 def _run(
     track: OdoTrack,
     params: OdoUwbParams,
@@ -244,16 +247,33 @@ def fit_note(track: OdoTrack, fit: OdoFit, method: str) -> str:
     return text
 
 
+#: the last (session, ranges, params) and its tracks, fits and notes: odo_uwb and
+#: odo_uwb_rts run one after the other on the same inputs and share one fit
+_LAST: list[tuple[Session, pd.DataFrame, OdoUwbParams, Fits]] = []
+
+
+def _fits(session: Session, ranges: pd.DataFrame, params: OdoUwbParams) -> Fits:
+    """The tracks and fits of every platform (module docstring), computed once per inputs."""
+    for s_, r_, p_, done in _LAST:
+        if s_ is session and r_ is ranges and p_ == params:
+            return done
+    tracks, notes = odo_tracks(session, ranges, params)
+    done = (tracks, {pid: fit_track(t, params) for pid, t in tracks.items()}, notes)
+    _LAST[:] = [(session, ranges, params, done)]
+    return done
+
+
 def odo_uwb_positions(
     session: Session, ranges: pd.DataFrame, params: OdoUwbParams, *, smooth: bool
 ) -> tuple[dict[str, Trajectory], list[str]]:
     """Every platform with an odometer and anchor ranges: its filtered (``smooth=False``)
     or smoothed trajectory at the step times, and the notes (fit facts, skipped ones)."""
-    tracks, notes = odo_tracks(session, ranges, params)
+    tracks, fits, skipped = _fits(session, ranges, params)
+    notes = list(skipped)
     out: dict[str, Trajectory] = {}
     method = "odo_uwb_rts" if smooth else "odo_uwb"
     for pid, track in tracks.items():
-        fit = fit_track(track, params)
+        fit = fits[pid]
         if smooth:
             out[pid] = _trajectory(track, fit.xs, fit.cs, "odometer + UWB EKF + RTS")
         else:
