@@ -45,7 +45,8 @@ def imu_note(imu: ImuData) -> str:
     form = "increments" if imu.form == "increment" else "rates"
     return (
         f"{imu.source}: IMU samples of {imu.platform} read ({imu.time_s.size} {form} at "
-        f"{imu.rate_hz:.4g} Hz, {imu.duration_s:.1f} s); not used by this version's methods"
+        f"{imu.rate_hz:.4g} Hz, {imu.duration_s:.1f} s); for the INS methods with ranges to "
+        "anchors (ins*)"
     )
 
 

@@ -144,7 +144,7 @@ def test_raw_sensor_files_are_listed_and_noted_once(sample_dir: Path, tmp_path: 
     assert sorted(session.imu) == ["A"] and sorted(session.odometer) == ["B"]
     assert session.imu["A"].time_s.size == 1000 and session.imu["A"].static_fraction == 1.0
     np.testing.assert_allclose(session.odometer["B"].speed_mps, 0.5)
-    read = "not used by this version's methods"
+    read = "for the INS methods with ranges to anchors (ins*)"
     expected = [
         f"note: {sample_dir / 'brdc3060.21n'}: GNSS broadcast ephemerides (RINEX navigation) "
         + NOT_USED,
