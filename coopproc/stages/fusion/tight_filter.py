@@ -17,13 +17,17 @@ Updates, in time order over every platform's GPS epochs and the UWB range rows:
   without GPS observations, its navigation file (with its sigma). Both ends of an
   inter-platform range are updated, each with the other's prior.
 
-Robust factor (eq. 14-20): every innovation is standardised by its predicted variance
-diag(H C H^T + R); in an update of 5 or more rows (a GPS epoch) the unit-weight sigma
-is the MAD estimate of eq. (20) floored at 1 (the "adaptive" part: it widens the
-acceptance band when a whole epoch is worse than its model, never narrows it), for a
-single range it is 1 (the MAD of one innovation is the innovation itself); IGG-III
-(eq. 18) scales R by 1 / gamma; rows with gamma = 1e-30 are dropped. ``robust = False``
-is the standard Kalman filter.
+Robust factor (eq. 14-20): IGG-III (eq. 18) scales R by 1 / gamma, rows with gamma =
+1e-30 are dropped. A UWB range's innovation is standardised by its predicted variance
+diag(H C H^T + R) (eq. 19, unit sigma 1). A GPS epoch is re-weighted on its residuals
+after the update, V - H dx, standardised by their variance R - H C+ H^T (Baarda's
+w-test; a dropped row: R + H C+ H^T), iterated until the factors settle
+(:func:`_epoch_update`). Innovations against the prediction would not do: with the clock
+free at every epoch and a weak prediction every innovation looks small, the faulty one
+included. Eq. (20)'s MAD unit sigma is not used for the epochs: with 5-10 satellites one
+fault smears into every residual and the MAD grows with it (on the GEONET files it let
+20 of 21 injected 20 m errors in); the filter's unit sigma is 1, i.e. the paper's
+adaptive part is left out. ``robust = False`` is the standard Kalman filter.
 
 The first GPS epoch of a platform starts its filter: position from its navigation file
 (else the session origin) with 30 m sigma, clock bias and drift from the median
@@ -40,13 +44,17 @@ import numpy as np
 from coopproc.gnss.ephemeris import SPEED_OF_LIGHT
 from coopproc.gnss.tight import GnssEpochs, LocalFrame, epoch_model
 from coopproc.model import FloatArray
-from coopproc.stages.filters import igg3_factor, kf_update, robust_factors
+from coopproc.stages.filters import igg3_factor, kf_update
 
 __all__ = ["RangeRows", "TightOptions", "TrackOutput", "run_tight"]
 
 _H0, _H2 = 2e-19, 2e-20  # TCXO Allan-variance coefficients (Brown & Hwang Table 9.1)
-#: fewest innovations of one update for the MAD unit-weight sigma of eq. (20)
-_MAD_MIN = 5
+#: fewest rows of a GPS epoch for the residual test (fewer: the innovation test)
+_EPOCH_MIN = 5
+#: robust re-weighting iterations of a GPS epoch at most
+_ITERATIONS = 6
+#: a factor this small (eq. 18's 1e-30) drops the row
+_REJECTED = 1e-29
 
 
 @dataclass(frozen=True)
@@ -137,19 +145,46 @@ class _Track:
 
 
 def _update(track: _Track, v: FloatArray, h: FloatArray, r: FloatArray, opt: TightOptions) -> None:
-    d = np.einsum("ij,jk,ik->i", h, track.c, h) + r
+    """A range (one row): IGG-III on the innovation standardised by its predicted
+    variance (unit sigma 1: the MAD of one innovation is the innovation itself)."""
     if opt.robust:
-        if v.shape[0] >= _MAD_MIN:
-            gamma = robust_factors(v, d, opt.k0, opt.k1)
-        else:  # too few for a median: the predicted variance alone (unit sigma 1)
-            gamma = igg3_factor(v / np.sqrt(d), opt.k0, opt.k1)
-        keep = gamma > 1e-29
+        d = np.einsum("ij,jk,ik->i", h, track.c, h) + r
+        gamma = igg3_factor(v / np.sqrt(d), opt.k0, opt.k1)
+        keep = gamma > _REJECTED
         if not keep.any():
             return
-        v, h, r, gamma = v[keep], h[keep], r[keep], gamma[keep]
-        track.x, track.c = kf_update(track.x, track.c, v, h, r, gamma)
+        track.x, track.c = kf_update(track.x, track.c, v[keep], h[keep], r[keep], gamma[keep])
     else:
         track.x, track.c = kf_update(track.x, track.c, v, h, r)
+
+
+def _epoch_update(
+    track: _Track, v: FloatArray, h: FloatArray, r: FloatArray, opt: TightOptions
+) -> None:
+    """A GPS epoch: IGG-III factors from the standardised residuals after the update
+    (module docstring), iterated until they settle."""
+    if not opt.robust or v.shape[0] < _EPOCH_MIN:
+        _update(track, v, h, r, opt)
+        return
+    x0, c0 = track.x, track.c
+    gamma = np.ones(v.shape[0])
+    for _ in range(_ITERATIONS):
+        keep = gamma > _REJECTED
+        if keep.sum() < 1:
+            return
+        x1, c1 = kf_update(x0, c0, v[keep], h[keep], r[keep], gamma[keep])
+        # residual variance R - H C+ H^T with the nominal R (Baarda's w-test; a row left
+        # out: R + H C+ H^T)
+        hch = np.einsum("ij,jk,ik->i", h, c1, h)
+        q_v = np.where(keep, np.maximum(r - hch, 1e-3 * r), r + hch)
+        new = igg3_factor((v - h @ (x1 - x0)) / np.sqrt(q_v), opt.k0, opt.k1)
+        if np.allclose(new, gamma, rtol=1e-3, atol=1e-6):
+            break
+        gamma = new
+    else:
+        keep = gamma > _REJECTED
+        x1, c1 = kf_update(x0, c0, v[keep], h[keep], r[keep], gamma[keep])
+    track.x, track.c = x1, c1
 
 
 def _gnss_epoch(track: _Track, k: int, frame: LocalFrame, opt: TightOptions) -> None:
@@ -184,7 +219,7 @@ def _gnss_epoch(track: _Track, k: int, frame: LocalFrame, opt: TightOptions) -> 
     v = np.concatenate([v_code, v_rate])
     h = np.vstack([h_code, h_rate])
     r = np.concatenate([m.code_var_m2[take], np.full(v_rate.shape[0], opt.doppler_sigma_mps**2)])
-    _update(track, v, h, r, opt)
+    _epoch_update(track, v, h, r, opt)
 
 
 def _range_update(
