@@ -22,7 +22,11 @@ h has at most 2 dim non-zeros, so each step costs O(n^2) and no matrix is invert
 Q does not appear: it is in the filtered C_k. The filtered C_k are not stored: each block of
 epochs is re-run forward from the checkpoint ``ekf_forward`` kept, with the same code and the
 forward pass's robust factors, so the covariances are bit for bit the forward ones. Memory:
-the checkpoints plus one block (about 2 sqrt(K) covariances). The tests check the result
+the checkpoints plus one block (about 2 sqrt(K) covariances; without the smoothed
+variances a block keeps only the recorded platforms' rows of C_k, all the states need).
+Lambda is kept transposed so that Lambda g, the O(n^2) part of each backward step, sums
+contiguous rows (vectorized) with the same additions per entry as the row dot products:
+the results are bit for bit those of the plain loops. The tests check the result
 against the dense RTS recursion.
 """
 
