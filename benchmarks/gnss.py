@@ -6,6 +6,12 @@ default options and with ``--raim``; each the median of ``--repeat`` runs after 
 warm-up, as epochs/s, with the median 3-D and horizontal error against the header
 position (the accuracy the SPP test asserts: <= 5 m and <= 3 m).
 
+Then the tightly coupled filter (``tight``, issue 13 item 4) on a simulated session
+(``anchors`` scenario, seed 0, 600 s, the tag's GPS at 1 Hz and about 4 UWB ranges/s
+to four anchors, written and read back as files): GPS-only (``gnss``) and GPS/UWB
+(``tight``), robust, as GPS epochs/s (the UWB updates in between included), with the
+tag's horizontal RMS error against the reference.
+
     python benchmarks/gnss.py [--repeat 5] [--data ../shared/data/gnss]
 """
 
@@ -70,6 +76,37 @@ def main() -> None:
                 f"  {label:<11} {n / seconds:8.0f} epochs/s ({spread(times)}); "
                 f"median error 3-D {e3:.2f} m, horizontal {eh:.2f} m; {load()}"
             )
+    tight(args.repeat)
+
+
+def tight(repeat: int) -> None:
+    """The tight filter's throughput on a simulated session (module docstring)."""
+    import tempfile
+
+    from coopproc.io.session import read_session
+    from coopproc.sim import simulate, write_simulation
+    from coopproc.stages.fusion.tight_stage import GnssParams, solve
+
+    with tempfile.TemporaryDirectory(prefix="coopproc-bench-") as tmp:
+        path = Path(tmp) / "anchors"
+        write_simulation(simulate("anchors", seed=0, gnss_obs=True), path)
+        session = read_session(path)
+    epochs = session.gnss["tag"].epoch_time_s.size
+    ranges = len(session.ranges.frame)
+    print(f"tight: anchors seed 0, {epochs} GPS epochs of the tag, {ranges} UWB ranges")
+    ref = session.reference["tag"]
+    for label, uwb in (("gnss", False), ("tight", True)):
+        seconds, times = median_seconds(
+            lambda u=uwb: solve(session, session.ranges.frame, GnssParams(), u, True), repeat
+        )
+        out, _ = solve(session, session.ranges.frame, GnssParams(), uwb, True)
+        t = np.asarray(out["tag"].time_s)
+        err = np.asarray(out["tag"].state)[:, :2] - ref.interpolate_within(t)[:, :2]
+        rms = float(np.sqrt(np.nanmean(np.sum(err**2, axis=1))))
+        print(
+            f"  {label:<6} {epochs / seconds:8.0f} GPS epochs/s ({spread(times)}); "
+            f"horizontal RMS {rms:.2f} m; {load()}"
+        )
 
 
 if __name__ == "__main__":
