@@ -8,8 +8,9 @@
 - **Odometer and NHC** (``nhc=True``): the odometer's forward speed when the platform has
   one, and the non-holonomic constraints unless the session says ``nhc = false``.
 - **Start**: the position of the first robust least-squares fix (paper 003 sec. 2.2) at
-  or after the first IMU sample, its height from the platform's own navigation (else a 3D
-  fix); without UWB (dead reckoning) the navigation file's first epoch.
+  or after the first IMU sample (2D), its height from the platform's own navigation (else
+  ``[ins] tag_up_m``, default 0, within the start's 1-sigma); without UWB (dead
+  reckoning) the navigation file's first epoch.
 - **Alignment**: from a static start of at least 5 s, levelling (paper 003 eq. (1)-(5))
   and the heading of the navigation file, else of the first motion of the fixes; in
   motion from the first sample, levelling from the mean specific force of the first
@@ -90,10 +91,14 @@ def _velocity(traj: Trajectory, t: float, span_s: float = 1.0) -> FloatArray:
     return (b - a) / dt if dt > 0 else np.zeros(3)
 
 
-def _fixes(session: Session, platform: str, ranges: pd.DataFrame) -> Trajectory | None:
-    """The platform's robust least-squares fixes (2D with its own height, else 3D)."""
-    dims = 2 if platform in session.nav else 3
-    fixes = robust_lsq_positions(session, ranges, LsqParams(dims=dims))
+def _fixes(
+    session: Session, platform: str, ranges: pd.DataFrame, tag_up_m: float
+) -> Trajectory | None:
+    """The platform's robust least-squares fixes, 2D: with its own height, or ``tag_up_m``
+    without a navigation file (3D fixes from anchors at similar heights can be kilometres off: the
+    simulated tag-only session's first fixes were; the start's 1-sigma covers the
+    height)."""
+    fixes = robust_lsq_positions(session, ranges, LsqParams(dims=2, tag_up_m=tag_up_m))
     traj = fixes.get(platform)
     return traj if traj is not None and len(traj) >= 2 else None
 
@@ -105,6 +110,7 @@ def ins_start(
     *,
     level_sigma_deg: float,
     heading_sigma_deg: float,
+    tag_up_m: float = 0.0,
 ) -> InsStart:
     """The start of one platform's INS (module docstring); ``ranges`` None: dead
     reckoning from the navigation file."""
@@ -115,7 +121,7 @@ def ins_start(
     figures = imu_figures(session.platforms[platform].imu)
     lat = np.radians(session.origin_llh[0])
     t0 = float(imu.time_s[0])
-    source = None if ranges is None else _fixes(session, platform, ranges)
+    source = None if ranges is None else _fixes(session, platform, ranges, tag_up_m)
     if source is None:
         if nav is None or len(nav) < 2:
             raise StageError(

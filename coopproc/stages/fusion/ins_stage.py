@@ -93,6 +93,13 @@ class InsParams:
     start_sigma_mps: float = field(
         default=0.3, metadata={"help": "1-sigma of the start velocity (m/s, each axis)"}
     )
+    tag_up_m: float = field(
+        default=0.0,
+        metadata={
+            "help": "start height (m, up) of the IMU of a platform without a navigation "
+            "file (a tag); anchors at similar heights hardly observe it"
+        },
+    )
     level_sigma_deg: float = field(
         default=2.0, metadata={"help": "roll/pitch 1-sigma when aligned in motion (deg)"}
     )
@@ -182,6 +189,7 @@ def _run_platform(
         ranges if uwb else None,
         level_sigma_deg=params.level_sigma_deg,
         heading_sigma_deg=params.heading_sigma_deg,
+        tag_up_m=params.tag_up_m,
     )
     aiding = InsAiding(
         ranges=range_obs,
