@@ -34,7 +34,7 @@ from coopproc.ins.errorstate import ErrorStateEkf
 from coopproc.ins.loop import KIND_NAMES, EventPlan, ForwardRun
 from coopproc.ins.mechanize import increments_from_rates, make_nav
 from coopproc.ins.models import ImuFigures
-from coopproc.model import FloatArray
+from coopproc.model import FloatArray, Session
 from coopproc.sensors import ImuData
 
 __all__ = [
@@ -51,6 +51,7 @@ __all__ = [
     "prepare",
     "run_forward",
     "run_ins",
+    "session_origin",
     "static_mask",
 ]
 
@@ -58,6 +59,17 @@ __all__ = [
 #: where normal gravity and the earth rate take their mid values (gravity differs by at
 #: most 0.26 % from the poles' or the equator's; the horizontal earth rate by 29 %).
 DEFAULT_ORIGIN_LLH = (45.0, 0.0, 0.0)
+
+
+def session_origin(session: Session) -> tuple[float, float, float] | None:
+    """The geodetic origin of a session's ENU frame for :class:`InsConfig`, or None when
+    the session has none: no ``[frame] origin`` and no geodetic fix, for which the
+    session reader leaves the placeholder (0, 0, 0) (the INS then uses
+    :data:`DEFAULT_ORIGIN_LLH` rather than the equator's gravity and earth rate)."""
+    origin = tuple(float(v) for v in session.origin_llh)
+    if session.config.origin_llh is None and origin == (0.0, 0.0, 0.0):
+        return None
+    return origin  # type: ignore[return-value]
 
 
 @dataclass(frozen=True, eq=False)

@@ -78,3 +78,17 @@ def test_static_mask_needs_the_odometer_to_call_a_straight_drive_moving() -> Non
     sc = aided_scenario("straight", fig, 3.0, seed=6)
     assert static_mask(sc.imu).all()  # constant velocity looks like rest to an IMU
     assert not static_mask(sc.imu, sc.aiding.speed).any()
+
+
+def test_session_origin_is_none_for_the_readers_placeholder() -> None:
+    from types import SimpleNamespace
+
+    from coopproc.ins.engine import DEFAULT_ORIGIN_LLH, session_origin
+
+    def fake(given: object, used: tuple[float, float, float]) -> object:
+        return SimpleNamespace(config=SimpleNamespace(origin_llh=given), origin_llh=used)
+
+    assert session_origin(fake(None, (0.0, 0.0, 0.0))) is None  # type: ignore[arg-type]
+    assert session_origin(fake(None, (48.1, 11.5, 520.0))) == (48.1, 11.5, 520.0)  # type: ignore[arg-type]
+    assert session_origin(fake((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))) == (0.0, 0.0, 0.0)  # type: ignore[arg-type]
+    assert DEFAULT_ORIGIN_LLH[0] == 45.0
