@@ -15,14 +15,13 @@ import functools
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
 if TYPE_CHECKING:  # coopproc.sensors imports this module
-    from coopproc.gnss.receiver import GnssReceiver
     from coopproc.sensors import ImuData, OdometerData
 
 __all__ = [
@@ -391,8 +390,10 @@ class Session:
     imu: Mapping[str, ImuData] = field(default_factory=dict)
     #: Odometer samples by platform (odo_<ID>.csv, nav_msgs/msg/Odometry twist).
     odometer: Mapping[str, OdometerData] = field(default_factory=dict)
-    #: Raw GPS observations by platform (obs_<ID>.* with the session's nav files).
-    gnss: Mapping[str, GnssReceiver] = field(default_factory=dict)
+    #: Raw GPS observations by platform (obs_<ID>.* with the session's nav files):
+    #: coopproc.gnss.receiver.GnssReceiver values (Any: this shared module imports no
+    #: package, tests/test_layout.py)
+    gnss: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def name(self) -> str:
