@@ -390,9 +390,7 @@ class Session:
     imu: Mapping[str, ImuData] = field(default_factory=dict)
     #: Odometer samples by platform (odo_<ID>.csv, nav_msgs/msg/Odometry twist).
     odometer: Mapping[str, OdometerData] = field(default_factory=dict)
-    #: Raw GPS observations by platform (obs_<ID>.* with the session's nav files):
-    #: coopproc.gnss.receiver.GnssReceiver values (Any: this shared module imports no
-    #: package, tests/test_layout.py)
+    #: GPS observations by platform (obs_<ID>.*): coopproc.gnss.receiver.GnssReceiver
     gnss: Mapping[str, Any] = field(default_factory=dict)
 
     @property
