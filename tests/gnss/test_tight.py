@@ -166,3 +166,12 @@ def test_params_and_file_errors(tmp_path: Path, session: Session) -> None:
     with pytest.raises(InputError, match="without a navigation file") as err:
         read_session(copy)
     assert "obs_" in str(err.value) and "\n" not in str(err.value)
+    (copy / "nav.rnx").write_bytes((root / "nav.rnx").read_bytes())
+    (copy / "obs_tag.rnx").write_text("time\n")  # not RINEX: the reader's one line
+    with pytest.raises(InputError) as err:
+        read_session(copy)
+    assert "obs_tag.rnx" in str(err.value) and "\n" not in str(err.value)
+    (copy / "obs_tag.rnx").write_bytes((root / "obs_tag.rnx").read_bytes())
+    (copy / "obs_ZZ.rnx").write_bytes((root / "obs_tag.rnx").read_bytes())
+    with pytest.raises(InputError, match="platform ZZ, which the session does not have"):
+        read_session(copy)

@@ -129,16 +129,12 @@ def _imu_odo_files(sample_dir: Path) -> None:
 
 def test_raw_sensor_files_are_listed_and_noted_once(sample_dir: Path, tmp_path: Path) -> None:
     _imu_odo_files(sample_dir)
-    for name in ("obs_A.21o", "obs_C.rnx", "brdc3060.21n"):
-        (sample_dir / name).write_text("time\n")
+    # GNSS files are read too (tests/gnss/test_tight.py, test_gnss_session_errors)
     (sample_dir / "imu.txt").write_text("not a sensor file name\n")
     session = read_session(sample_dir)
     assert sorted(session.platforms) == ["A", "B", "C", "X"]
     assert session.sensor_files == (
-        SensorFile("gnss_nav", sample_dir / "brdc3060.21n", None),
         SensorFile("imu", sample_dir / "imu_A.csv", "A"),
-        SensorFile("gnss_obs", sample_dir / "obs_A.21o", "A"),
-        SensorFile("gnss_obs", sample_dir / "obs_C.rnx", "C"),
         SensorFile("odo", sample_dir / "odo_B.csv.gz", "B"),
     )
     assert sorted(session.imu) == ["A"] and sorted(session.odometer) == ["B"]
@@ -146,12 +142,8 @@ def test_raw_sensor_files_are_listed_and_noted_once(sample_dir: Path, tmp_path: 
     np.testing.assert_allclose(session.odometer["B"].speed_mps, 0.5)
     read = "for the INS methods with ranges to anchors (ins*)"
     expected = [
-        f"note: {sample_dir / 'brdc3060.21n'}: GNSS broadcast ephemerides (RINEX navigation) "
-        + NOT_USED,
         f"note: {sample_dir / 'imu_A.csv'}: IMU samples of A read (1000 rates at 100 Hz, "
         f"10.0 s); {read}",
-        f"note: {sample_dir / 'obs_A.21o'}: GNSS observations (RINEX) of A {NOT_USED}",
-        f"note: {sample_dir / 'obs_C.rnx'}: GNSS observations (RINEX) of C {NOT_USED}",
         f"note: {sample_dir / 'odo_B.csv.gz'}: odometer speeds of B read (100 at 10 Hz, "
         "9.9 s); for odo_uwb with ranges to anchors and an IMU (the yaw rate)",
     ]
