@@ -4,7 +4,7 @@ DATA.md "Raw sensors": ``obs_<ID>.<yy>o`` / ``obs_<ID>.rnx`` (RINEX 2.x / 3.x
 observations of platform ID's receiver) and the session's navigation files (``nav.rnx``,
 ``*_MN.rnx``, ``*.<yy>n``; all of them merged). Problems are one line each, naming the
 file (and line, from the RINEX readers): an observation file without a navigation file,
-of a platform the session does not have, in a session whose ``[time] base`` is
+of a platform the session does not have, gzip-compressed, in a session whose ``[time] base`` is
 ``relative`` (GPST epochs cannot be placed in it), or whose epochs fall outside the
 session's time span by more than an hour. Each receiver read gets one note.
 """
@@ -62,6 +62,16 @@ def read_gnss(
     )
     nav_files = sorted((f.path for f in files if f.kind == "gnss_nav"), key=str)
     if not obs_files:
+        notes.extend(
+            f"{n}: GNSS broadcast ephemerides without observation files (obs_<ID>.*); not used"
+            for n in nav_files
+        )
+        return {}
+    packed = [f for f in (*(o.path for o in obs_files), *nav_files) if f.suffix == ".gz"]
+    if packed:
+        problems.append(
+            InputError(packed[0], "gzip-compressed RINEX is not read; expected it unpacked")
+        )
         return {}
     eph: GpsEphemerides | None = None
     if not nav_files:
