@@ -236,26 +236,42 @@ def _drift_scales(
     scale: dict[str, float],
     only: set[str] | None = None,
     smoothed_sigma: bool = True,
+    smoothed: bool = True,
 ) -> tuple[FusionOutput, dict[str, float], dict[str, float]]:
     """Inflate the drift of platforms whose range innovations are inconsistent (NIS above
     :data:`NIS_LIMIT`) by sqrt(NIS), refusing until none is (at most
     :data:`NIS_ROUNDS` rounds). ``only``: the platforms that may be inflated.
-    Returns the last fusion (at the range epochs), the scales and the last NIS."""
+    Returns the last fusion (at the range epochs), the scales and the last NIS.
+    ``smoothed=False``: the caller reads only the scales (every fusion forward only)."""
     moving = set(session.moving_platforms()) if only is None else only
     scale = dict(scale)
+
+    def high_nis(nis: Mapping[str, float]) -> dict[str, float]:
+        return {p: v for p, v in nis.items() if p in moving and v > NIS_LIMIT}
+
+    def refitted(observations: pd.DataFrame) -> bool:
+        # a fusion whose NIS calls for another round is read for its innovations only:
+        # its smoother pass would be thrown away (fusion 0..NIS_ROUNDS-1 may be refitted)
+        if not smoothed:
+            return True
+        return fits < NIS_ROUNDS and bool(high_nis(_platform_nis(observations)))
+
+    fits = 0
     fused = fuse(
-        session, ranges, params, output="ranges", drift_scale=scale, smoothed_sigma=smoothed_sigma
-    )
+        session, ranges, params, output="ranges", drift_scale=scale,
+        smoothed_sigma=smoothed_sigma, discard=refitted,
+    )  # fmt: skip
     nis = _platform_nis(fused.observations)
-    for _ in range(NIS_ROUNDS):
-        high = {p: v for p, v in nis.items() if p in moving and v > NIS_LIMIT}
+    for done in range(NIS_ROUNDS):
+        high = high_nis(nis)
         if not high:
             break
         for platform, value in high.items():
             scale[platform] = scale.get(platform, 1.0) * float(np.sqrt(value))
+        fits = done + 1
         fused = fuse(
             session, ranges, params, output="ranges", drift_scale=scale,
-            smoothed_sigma=smoothed_sigma,
+            smoothed_sigma=smoothed_sigma, discard=refitted,
         )  # fmt: skip
         nis = _platform_nis(fused.observations)
     return fused, scale, nis
@@ -325,7 +341,7 @@ def calibrated_fuse(
         if platform_factor:
             _, scale, _ = _drift_scales(
                 session, calibrated, params, unscaled, only=set(platform_factor),
-                smoothed_sigma=False,
+                smoothed_sigma=False, smoothed=False,
             )  # fmt: skip
     unchanged = np.array_equal(new_sigma, given) and not platform_factor
     if unchanged and output == "ranges":

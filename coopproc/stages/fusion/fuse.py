@@ -29,7 +29,7 @@ span where every moving platform has navigation.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -188,6 +188,7 @@ def fuse(
     output: Literal["ranges", "nav"] = "ranges",
     drift_scale: Mapping[str, float] | None = None,
     smoothed_sigma: bool = True,
+    discard: Callable[[pd.DataFrame], bool] | None = None,
 ) -> FusionOutput:
     """Fuse every moving platform's navigation with the ranges.
 
@@ -202,6 +203,10 @@ def fuse(
         epochs: the forward correction is held, the smoothed one interpolated).
     smoothed_sigma : the smoothed trajectories' sigmas (False: NaN, and a smoother pass
         about twice as fast with many platforms; forward sigmas are always given).
+    discard : called with the observations table after the forward pass; True means the
+        caller will only read that table (a self-calibration round to be refitted), so the
+        smoother is skipped and ``smoothed`` is the forward solution. The forward pass is
+        the same either way.
     """
     dim = params.dims
     moving = list(session.moving_platforms())
@@ -247,17 +252,6 @@ def fuse(
         x0, c0, *noise, *kernel_obs, params.dims, params.robust, params.k0, params.k1,
         params.mad_floor, params.mad_window, rec_ptr, rec_plat, block,
     )  # fmt: skip
-    if smooth:
-        xs_s, var_s = mbf_backward(
-            cp_x, cp_c, *noise, *kernel_obs, gamma, dim, rec_ptr, rec_plat, block,
-            smoothed_sigma,
-        )  # fmt: skip
-    else:
-        xs_s, var_s = xs_f, var_f
-    del cp_x, cp_c
-    slots = (session, moving, epochs, nav, rec_ptr, rec_plat, dim, output)
-    forward = trajectories_from_slots(*slots, xs_f, var_f, hold=True)
-    smoothed = trajectories_from_slots(*slots, xs_s, var_s if smoothed_sigma else None, hold=False)
     at = obs["at"]  # the range rows' observations, in row (= observation) order
     table = pd.DataFrame(
         {
@@ -270,6 +264,19 @@ def fuse(
             "gamma": gamma[at],
         }
     )
+    if smooth and discard is not None and discard(table):
+        smooth = False
+    if smooth:
+        xs_s, var_s = mbf_backward(
+            cp_x, cp_c, *noise, *kernel_obs, gamma, dim, rec_ptr, rec_plat, block,
+            smoothed_sigma,
+        )  # fmt: skip
+    else:
+        xs_s, var_s = xs_f, var_f
+    del cp_x, cp_c
+    slots = (session, moving, epochs, nav, rec_ptr, rec_plat, dim, output)
+    forward = trajectories_from_slots(*slots, xs_f, var_f, hold=True)
+    smoothed = trajectories_from_slots(*slots, xs_s, var_s if smoothed_sigma else None, hold=False)
     return FusionOutput(smoothed=smoothed, forward=forward, epochs_s=epochs, observations=table)
 
 
