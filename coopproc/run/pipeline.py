@@ -219,13 +219,11 @@ def run_pipeline(
     session, ins_notes = ins_navigation(session, config.params_for("ins"))
     # tags (no navigation): the DR-based stages run on the session without them (run.tags)
     pipeline, tag_notes = tag_pipeline(config.pipeline, session)
-    # platforms with an odometer and anchors: odo_uwb, odo_uwb_rts (run.odo_methods)
     pipeline, odo_notes = odo_pipeline(pipeline, session, config.params_for("odo_uwb"))
-    tag_notes = [*tag_notes, *odo_notes]
     # platforms with an IMU and anchors: the INS modes of paper 003 Table 1 (run.ins)
     pipeline, more = ins_pipeline(pipeline, session, config.params_for("ins"))
     pipeline, more = gnss_pipeline(pipeline, session, config.params_for("gnss"), more)
-    tag_notes += ins_notes + more
+    tag_notes += odo_notes + ins_notes + more
     dr_session = without_tags(session)
     steps = resolve(pipeline)
     for step in steps:
