@@ -33,7 +33,7 @@ from coopproc.stages.fusion.ins_stage import (
     ins_platforms,
 )
 
-__all__ = ["ins_navigation", "ins_pipeline", "states_table"]
+__all__ = ["ins_navigation", "ins_pipeline", "states_table", "with_ins"]
 
 
 def ins_pipeline(
@@ -52,6 +52,15 @@ def ins_pipeline(
         "[pipeline] positions (paper 003 Table 1; [ins] modes = [] leaves them out)"
     )
     return dataclasses.replace(params, positions=(*params.positions, *added)), [note]
+
+
+def with_ins(
+    session: Session, params: PipelineParams, ins: InsParams
+) -> tuple[Session, PipelineParams, list[str]]:
+    """:func:`ins_navigation` and :func:`ins_pipeline` together (run_pipeline's one call)."""
+    session, notes = ins_navigation(session, ins)
+    params, more = ins_pipeline(params, session, ins)
+    return session, params, [*notes, *more]
 
 
 def ins_navigation(session: Session, ins: InsParams) -> tuple[Session, list[str]]:

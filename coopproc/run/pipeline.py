@@ -37,15 +37,15 @@ from coopproc.model import (
     Result,
     Session,
     Trajectory,
-    pair_members,
 )
 from coopproc.report.metrics import distance_metrics, nlos_scores, position_metrics
 from coopproc.report.scores import nlos_event_scores
 from coopproc.run.chain import Step, resolve
 from coopproc.run.config import RunConfig
 from coopproc.run.gnss_methods import gnss_pipeline
-from coopproc.run.ins import ins_navigation, ins_pipeline, states_table
+from coopproc.run.ins import states_table, with_ins
 from coopproc.run.odo_methods import odo_pipeline
+from coopproc.run.range_sets import ranges_for, row_sigma
 from coopproc.run.tags import tag_pipeline, tag_rows, widen, without_tags
 from coopproc.stages.base import PositionInput, PositionProduct, RangeInput, RangeProduct
 from coopproc.stages.fusion.dr_quality import DeadReckoningQuality, dead_reckoning_quality
@@ -77,22 +77,6 @@ class PipelineOutput:
     methods: Mapping[str, tuple[str, ...]] | None = None
     #: the range methods that detect NLOS, in chain order
     nlos_methods: tuple[str, ...] = ()
-
-
-def _ranges_for(base: pd.DataFrame, values: FloatArray, sigma: pd.Series) -> pd.DataFrame:
-    """One processed method's distances in the shape the position estimators take."""
-    codes, pairs = pd.factorize(base["pair"])
-    members = np.array([pair_members(str(p)) for p in pairs], dtype=object).reshape(-1, 2)
-    out = pd.DataFrame(
-        {
-            "time": base["time"].to_numpy(),
-            "from": members[codes, 0],
-            "to": members[codes, 1],
-            "range": values,
-            "sigma": sigma.to_numpy(),
-        }
-    )
-    return out[np.isfinite(out["range"].to_numpy())].reset_index(drop=True)
 
 
 def _positions_rows(
@@ -215,15 +199,13 @@ def run_pipeline(
         yield
         timings[label] = round(time.perf_counter() - start, 3)
 
-    # [ins] navigation = "ins": the INS dead reckoning as platforms' navigation (run.ins)
-    session, ins_notes = ins_navigation(session, config.params_for("ins"))
     # tags (no navigation): the DR-based stages run on the session without them (run.tags)
     pipeline, tag_notes = tag_pipeline(config.pipeline, session)
     pipeline, odo_notes = odo_pipeline(pipeline, session, config.params_for("odo_uwb"))
-    # platforms with an IMU and anchors: the INS modes of paper 003 Table 1 (run.ins)
-    pipeline, more = ins_pipeline(pipeline, session, config.params_for("ins"))
+    # IMU: Table 1's INS modes, [ins] navigation = "ins" (the INS as navigation; run.ins)
+    session, pipeline, more = with_ins(session, pipeline, config.params_for("ins"))
     pipeline, more = gnss_pipeline(pipeline, session, config.params_for("gnss"), more)
-    tag_notes += odo_notes + ins_notes + more
+    tag_notes += odo_notes + more
     dr_session = without_tags(session)
     steps = resolve(pipeline)
     for step in steps:
@@ -234,7 +216,7 @@ def run_pipeline(
     base = observed_table(session)
     dr_rows = ~tag_rows(session, base["pair"]) if dr_session is not session else None
     dr_base = base if dr_rows is None else base[dr_rows].reset_index(drop=True)
-    sigma_by_row = _row_sigma(session, base)
+    sigma_by_row = row_sigma(session, base)
     range_sets = {"observed": session.ranges.frame[["time", "from", "to", "range", "sigma"]]}
     columns: dict[str, FloatArray] = {}
     range_products: list[RangeProduct] = []
@@ -249,7 +231,7 @@ def run_pipeline(
                 range_products.append(product)
                 for method in step.methods:
                     columns[method] = product.values[method]
-                    range_sets[method] = _ranges_for(base, columns[method], sigma_by_row)
+                    range_sets[method] = ranges_for(base, columns[method], sigma_by_row)
                 continue
             stage = POSITION_STAGES[step.stage]
             assert step.range_set is not None
@@ -409,21 +391,3 @@ def _concat_or_empty(frames: list[pd.DataFrame | None], columns: tuple[str, ...]
     if not present:
         return pd.DataFrame(columns=list(columns))
     return pd.concat(present, ignore_index=True) if len(present) > 1 else present[0]
-
-
-def _row_sigma(session: Session, table: pd.DataFrame) -> pd.Series:
-    """The UWB sigma of each row of the output range table (for the processed fusions).
-
-    Processed ranges keep the sigma of the observed range they came from (the ranging
-    stage reduces the noise, but weighting them as the raw ranges keeps the fusion
-    conservative); rows without one get the session's ``[uwb] sigma`` or NaN (the fusion
-    default).
-    """
-    obs = session.ranges.frame[["time", "pair", "sigma"]]
-    merged = table[["time", "pair"]].merge(
-        obs.drop_duplicates(["time", "pair"]), on=["time", "pair"], how="left"
-    )
-    sigma = merged["sigma"].astype(float)
-    if session.config.uwb_sigma_m is not None:
-        sigma = sigma.fillna(session.config.uwb_sigma_m)
-    return sigma.reset_index(drop=True)
