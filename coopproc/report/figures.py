@@ -8,11 +8,9 @@ rows) are skipped. The methods drawn are the run's (:mod:`coopproc.report.method
 *primary* method (``di`` if the run has it, else its last processed range method) is the
 one whose NLOS events are shaded and that gets one convergence panel per event.
 
-:class:`~coopproc.report.pages.FigureOptions` chooses the pairs and platforms drawn and
-the most panels per page: a figure of more panels is written as ``name.png``,
-``name_2.png``... with labels running on (:mod:`coopproc.report.pages`). Long series are
-drawn from their min/max envelope (:mod:`coopproc.report.decimate`). Each PNG records
-the keys of its panels in a ``Panels`` text chunk (``report.html`` checks it).
+:class:`~coopproc.report.pages.FigureOptions` chooses the pairs, platforms and most panels
+per page (further pages ``name_2.png``..., :mod:`coopproc.report.pages`); long series are
+drawn from their min/max envelope (:mod:`coopproc.report.decimate`).
 
 | file | content | paper 000 |
 |---|---|---|
@@ -49,7 +47,7 @@ from coopproc.report.evaluation_plots import (
 )
 from coopproc.report.gaps import line_gap_limit_s, pair_gaps, platform_gaps
 from coopproc.report.methods import position_methods, primary_method, range_methods
-from coopproc.report.outage_figure import outage_panels
+from coopproc.report.outage_figure import OUTAGE_FIGURE_NAMES, outage_panels
 from coopproc.report.pages import FigureOptions, page_ranges, page_stem
 from coopproc.report.panels import (
     Panels,
@@ -77,7 +75,6 @@ from coopproc.report.trajectory_plots import (
 __all__ = [
     "FIGURE_NAMES",
     "FORMATS",
-    "OUTAGE_FIGURE_NAMES",
     "FigurePage",
     "figure_pages",
     "make_figures",
@@ -299,9 +296,6 @@ _BUILDERS: dict[str, Callable[[RunTables, FigureOptions, _Groups], Panels | None
     "error_track": _error_track,
     "outage_drift": outage_panels,  # runs with [run] outages only (report/outage_figure.py)
 }
-#: Figures of a run with UWB outage windows only (report/outage_figure.py); like the
-#: stochastic ones, not among FIGURE_NAMES, the figures a run draws from its tables.
-OUTAGE_FIGURE_NAMES: tuple[str, ...] = ("outage_drift",)
 FIGURE_NAMES: tuple[str, ...] = tuple(n for n in _BUILDERS if n not in OUTAGE_FIGURE_NAMES)
 
 
