@@ -18,7 +18,11 @@ from coopproc.report.panels import Panels, grid_layout, stack_layout
 from coopproc.report.rundir import RunTables
 from coopproc.report.style import method_style
 
-__all__ = ["outage_panels"]
+__all__ = ["OUTAGE_FIGURE_NAMES", "outage_panels"]
+
+#: The figures of a run with UWB outage windows only; like the stochastic ones, not among
+#: :data:`coopproc.report.figures.FIGURE_NAMES` (the figures every run draws).
+OUTAGE_FIGURE_NAMES: tuple[str, ...] = ("outage_drift",)
 
 
 def outage_panels(run: RunTables, opts: FigureOptions, _groups: Any = None) -> Panels | None:
