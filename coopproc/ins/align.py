@@ -90,8 +90,9 @@ def gyrocompass(w_mean: FloatArray, roll: float, pitch: float) -> float:
 
 
 def gyrocompass_sigma(lat: float, noise: ImuFigures, duration_s: float) -> float:
-    """1-sigma heading (rad) of gyrocompassing: sqrt(b^2 + ARW^2 / T) / (Omega cos lat)."""
-    sigma_w = np.hypot(noise.gyro_bias_radps, noise.arw_rad_rts / np.sqrt(max(duration_s, 1e-9)))
+    """1-sigma heading (rad) of gyrocompassing: sqrt(b^2 + ARW^2 / T) / (Omega cos lat),
+    b the whole gyro bias (turn-on and instability)."""
+    sigma_w = np.hypot(noise.gyro_bias0_radps, noise.arw_rad_rts / np.sqrt(max(duration_s, 1e-9)))
     horizontal = EARTH_RATE_RADPS * abs(np.cos(lat))
     return float(sigma_w / horizontal) if horizontal > 0 else float("inf")
 
@@ -137,7 +138,8 @@ def coarse_align(
         )
     roll, pitch = level(accel_mps2[:n].mean(axis=0))
     g = normal_gravity(lat, 0.0)
-    sigma_level = float(np.hypot(noise.accel_bias_mps2, noise.vrw_mps_rts / np.sqrt(duration)) / g)
+    # the whole accelerometer bias (turn-on and instability) tilts the levelled frame
+    sigma_level = float(np.hypot(noise.accel_bias0_mps2, noise.vrw_mps_rts / np.sqrt(duration)) / g)
     sigma_gc = gyrocompass_sigma(lat, noise, duration)
     if yaw is not None:
         return Alignment(roll, pitch, float(yaw), "given", sigma_level, np.radians(1.0), n)

@@ -29,11 +29,12 @@ from coopproc.ins.aiding import (
     static_mask,
 )
 from coopproc.ins.align import Alignment, coarse_align
-from coopproc.ins.earth import ecef_to_enu_matrix
-from coopproc.ins.errorstate import ErrorStateEkf
+from coopproc.ins.earth import ecef_to_enu_matrix, normal_gravity
+from coopproc.ins.errorstate import ErrorStateEkf, level_correlated
 from coopproc.ins.loop import KIND_NAMES, EventPlan, ForwardRun
 from coopproc.ins.mechanize import increments_from_rates, make_nav
 from coopproc.ins.models import ImuFigures
+from coopproc.ins.quat import quat_to_dcm
 from coopproc.model import FloatArray, Session
 from coopproc.sensors import ImuData
 
@@ -241,6 +242,9 @@ def prepare(imu: ImuData, aiding: InsAiding, config: InsConfig) -> Prepared:
         config.figures, np.full(3, config.sigma_pos_m), np.full(3, config.sigma_vel_mps),
         np.array([al.sigma_level, al.sigma_level, al.sigma_yaw]), config.scale_factors,
     )  # fmt: skip
+    if al.static_samples > 1:
+        g = normal_gravity(float(llh0[0]), float(llh0[2]))
+        ekf.p = level_correlated(ekf.p, quat_to_dcm(nav0[6:10]), g)
     return Prepared(t, dth, dv, nav0, ekf, plan, al, origin)
 
 

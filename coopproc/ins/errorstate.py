@@ -43,6 +43,7 @@ __all__ = [
     "discretize",
     "f_matrix",
     "inject_error",
+    "level_correlated",
     "nav_error",
     "process_noise",
 ]
@@ -159,6 +160,26 @@ def nav_error(nav_ins: FloatArray, nav_true: FloatArray) -> FloatArray:
     dq = qmul(nav_ins[6:10], q_true_conj)  # q(-phi)
     phi = -2.0 * dq[1:4] * np.sign(dq[0])
     return np.concatenate([dr, nav_ins[3:6] - nav_true[3:6], phi - _frame_angle(nav_true, dr)])
+
+
+def level_correlated(p0: FloatArray, c_bn: FloatArray, g: float) -> FloatArray:
+    """P0 of a start levelled at rest: the levelling absorbs the horizontal accelerometer
+    bias into the tilt, so psi_E = -(C ba)_N / g + e, psi_N = (C ba)_E / g + e (the
+    horizontal specific-force error -psi x g + C ba is zero after levelling). With
+    ``p0``'s diagonal: psi = J ba + e, Var(e) = Var(psi) - (J Var(ba) J^T) (at least 0),
+    so P_psi,psi = J P_ba J^T + Var(e) and P_psi,ba = J P_ba. Without this the filter
+    holds the level to the noise part and spends a turn's lateral acceleration on the
+    heading and gyro bias instead (docs/methods-ins.md, "Error-state model")."""
+    p = np.array(p0, dtype=np.float64)
+    j = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]) @ c_bn / g
+    p_ba = p[BA, BA]
+    jpj = j @ p_ba @ j.T
+    var_e = np.maximum(np.diag(p[ATT, ATT]) - np.diag(jpj), 0.0)
+    var_e[2] = p[8, 8]
+    p[ATT, ATT] = jpj + np.diag(var_e)
+    p[ATT, BA] = j @ p_ba
+    p[BA, ATT] = p[ATT, BA].T
+    return p
 
 
 @dataclass(frozen=True, eq=False)

@@ -176,3 +176,36 @@ def test_scale_factor_columns_predict_the_mechanization_error() -> None:
     scale = np.abs(predicted) + np.array([1e-3] * 3 + [1e-4] * 3 + [1e-7] * 3)
     assert np.abs(actual - predicted) / scale == pytest.approx(np.zeros(9), abs=0.02)
     assert abs(actual[2]) > 1.0  # the vertical accelerometer scale error is visible
+
+
+def test_levelled_start_correlates_tilt_with_the_accelerometer_bias() -> None:
+    """Levelling at rest with a biased accelerometer tilts the frame by ba / g: the P0 of
+    level_correlated explains that tilt (the conditional tilt error given the bias is the
+    noise part only), the plain diagonal P0 does not."""
+    from coopproc.ins.align import level
+    from coopproc.ins.earth import normal_gravity
+    from coopproc.ins.errorstate import ErrorStateEkf, level_correlated, nav_error
+    from coopproc.ins.mechanize import make_nav
+    from coopproc.ins.models import GRADES
+    from coopproc.ins.quat import euler_to_quat, quat_to_dcm
+
+    fig = GRADES["industrial"]
+    lat, yaw = np.radians(35.0), 0.6
+    g = normal_gravity(lat, 0.0)
+    c = quat_to_dcm(euler_to_quat(0.01, -0.02, yaw))
+    ba = np.array([4e-3, -7e-3, 2e-3]) * 9.80665  # 4, -7, 2 mg: turn-on size
+    roll, pitch = level(c.T @ np.array([0.0, 0.0, g]) + ba)
+    true = make_nav(lat, 0.1, 0.0, np.zeros(3), 0.01, -0.02, yaw)
+    ins = make_nav(lat, 0.1, 0.0, np.zeros(3), roll, pitch, yaw)
+    psi = nav_error(ins, true)[6:9]
+    sig_level = np.hypot(fig.accel_bias0_mps2, 1e-5) / g
+    ekf = ErrorStateEkf.start(fig, np.ones(3), np.ones(3), np.array([sig_level, sig_level, 0.1]))
+    p = level_correlated(ekf.p, quat_to_dcm(ins[6:10]), g)
+    assert np.allclose(p, p.T) and np.all(np.linalg.eigvalsh(p) > -1e-18)
+    # the tilt predicted from the bias by P0's regression, psi_hat = P_psi,ba P_ba^-1 ba
+    idx = [6, 7]
+    gain = p[np.ix_(idx, [12, 13, 14])] @ np.linalg.inv(p[12:15, 12:15])
+    assert np.allclose(gain @ ba, psi[:2], atol=2e-5), (gain @ ba, psi[:2])
+    assert np.hypot(*psi[:2]) > 5e-4  # the tilt is real (0.04 deg), not noise
+    plain = ekf.p[np.ix_(idx, [12, 13, 14])]
+    assert np.allclose(plain, 0.0)  # what the diagonal P0 says: no relation
