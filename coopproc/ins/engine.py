@@ -98,13 +98,17 @@ class InsConfig:
 @dataclass(frozen=True, eq=False)
 class InsTrack:
     """One INS solution per IMU sample, session ENU frame: ``enu_m``, ``vel_enu`` (m/s),
-    ``att_deg`` (roll, pitch, yaw; yaw counter-clockwise from east), ``sigma_enu`` (m,
-    the 1-sigma position of the last propagation epoch)."""
+    ``att_deg`` (roll, pitch, yaw; yaw counter-clockwise from east), and the 1-sigmas of
+    the last propagation epoch: ``sigma_enu`` (m), ``sigma_vel`` (m/s, ENU),
+    ``sigma_att_deg`` (roll, pitch, yaw: the ENU attitude errors psi_E, psi_N turned into
+    the body's forward and left axes by the yaw (their correlation left out), yaw = psi_U)."""
 
     enu_m: FloatArray
     vel_enu: FloatArray
     att_deg: FloatArray
     sigma_enu: FloatArray
+    sigma_vel: FloatArray
+    sigma_att_deg: FloatArray
 
 
 @dataclass(frozen=True)
@@ -175,11 +179,10 @@ def _euler(q: FloatArray) -> FloatArray:
     )
 
 
-def _track(
-    run_nav: FloatArray, var_pos: FloatArray, origin: tuple[float, float, float]
-) -> InsTrack:
+def _track(run_nav: FloatArray, var: FloatArray, origin: tuple[float, float, float]) -> InsTrack:
     """Nav arrays (lat, lon rad) to the session frame: ENU position at the origin, the
-    velocity rotated from the local-level frame at each position to the origin's."""
+    velocity rotated from the local-level frame at each position to the origin's; ``var``
+    (K, 9) the held position, velocity and attitude-error variances."""
     llh = np.column_stack([np.degrees(run_nav[:, 0]), np.degrees(run_nav[:, 1]), run_nav[:, 2]])
     enu = geodetic2enu(llh, origin)
     lat, lon = run_nav[:, 0], run_nav[:, 1]
@@ -189,15 +192,24 @@ def _track(
                             co * ve - sl * so * vn + cl * so * vu,
                             cl * vn + sl * vu])  # fmt: skip
     c0 = ecef_to_enu_matrix(np.radians(origin[0]), np.radians(origin[1]))
-    att = np.degrees(_euler(run_nav[:, 6:10]))
-    return InsTrack(enu, ecef @ c0.T, att, np.sqrt(np.maximum(var_pos, 0.0)))
+    euler = _euler(run_nav[:, 6:10])
+    sd = np.sqrt(np.maximum(var, 0.0))
+    cy, sy = np.cos(euler[:, 2]), np.sin(euler[:, 2])
+    ve_, vn_ = var[:, 6], var[:, 7]
+    sig_att = np.column_stack([np.sqrt(np.maximum(cy * cy * ve_ + sy * sy * vn_, 0.0)),
+                               np.sqrt(np.maximum(sy * sy * ve_ + cy * cy * vn_, 0.0)),
+                               sd[:, 8]])  # fmt: skip
+    # the velocity sigmas are those of the local-level frame (the rotation to the origin's
+    # frame is below a milliradian over a session's extent)
+    return InsTrack(enu, ecef @ c0.T, np.degrees(euler), sd[:, 0:3], sd[:, 3:6],
+                    np.degrees(sig_att))  # fmt: skip
 
 
 def _held_variance(run: ForwardRun, p_diag: FloatArray, k_n: int) -> FloatArray:
-    """(K, 3) position variances, each sample holding its last propagation epoch's
-    (``p_diag`` (J, n) the covariance diagonal per epoch)."""
+    """(K, 9) position, velocity and attitude-error variances, each sample holding its
+    last propagation epoch's (``p_diag`` (J, n) the covariance diagonal per epoch)."""
     j = np.searchsorted(run.epoch_k, np.arange(k_n), side="right") - 1
-    return p_diag[j, 0:3]
+    return p_diag[j, 0:9]
 
 
 def _stats(run: ForwardRun) -> tuple[InnovationStats, ...]:
