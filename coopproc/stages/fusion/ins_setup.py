@@ -21,6 +21,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -32,7 +33,7 @@ from coopproc.sensors import ImuData
 from coopproc.stages.fusion.data import anchor_positions, range_sigma_default
 from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
 
-__all__ = ["InsStart", "anchor_ranges", "ins_start"]
+__all__ = ["InsStart", "anchor_ranges", "ins_start", "odometer_scale"]
 
 #: Static seconds at the start that allow levelling at rest (coopproc.ins.align).
 MIN_STATIC_S = 5.0
@@ -161,3 +162,22 @@ def ins_start(
     )
     vel = _velocity(nav if nav is not None and len(nav) >= 2 else source, t_start)
     return InsStart(al, enu, vel, f"{how}, aligned in motion (heading: {heading_from})")
+
+
+def odometer_scale(
+    time_s: FloatArray, speed_mps: FloatArray, track: Any, track_time_s: FloatArray
+) -> float | None:
+    """The odometer's scale error k (speed = (1 + k) true speed), least squares against the
+    horizontal speed of an INS track (``enu_m``/``vel_enu`` at ``track_time_s``) where
+    both move faster than 1 m/s; None with fewer than 50 such samples (docs/methods-ins.md,
+    "In the pipeline")."""
+    t = np.asarray(time_s, dtype=np.float64)
+    inside = (t >= track_time_s[0]) & (t <= track_time_s[-1])
+    ve = np.interp(t[inside], track_time_s, track.vel_enu[:, 0])
+    vn = np.interp(t[inside], track_time_s, track.vel_enu[:, 1])
+    v = np.hypot(ve, vn)
+    o = np.asarray(speed_mps, dtype=np.float64)[inside]
+    use = (v > 1.0) & (np.abs(o) > 1.0)
+    if np.count_nonzero(use) < 50:
+        return None
+    return float(np.sum(np.abs(o[use]) * v[use]) / np.sum(v[use] ** 2) - 1.0)

@@ -26,7 +26,7 @@ import pandas as pd
 from coopproc.errors import StageError
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.stages.base import NavStates, PositionInput, PositionProduct, PositionStage
-from coopproc.stages.fusion.ins_setup import anchor_ranges, ins_start
+from coopproc.stages.fusion.ins_setup import anchor_ranges, ins_start, odometer_scale
 
 __all__ = [
     "INS_MODES",
@@ -79,6 +79,14 @@ class InsParams:
     )
     odo_sigma_mps: float = field(
         default=0.05, metadata={"help": "odometer forward-speed 1-sigma (m/s)"}
+    )
+    odo_calibrate: bool = field(
+        default=True,
+        metadata={
+            "help": "divide the odometer speed by its scale (1 + k) estimated against the "
+            "smoothed UWB/INS solution (ins_rts) before ins_nhc runs; the filter has no "
+            "odometer-scale state (docs/methods-ins.md)"
+        },
     )
     zupt: bool = field(
         default=True,
@@ -143,8 +151,22 @@ def ins_solution(
         _CACHE.clear()
     out: dict[str, Any] = {}
     notes: list[str] = []
+    scales: dict[str, float] = {}
+    if nhc and params.odo_calibrate and any(p in session.odometer for p in ins_platforms(session)):
+        plain, _ = ins_solution(session, ranges, params, nhc=False)
+        for platform, res in plain.items():
+            odo = session.odometer.get(platform)
+            k = (
+                None
+                if odo is None
+                else odometer_scale(odo.time_s, odo.speed_mps, res.best, res.time_s)
+            )
+            if k is not None:
+                scales[platform] = k
     for platform in ins_platforms(session):
-        got = _run_platform(session, platform, ranges, params, nhc=nhc, uwb=True)
+        got = _run_platform(
+            session, platform, ranges, params, nhc=nhc, uwb=True, odo_scale=scales.get(platform)
+        )
         if got is None:
             notes.append(f"INS: {platform} has no ranges to anchors; no INS solution")
             continue
@@ -162,6 +184,7 @@ def _run_platform(
     *,
     nhc: bool,
     uwb: bool,
+    odo_scale: float | None = None,
 ) -> tuple[Any, str] | None:
     """One platform's engine run: UWB/INS(/NHC) with smoothing, or (``uwb=False``) the
     INS/NHC/odometer dead reckoning without (forward only)."""
@@ -181,7 +204,8 @@ def _run_platform(
     speed = None
     odo = session.odometer.get(platform)
     if nhc and odo is not None:
-        speed = SpeedObs(odo.time_s, odo.speed_mps, np.full(odo.time_s.shape, params.odo_sigma_mps))
+        v = odo.speed_mps if odo_scale is None else odo.speed_mps / (1.0 + odo_scale)
+        speed = SpeedObs(odo.time_s, v, np.full(odo.time_s.shape, params.odo_sigma_mps))
     use_nhc = nhc and cfg.nhc is not False
     start = ins_start(
         session,
@@ -212,7 +236,10 @@ def _run_platform(
     result = run_ins(imu, aiding, config)
     used = ["UWB ranges to anchors" if uwb else "no UWB"]
     used += ["NHC"] if use_nhc else []
-    used += ["odometer"] if speed is not None else []
+    if speed is not None:
+        used += [
+            "odometer" + ("" if odo_scale is None else f" (scale {odo_scale:+.2%} vs ins_rts)")
+        ]
     return result, f"INS of {platform}: {', '.join(used)}; start: {start.how}"
 
 
