@@ -64,11 +64,8 @@ class InsParams:
     robust: bool = field(default=True, metadata={"help": "IGG-III on the innovations"})
     k0: float = field(default=3.0, metadata={"help": "IGG-III k0 (paper 002: 2.5..3.5)"})
     k1: float = field(
-        default=8.0,
-        metadata={
-            "help": "IGG-III k1 (paper 002: 3.5..4.5; 8 keeps a car's UWB/INS from rejecting "
-            "every range once its error outgrows the filter's sigma: docs/methods-ins.md)"
-        },
+        default=4.5,
+        metadata={"help": "IGG-III k1 (paper 002: 3.5..4.5)"},
     )
     range_sigma_m: float = field(
         default=0.15,
