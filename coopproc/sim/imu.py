@@ -37,7 +37,7 @@ import numpy as np
 import pandas as pd
 from scipy.interpolate import CubicSpline
 
-from coopproc.model import FloatArray, Trajectory
+from coopproc.model import FloatArray, ImuNoise, Trajectory
 from coopproc.sensors import IMU_GRADE_FIGURES, ImuData, ImuGrade, OdometerData
 from coopproc.sim.params import SimParams
 from coopproc.sim.scenario_types import named_rng
@@ -222,7 +222,14 @@ def add_raw_sensors(sim: Simulation) -> Simulation:
         speed = odometer_samples(truth, t_odo, scale, p.odo_noise_m, odo_rng)
         odo[pid] = OdometerData(pid, "simulated", t_odo, speed, "speed")
         rows.append({"platform": pid, "grade": grade.name, **draws, "odo_scale": scale})
-    session = dataclasses.replace(sim.session, imu=imu, odometer=odo)
+    # session.toml declares what the files are: the grade drawn, and NHC (the simulated
+    # body has no lateral or vertical velocity: roll 0, yaw along the course, see above)
+    declared = ImuNoise(grade=grade.name)
+    platforms = {
+        pid: dataclasses.replace(plat, nhc=True, imu=declared) if pid in imu else plat
+        for pid, plat in sim.session.platforms.items()
+    }
+    session = dataclasses.replace(sim.session, imu=imu, odometer=odo, platforms=platforms)
     table = pd.DataFrame(rows, columns=list(IMU_ERROR_COLUMNS))
     known = dataclasses.replace(sim.truth, imu_errors=table)
     return dataclasses.replace(sim, session=session, truth=known)

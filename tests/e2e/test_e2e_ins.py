@@ -76,13 +76,15 @@ def _rmse(out: Path, platform: str) -> dict[str, float]:
 @pytest.fixture(scope="module")
 def handcart(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """90-s handcart (9 s static start, tactical IMU 100 Hz), the session declaring its
-    IMU grade and NHC, with a reference that has velocity and heading (ref_cart.csv from
-    the truth) instead of the RTKLIB file; run with lsq and the INS modes."""
+    IMU grade and NHC (as simulated), with a reference that has velocity and heading
+    (ref_cart.csv from the truth) instead of the RTKLIB file; run with lsq and the INS
+    modes."""
     root = tmp_path_factory.mktemp("e2e_ins")
     session = _simulate(root, "handcart")
+    # the simulator declares the grade it drew and NHC (its body has no lateral velocity)
     toml = (session / "session.toml").read_text()
-    toml = toml.replace("[platforms.cart]\n", "[platforms.cart]\nnhc = true\n")
-    (session / "session.toml").write_text(toml + '\n[platforms.cart.imu]\ngrade = "tactical"\n')
+    assert "[platforms.cart]\n" in toml and "nhc = true\n" in toml
+    assert '[platforms.cart.imu]\ngrade = "tactical"\n' in toml
     truth = pd.read_csv(session / "truth" / "traj_cart.csv")
     ref = truth[["time", "east", "north", "up"]].copy()
     for axis in ("east", "north", "up"):

@@ -47,6 +47,9 @@ def test_static_start_then_the_route_with_imu_and_odometer(
     imu, odo = sim.session.imu[pid], sim.session.odometer[pid]
     assert np.median(np.diff(imu.time_s)) == pytest.approx(0.01)  # 100 Hz by default
     assert sim.truth.imu_errors["grade"].tolist() == [grade]
+    declared = sim.session.platforms[pid]  # session.toml says what was drawn
+    assert declared.imu is not None and declared.imu.grade == grade and declared.nhc is True
+    assert all(p.imu is None for p in sim.session.platforms.values() if p.role == "anchor")
     # at rest the accelerometers read gravity only (9.797 m/s^2 here, plus turn-on biases
     # of a few mg) and the odometer zero (to 0.1 mm/s: the spline starts moving early)
     rest = imu.time_s - imu.time_s[0] < static_s - 0.5
