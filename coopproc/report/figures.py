@@ -45,7 +45,7 @@ from coopproc.report.evaluation_plots import (
     plot_error_track,
     track_method,
 )
-from coopproc.report.gaps import line_gap_limit_s, pair_gaps, platform_gaps
+from coopproc.report.gaps import GapSpans, line_gap_limit_s, pair_gaps, platform_gaps
 from coopproc.report.methods import position_methods, primary_method, range_methods
 from coopproc.report.outage_figure import OUTAGE_FIGURE_NAMES, outage_panels
 from coopproc.report.pages import FigureOptions, page_ranges, page_stem
@@ -103,6 +103,7 @@ class _Groups:
     def __init__(self, run: RunTables) -> None:
         self.run = run
         self._cache: dict[str, dict[str, pd.DataFrame]] = {}
+        self._gaps: dict[str, dict[str, GapSpans]] = {}
 
     def positions(self) -> dict[str, pd.DataFrame]:
         if "positions" not in self._cache:
@@ -113,6 +114,10 @@ class _Groups:
         if "ranges" not in self._cache:
             self._cache["ranges"] = groups(self.run.ranges, "pair")
         return self._cache["ranges"]
+
+    def gaps(self, key: str, make: Callable[[], dict[str, GapSpans]]) -> dict[str, GapSpans]:
+        """Shaded spans, made when a page first draws them (report.html's listing: none)."""
+        return self._gaps[key] if key in self._gaps else self._gaps.setdefault(key, make())
 
 
 def _time_finish(origin_s: float) -> Callable[[Figure, list[Axes], list[Any]], None]:
@@ -139,14 +144,12 @@ def _distance_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels 
         events = events[events["method"] == primary]
     events_by_pair = groups(events, "pair")
     no_events = events.iloc[:0]
-    gaps = pair_gaps(g.ranges())
 
     def draw(ax: Axes, i: int) -> None:
         pair = pairs[i]
         rows, shaded = by_pair[pair], events_by_pair.get(pair, no_events)
-        plot_distance_errors(
-            ax, rows, shaded, methods=methods, time_origin_s=t0, gaps=gaps.get(pair)
-        )
+        gaps = g.gaps("pairs", lambda: pair_gaps(g.ranges())).get(pair)
+        plot_distance_errors(ax, rows, shaded, methods=methods, time_origin_s=t0, gaps=gaps)
 
     return Panels(pairs, pairs, stack_layout(opts.style), draw, _time_finish(t0))
 
@@ -159,10 +162,10 @@ def _di_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None
     if not pairs:
         return None
     t0 = run.time_origin_s
-    gaps = pair_gaps(g.ranges())
 
     def draw(ax: Axes, i: int) -> None:
-        plot_di_errors(ax, by_pair[pairs[i]], time_origin_s=t0, gaps=gaps.get(pairs[i]))
+        gaps = g.gaps("pairs", lambda: pair_gaps(g.ranges())).get(pairs[i])
+        plot_di_errors(ax, by_pair[pairs[i]], time_origin_s=t0, gaps=gaps)
 
     return Panels(pairs, pairs, stack_layout(opts.style), draw, _time_finish(t0))
 
@@ -191,11 +194,11 @@ def _position_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels 
     if not platforms:
         return None
     t0 = run.time_origin_s
-    gaps = platform_gaps(_platform_rows(g, opts, methods, error=False))
+    rows_of = lambda: platform_gaps(_platform_rows(g, opts, methods, error=False))  # noqa: E731
 
     def draw(ax: Axes, i: int) -> None:
         rows = by_platform[platforms[i]]
-        gap = gaps.get(platforms[i])
+        gap = g.gaps("platforms", rows_of).get(platforms[i])
         plot_position_errors(ax, rows, methods=methods, time_origin_s=t0, gaps=gap)
 
     titles = [f"Platform {p}" for p in platforms]

@@ -24,6 +24,7 @@ from matplotlib.figure import Figure
 
 from coopproc.cli import main
 from coopproc.report.figures import FIGURE_NAMES, make_figures, write_figures
+from coopproc.report.gaps import shaded_spans
 from coopproc.report.rundir import RunTables, load_run
 
 SAMPLE = Path(__file__).resolve().parents[2] / "sample_logs"
@@ -33,6 +34,8 @@ T0 = 108000.0  # sample_logs' first epoch (GPS TOW)
 OUTAGES = ((200.0, 240.0, ("A-B",)), (388.0, 392.0, ("A-B",)), (420.0, 445.0, None))
 #: ref_C.pos rows turned float (Q=2), seconds from T0 (06:05:00 to 06:05:40 GPST).
 FLOAT_C = (300.0, 340.8)
+#: gids of the shaded spans (one collection per kind in a panel)
+SHADES = ("uwb_outage", "no_reference")
 PAIRS = ("A-B", "A-C", "B-C")
 #: The sample's ranges come once a second and its references five times a second: a
 #: drawn segment longer than this joins samples across missing data.
@@ -116,12 +119,7 @@ def _panel(fig: Figure, key: str) -> Axes:
 
 
 def _spans(ax: Axes, gid: str) -> list[tuple[float, float]]:
-    out = []
-    for patch in ax.patches:
-        if patch.get_gid() == gid:
-            x0 = patch.get_x()  # type: ignore[attr-defined]
-            out.append((x0, x0 + patch.get_width()))  # type: ignore[attr-defined]
-    return out
+    return [(float(a), float(b)) for a, b in shaded_spans(ax, gid)]
 
 
 def _covered(spans: list[tuple[float, float]], start: float, end: float) -> bool:
@@ -225,4 +223,5 @@ def test_gap_spans_cover_the_outage_and_float_windows(gap_figures: dict[str, Fig
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
     assert labels.count("UWB outage") == 1 and labels.count("No reference") == 1
     line_z = min(ln.get_zorder() for ln in _panel(fig, "C").get_lines())
-    assert all(p.get_zorder() < line_z for p in _panel(fig, "C").patches)
+    shades = [c for c in _panel(fig, "C").collections if c.get_gid() in SHADES]
+    assert len(shades) == 2 and all(c.get_zorder() < line_z for c in shades)

@@ -15,6 +15,7 @@ from coopproc.report.gaps import (
     line_gap_limit_s,
     series_gaps,
     shade_gaps,
+    shaded_spans,
 )
 from coopproc.report.plots import plot_nlos_convergence, plot_position_errors
 from coopproc.report.style import MAX_LINE_POINTS
@@ -75,12 +76,14 @@ def test_spans_are_shaded_under_the_data_once_in_the_legend() -> None:
     ax.plot([0.0, 1.0], [0.0, 1.0])
     spans = np.array([[1.0, 2.0], [5.0, 6.0]])
     shade_gaps(ax, GapSpans(spans, spans + 10.0).shifted(1.0))
-    outage = [p for p in ax.patches if p.get_gid() == "uwb_outage"]
-    assert [(p.get_x(), p.get_width()) for p in outage] == [(0.0, 1.0), (4.0, 1.0)]  # type: ignore[attr-defined]
-    assert len([p for p in ax.patches if p.get_gid() == "no_reference"]) == 2
+    assert shaded_spans(ax, "uwb_outage").tolist() == [[0.0, 1.0], [4.0, 5.0]]
+    assert shaded_spans(ax, "no_reference").tolist() == [[10.0, 11.0], [14.0, 15.0]]
     _, labels = ax.get_legend_handles_labels()
     assert labels.count("UWB outage") == 1 and labels.count("No reference") == 1
-    assert all(p.get_zorder() < ax.get_lines()[0].get_zorder() for p in ax.patches)
+    shades = [c for c in ax.collections if c.get_gid() in ("uwb_outage", "no_reference")]
+    assert len(shades) == 2  # one artist per kind, however many spans
+    assert all(c.get_zorder() < ax.get_lines()[0].get_zorder() for c in shades)
+    assert ax.get_xlim()[1] >= 15.0  # the spans count in the x limits, as axvspan's
 
 
 def test_decimated_position_line_keeps_the_gap_and_the_bursts_joined() -> None:
@@ -106,8 +109,8 @@ def test_decimated_position_line_keeps_the_gap_and_the_bursts_joined() -> None:
     cut = np.flatnonzero(np.isnan(x))
     assert cut.size == 1
     assert x[cut - 1][0] < 5000.0 and x[cut + 1][0] > 5030.0
-    shaded = [p for p in ax.patches if p.get_gid() == "uwb_outage"]
-    assert len(shaded) == 1 and shaded[0].get_x() < 5000.0  # type: ignore[attr-defined]
+    shaded = shaded_spans(ax, "uwb_outage")
+    assert len(shaded) == 1 and shaded[0, 0] < 5000.0
 
 
 def test_convergence_line_breaks_where_the_steps_are_far_apart_in_time() -> None:
