@@ -107,3 +107,27 @@ def test_no_figures_still_writes_the_page(sample_run: Path) -> None:
     assert "<img" not in page and "data:image/png" not in page
     assert "No figures: the run was made without them" in page
     assert re.search(r"<li>[^<]*ref_A\.pos: 101 of 3001 epochs", page)  # the run's notes
+
+
+def test_gaps_are_computed_when_a_page_draws_them_once_per_run(
+    sample_run: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Listing the pages (report.html does, to match the figure files) computes no shaded
+    spans; the distance and DI figures share the pairs' spans (computed once)."""
+    import coopproc.report.figures as figures
+
+    calls: list[str] = []
+    for name in ("pair_gaps", "platform_gaps"):
+        real = getattr(figures, name)
+        monkeypatch.setattr(
+            figures, name, lambda rows, real=real, name=name: calls.append(name) or real(rows)
+        )
+    run = load_run(sample_run)
+    pages = list(figure_pages(run))
+    assert {"distance_errors", "di_errors", "position_errors"} <= {p.name for p in pages}
+    assert calls == []
+    with mpl.rc_context(RC):
+        for page in pages:
+            if page.name in ("distance_errors", "di_errors"):
+                page.draw()
+    assert calls == ["pair_gaps"]
