@@ -82,6 +82,10 @@ METHOD_STYLES: dict[str, LineStyle] = {
     "ins_rts": LineStyle("ins_rts", "#5b2a86", "-"),
     "ins_nhc": LineStyle("ins_nhc", "#d62728", "--"),
     "ins_nhc_rts": LineStyle("ins_nhc_rts", "#8b0000", "-", 1.1),
+    # the odometer + UWB filter (stages/fusion/odo_uwb.py): the same pattern in green (by
+    # checksum odo_uwb had the colour of ins)
+    "odo_uwb": LineStyle("odo_uwb", "#1a9e77", "--"),
+    "odo_uwb_rts": LineStyle("odo_uwb_rts", "#0b5d46", "-"),
 }
 
 #: In drawing order: the noisiest first, so the smoother series stay visible on top.
@@ -95,7 +99,8 @@ DI_STYLES: dict[str, LineStyle] = {
 NLOS_SPAN: dict[str, Any] = {"color": "#d62728", "alpha": 0.12, "linewidth": 0}
 
 #: Colours and dash patterns of methods beyond the known ones (a chain may add any).
-EXTRA_COLORS: tuple[str, ...] = ("#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#393b79")
+#: (none of them a fixed method's colour: "#9467bd", ins's, became "#a6761d")
+EXTRA_COLORS: tuple[str, ...] = ("#a6761d", "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#393b79")
 EXTRA_DASHES: tuple[Any, ...] = ((0, (3, 1, 1, 1)), (0, (5, 1.5)), (0, (1, 1)))
 
 

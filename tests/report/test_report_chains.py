@@ -29,7 +29,7 @@ from coopproc.report.methods import (
     range_methods,
 )
 from coopproc.report.rundir import RUN_FILES, RunTables, load_run, ranges_columns
-from coopproc.report.style import METHOD_STYLES, method_style
+from coopproc.report.style import EXTRA_COLORS, METHOD_STYLES, method_style
 from coopproc.report.tables import build_tables
 
 #: chain -> (range methods, position methods, NLOS methods, primary) a report must see.
@@ -259,6 +259,9 @@ def test_style_of_an_unknown_method_is_deterministic_and_named() -> None:
         assert style.label == name and style == method_style(name)
         assert style.color not in {s.color for s in METHOD_STYLES.values()}
     assert method_style("median") != method_style("lsq")
+    fixed = {s.color for s in METHOD_STYLES.values()}
+    assert not fixed & set(EXTRA_COLORS)  # an added method never takes a fixed colour
+    assert len(fixed) == len(METHOD_STYLES)  # one colour each
 
 
 #: chain -> figures its data allow (no DI table -> no di_errors; no NLOS -> no convergence).
