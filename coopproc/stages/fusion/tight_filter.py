@@ -46,7 +46,7 @@ from coopproc.gnss.tight import GnssEpochs, LocalFrame, epoch_model
 from coopproc.model import FloatArray
 from coopproc.stages.filters import igg3_factor, kf_update
 
-__all__ = ["RangeRows", "TightOptions", "TrackOutput", "run_tight"]
+__all__ = ["CvTrack", "RangeRows", "TightOptions", "TrackOutput", "run_tight"]
 
 _H0, _H2 = 2e-19, 2e-20  # TCXO Allan-variance coefficients (Brown & Hwang Table 9.1)
 #: fewest rows of a GPS epoch for the residual test (fewer: the innovation test)
@@ -97,7 +97,14 @@ class TrackOutput:
     n_sat: list[int] = field(default_factory=list)
 
 
-class _Track:
+class CvTrack:
+    """One platform's constant-velocity filter (module docstring). The filter talks to a
+    track only through the methods below, so :class:`coopproc.stages.fusion.tight_ins.InsTrack`
+    (paper 002's INS error states) can stand in for it."""
+
+    #: index of the receiver clock bias in x (the drift follows it)
+    clock = 6
+
     def __init__(self, name: str, epochs: GnssEpochs, start_enu: FloatArray) -> None:
         self.name = name
         self.ep = epochs
@@ -107,6 +114,54 @@ class _Track:
         self.t: float | None = None
         self.out = TrackOutput()
         self.last_nsat = 0
+
+    def ready(self, t: float) -> bool:
+        """Whether the filter can start at ``t``."""
+        return True
+
+    def begin(self, t: float, clock_m: float, drift_mps: float, opt: TightOptions) -> None:
+        """Start at the first GPS epoch: clock from the median residuals, 30 m sigma."""
+        self.x[6] = clock_m
+        self.x[7] = drift_mps
+        self.c = np.diag([opt.start_sigma_m**2] * 3 + [4.0] * 3 + [opt.start_sigma_m**2, 100.0])
+        self.t = t
+
+    def gnss_pos(self) -> FloatArray:
+        """The GPS antenna (session ENU)."""
+        return self.x[:3]
+
+    def uwb_pos(self) -> FloatArray:
+        """The UWB antenna (session ENU)."""
+        return self.x[:3]
+
+    def vel(self) -> FloatArray:
+        return self.x[3:6]
+
+    def pos_cov(self) -> FloatArray:
+        return self.c[:3, :3]
+
+    def h_code(self, los: FloatArray) -> FloatArray:
+        """Pseudorange rows (module :mod:`coopproc.gnss.tight`)."""
+        h = np.zeros((los.shape[0], 8))
+        h[:, :3] = -los
+        h[:, 6] = 1.0
+        return h
+
+    def h_rate(self, los: FloatArray) -> FloatArray:
+        """Range-rate (Doppler) rows."""
+        h = np.zeros((los.shape[0], 8))
+        h[:, 3:6] = -los
+        h[:, 7] = 1.0
+        return h
+
+    def h_range(self, u: FloatArray) -> FloatArray:
+        """A UWB range row, ``u`` the unit vector from the other end."""
+        h = np.zeros((1, 8))
+        h[0, :3] = u
+        return h
+
+    def feedback(self) -> None:
+        """After an update (a closed-loop error state feeds back here; none here)."""
 
     def predict(self, t: float, opt: TightOptions) -> None:
         if self.t is None:
@@ -144,7 +199,7 @@ class _Track:
         out.n_sat.append(self.last_nsat)
 
 
-def _update(track: _Track, v: FloatArray, h: FloatArray, r: FloatArray, opt: TightOptions) -> None:
+def _update(track: CvTrack, v: FloatArray, h: FloatArray, r: FloatArray, opt: TightOptions) -> None:
     """A range (one row): IGG-III on the innovation standardised by its predicted
     variance (unit sigma 1: the MAD of one innovation is the innovation itself)."""
     if opt.robust:
@@ -159,7 +214,7 @@ def _update(track: _Track, v: FloatArray, h: FloatArray, r: FloatArray, opt: Tig
 
 
 def _epoch_update(
-    track: _Track, v: FloatArray, h: FloatArray, r: FloatArray, opt: TightOptions
+    track: CvTrack, v: FloatArray, h: FloatArray, r: FloatArray, opt: TightOptions
 ) -> None:
     """A GPS epoch: IGG-III factors from the standardised residuals after the update
     (module docstring), iterated until they settle."""
@@ -187,8 +242,8 @@ def _epoch_update(
     track.x, track.c = x1, c1
 
 
-def _gnss_epoch(track: _Track, k: int, frame: LocalFrame, opt: TightOptions) -> None:
-    m = epoch_model(track.ep, k, frame, track.x[:3], track.x[3:6], opt.mask_deg)
+def _gnss_epoch(track: CvTrack, k: int, frame: LocalFrame, opt: TightOptions) -> None:
+    m = epoch_model(track.ep, k, frame, track.gnss_pos(), track.vel(), opt.mask_deg)
     n = m.prn.shape[0]
     keep_n = opt.keep(float(track.ep.time_s[k]))
     order = np.argsort(-m.el, kind="stable")
@@ -202,43 +257,44 @@ def _gnss_epoch(track: _Track, k: int, frame: LocalFrame, opt: TightOptions) -> 
         return
     los = m.los_enu[take]
     if track.t is None:  # start: the clock from the median residuals
-        track.x[6] = float(np.median(code[take] - m.code_model_m[take]))
+        if not track.ready(float(track.ep.time_s[k])):
+            return
         rate = m.rate_obs_mps[take] - m.rate_model_mps[take]
-        track.x[7] = float(np.nanmedian(rate)) if np.isfinite(rate).any() else 0.0
-        track.c = np.diag([opt.start_sigma_m**2] * 3 + [4.0] * 3 + [opt.start_sigma_m**2, 100.0])
-        track.t = float(track.ep.time_s[k])
-    v_code = code[take] - (m.code_model_m[take] + track.x[6])
-    h_code = np.zeros((take.size, 8))
-    h_code[:, :3] = -los
-    h_code[:, 6] = 1.0
+        track.begin(
+            float(track.ep.time_s[k]),
+            float(np.median(code[take] - m.code_model_m[take])),
+            float(np.nanmedian(rate)) if np.isfinite(rate).any() else 0.0,
+            opt,
+        )
+    ic = track.clock
+    v_code = code[take] - (m.code_model_m[take] + track.x[ic])
+    h_code = track.h_code(los)
     rate_ok = np.isfinite(m.rate_obs_mps[take])
-    v_rate = (m.rate_obs_mps[take] - (m.rate_model_mps[take] + track.x[7]))[rate_ok]
-    h_rate = np.zeros((int(rate_ok.sum()), 8))
-    h_rate[:, 3:6] = -los[rate_ok]
-    h_rate[:, 7] = 1.0
+    v_rate = (m.rate_obs_mps[take] - (m.rate_model_mps[take] + track.x[ic + 1]))[rate_ok]
+    h_rate = track.h_rate(los[rate_ok])
     v = np.concatenate([v_code, v_rate])
     h = np.vstack([h_code, h_rate])
     r = np.concatenate([m.code_var_m2[take], np.full(v_rate.shape[0], opt.doppler_sigma_mps**2)])
     _epoch_update(track, v, h, r, opt)
+    track.feedback()
 
 
 def _range_update(
-    track: _Track,
+    track: CvTrack,
     other: FloatArray,
     other_cov: FloatArray,
     rng: float,
     sigma: float,
     opt: TightOptions,
 ) -> None:
-    d = track.x[:3] - other
+    d = track.uwb_pos() - other
     dist = float(np.linalg.norm(d))
     if dist < 1e-3:
         return
     u = d / dist
-    h = np.zeros((1, 8))
-    h[0, :3] = u
     r = np.array([sigma**2 + float(u @ other_cov @ u)])
-    _update(track, np.array([rng - dist]), h, r, opt)
+    _update(track, np.array([rng - dist]), track.h_range(u), r, opt)
+    track.feedback()
 
 
 def run_tight(
@@ -248,11 +304,13 @@ def run_tight(
     ranges: RangeRows,
     fixed: Callable[[str, float], tuple[FloatArray, FloatArray] | None],
     opt: TightOptions,
+    make_track: Callable[[str, GnssEpochs, FloatArray], CvTrack] = CvTrack,
 ) -> dict[str, TrackOutput]:
     """Run the filter of every platform of ``epochs`` over its GPS epochs and (``uwb``)
     the ``ranges``. ``fixed(id, t)``: the position (3,) and covariance (3, 3) of an anchor
-    or of a platform without GPS at time t, or None when it has none."""
-    tracks = {p: _Track(p, ep, starts[p]) for p, ep in epochs.items()}
+    or of a platform without GPS at time t, or None when it has none. ``make_track``
+    builds each platform's track (:class:`CvTrack`, or the INS one)."""
+    tracks = {p: make_track(p, ep, starts[p]) for p, ep in epochs.items()}
     kinds: list[np.ndarray] = []
     for i, (_, ep) in enumerate(sorted(tracks.items())):
         n = len(ep.ep)
@@ -280,7 +338,7 @@ def run_tight(
         for tr in live:
             tr.predict(float(t), opt)
         # each end's prior, for the other end
-        priors = {tr.name: (tr.x[:3].copy(), tr.c[:3, :3].copy()) for tr in live}
+        priors = {tr.name: (tr.uwb_pos().copy(), tr.pos_cov().copy()) for tr in live}
         for tr in live:
             other_id = b if tr.name == a else a
             there = priors.get(other_id) or fixed(other_id, float(t))

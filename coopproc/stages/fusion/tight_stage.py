@@ -32,6 +32,7 @@ from coopproc.stages.fusion.tight_filter import (
     TrackOutput,
     run_tight,
 )
+from coopproc.stages.fusion.tight_ins import track_factory
 
 __all__ = ["GNSS_METHODS", "GNSS_STAGES", "GnssParams", "GrossError", "MaskWindow"]
 
@@ -94,6 +95,13 @@ class GnssParams:
     gross: tuple[GrossError, ...] = field(
         default=(),
         metadata={"help": "pseudorange gross errors: [[gnss.gross]] t, prn, meters, platform"},
+    )
+    ins: bool = field(
+        default=True,
+        metadata={
+            "help": "platforms with an IMU run paper 002's INS error states (false: the "
+            "constant-velocity model, as platforms without an IMU)"
+        },
     )
 
     def __post_init__(self) -> None:
@@ -225,9 +233,11 @@ def solve(
     uwb: bool,
     robust: bool,
     with_dop: bool = False,
+    notes: list[str] | None = None,
 ) -> tuple[dict[str, TrackOutput], pd.DataFrame | None]:
     """The filter's outputs per platform (see the module docstring) and, ``with_dop``,
-    the DOP table of :func:`coopproc.stages.fusion.tight_dop.dop_table`."""
+    the DOP table of :func:`coopproc.stages.fusion.tight_dop.dop_table`; ``notes`` gets
+    one line per platform with an IMU (``params.ins``)."""
     ids = gnss_platforms(session)
     epochs = {p: prepare(session.gnss[p]) for p in ids}
     starts = {
@@ -249,7 +259,11 @@ def solve(
     rows = _range_rows(session, ranges, params.range_sigma_m)
     frame = local_frame(session.origin_llh)
     fixed = _fixed(session)
-    outputs = run_tight(epochs, starts, frame, rows, fixed, opt)
+    if params.ins and any(p in session.imu for p in ids):
+        make = track_factory(session, frame, ranges, [] if notes is None else notes)
+        outputs = run_tight(epochs, starts, frame, rows, fixed, opt, make)
+    else:
+        outputs = run_tight(epochs, starts, frame, rows, fixed, opt)
     if not with_dop:
         return outputs, None
     dop = dop_table(epochs, outputs, frame, rows, fixed, keep, params.elevation_mask_deg)
@@ -258,10 +272,12 @@ def solve(
 
 def _runner(name: str, uwb: bool, robust: bool):  # type: ignore[no-untyped-def]
     def run(inp: PositionInput, params: GnssParams) -> PositionProduct:
-        outputs, dop = solve(inp.session, inp.ranges, params, uwb, robust, name == "tight")
+        ins: list[str] = []
+        outputs, dop = solve(inp.session, inp.ranges, params, uwb, robust, name == "tight", ins)
         positions, states = _trajectories(inp.session, outputs, inp.output)
-        notes = tuple(dop_note(name, dop)) if dop is not None else ()
-        return PositionProduct(positions=positions, states=states, notes=notes)
+        notes = [f"{name}: {line}" for line in ins]
+        notes += dop_note(name, dop) if dop is not None else []
+        return PositionProduct(positions=positions, states=states, notes=tuple(notes))
 
     return run
 
