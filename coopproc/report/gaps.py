@@ -7,12 +7,28 @@ are missing:
 
 - **Gap rule** (:func:`line_gap_limit_s`): a step between consecutive (distinct) sample
   times is a gap when it is longer than :data:`~coopproc.model.GAP_FACTOR` (2.5) times the
-  series' *typical* step, the :data:`STEP_PERCENTILE` (90th) percentile of its steps. The
-  percentile, not the median: a platform's epochs are the range epochs of all its pairs,
-  which come in bursts (A-B at .013 s, A-C at .034 s, then nothing until the next second),
-  so its median step is the short step inside a burst and 2.5 times it would cut the line
-  at every burst. A step taken by at least one sample in ten is never a gap; a gap is
-  rarer than that by nature (one step per outage, however long).
+  series' *cycle*, the longer of two estimates of its normal step (:func:`typical_step_s`):
+
+  - the :data:`STEP_PERCENTILE` (90th) percentile of its steps, counted per step: a step
+    taken by at least one sample in ten is never a gap (one step per outage, however
+    long, is rarer than that by nature). Not the median: a platform's epochs are the
+    range epochs of all its pairs, which come in bursts (A-B at .013 s, A-C at .034 s,
+    then nothing until the next second), so its median step is the short step inside a
+    burst.
+  - the *time-weighted* median of its steps (the step that the middle instant of the
+    series falls in, each step weighted by its length), over the steps that are not gaps
+    even by the lenient :data:`LENIENT_PERCENTILE` (99th) percentile's limit (2.5 times
+    it). With many pairs the once-a-cycle step between two bursts is taken by fewer than
+    one sample in ten (19 pairs a burst: one in 19), so the 90th percentile is the
+    millisecond step inside a burst and would mark every pause between bursts as an
+    outage; but those pauses carry most of the time, so their length is the time-weighted
+    median. Leaving out the steps over the lenient limit keeps long outages (which may
+    carry most of the time of a pair mostly out of range) from passing for the cycle.
+
+  On a regular or staggered series both estimates are the step itself, so the limit is
+  the one of the 90th percentile alone; it is only ever longer (never shorter) than that.
+  A one-burst-a-second series has a limit of about 2.5 x its pause between bursts (a
+  missed burst is no gap, a hole of 2.5 s or more is).
 - **Breaks** (:func:`break_gaps`): a NaN inserted in every gap, so the line stops there;
   :mod:`coopproc.report.decimate` keeps every NaN, so no decimated line bridges a gap.
 - **Spans** (:func:`series_gaps`): *UWB outages*, gaps of a pair's range epochs (or of a
@@ -38,6 +54,7 @@ from matplotlib.collections import PolyCollection
 from coopproc.model import GAP_FACTOR, FloatArray
 
 __all__ = [
+    "LENIENT_PERCENTILE",
     "NO_REFERENCE_SPAN",
     "OUTAGE_SPAN",
     "STEP_PERCENTILE",
@@ -50,10 +67,13 @@ __all__ = [
     "series_gaps",
     "shade_gaps",
     "shaded_spans",
+    "typical_step_s",
 ]
 
-#: Percentile of a series' steps taken as its typical step (see the module docstring).
+#: Percentile of a series' steps (counted per step) that is never a gap (module docstring).
 STEP_PERCENTILE = 90.0
+#: Percentile of the steps whose lenient limit bounds the steps of the time-weighted median.
+LENIENT_PERCENTILE = 99.0
 #: ``axvspan`` styles of the spans: light grey, and grey hatching, both under the data.
 OUTAGE_SPAN: dict[str, Any] = {"facecolor": "0.88", "edgecolor": "none", "zorder": 0.4}
 NO_REFERENCE_SPAN: dict[str, Any] = {
@@ -66,15 +86,30 @@ NO_REFERENCE_SPAN: dict[str, Any] = {
 _EMPTY = np.empty((0, 2), dtype=np.float64)
 
 
-def line_gap_limit_s(time_s: FloatArray) -> float:
-    """The longest step between samples that is not a gap, s: ``GAP_FACTOR`` times the
-    :data:`STEP_PERCENTILE` percentile of the steps between the distinct finite times of
-    ``time_s`` (in any order); infinite with fewer than two distinct times."""
+def typical_step_s(time_s: FloatArray) -> float:
+    """The normal step between the distinct finite times of ``time_s`` (in any order), s:
+    the longer of the :data:`STEP_PERCENTILE` percentile of the steps and their
+    time-weighted median over the steps up to ``GAP_FACTOR`` times the
+    :data:`LENIENT_PERCENTILE` percentile (see the module docstring); NaN with fewer than
+    two distinct times."""
     t = np.unique(np.asarray(time_s, dtype=np.float64))
     t = t[np.isfinite(t)]
     if t.shape[0] < 2:
-        return float("inf")
-    return GAP_FACTOR * float(np.percentile(np.diff(t), STEP_PERCENTILE))
+        return float("nan")
+    steps = np.diff(t)
+    counted, lenient = np.percentile(steps, [STEP_PERCENTILE, LENIENT_PERCENTILE])
+    kept = np.sort(steps[steps <= GAP_FACTOR * lenient])
+    carried = np.cumsum(kept)
+    middle = kept[min(int(np.searchsorted(carried, 0.5 * carried[-1])), kept.size - 1)]
+    return float(max(counted, middle))
+
+
+def line_gap_limit_s(time_s: FloatArray) -> float:
+    """The longest step between samples that is not a gap, s: ``GAP_FACTOR`` times the
+    :func:`typical_step_s` of ``time_s`` (in any order); infinite with fewer than two
+    distinct times."""
+    step = typical_step_s(time_s)
+    return float("inf") if np.isnan(step) else GAP_FACTOR * step
 
 
 def break_gaps(

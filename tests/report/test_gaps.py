@@ -16,6 +16,7 @@ from coopproc.report.gaps import (
     series_gaps,
     shade_gaps,
     shaded_spans,
+    typical_step_s,
 )
 from coopproc.report.plots import plot_nlos_convergence, plot_position_errors
 from coopproc.report.style import MAX_LINE_POINTS
@@ -37,6 +38,73 @@ def test_limit_is_the_typical_step_not_the_burst_step() -> None:
     # order and repeats do not matter; one time is no series
     assert line_gap_limit_s(np.concatenate([regular, regular])[::-1]) == pytest.approx(2.5)
     assert line_gap_limit_s(np.array([5.0, 5.0])) == np.inf
+
+
+def leader_epochs(hole: tuple[float, float] | None = None) -> np.ndarray:
+    """A leader's epochs at 20 platforms: its 19 pairs polled in one burst within 0.1 s
+    each second (a few ms jitter) for an hour, none in ``hole``."""
+    rng = np.random.default_rng(11)
+    offsets = np.linspace(0.0, 0.09, 19) + rng.uniform(0.0, 0.004, (3600, 19))
+    t = (np.arange(3600.0)[:, None] + offsets).ravel()
+    return t if hole is None else t[(t < hole[0]) | (t > hole[1])]
+
+
+def test_a_burst_a_second_is_no_gap() -> None:
+    t = leader_epochs()
+    # one step in 19 is the pause between bursts: the 90th percentile is a 5 ms step
+    assert np.percentile(np.diff(t), 90) < 0.01
+    assert 0.85 < typical_step_s(t) < 0.92  # the pause, which carries 90 % of the time
+    assert gap_spans(t, bounds=(0.0, 3600.0)).shape == (0, 2)
+    assert not np.isnan(break_gaps(t, t)[1]).any()
+    one_missed = leader_epochs((1000.0, 1000.99))  # a burst lost: a 1.9 s step, no gap
+    assert gap_spans(one_missed).shape == (0, 2)
+
+
+def test_a_hole_in_the_bursts_is_exactly_one_gap() -> None:
+    t = leader_epochs((1000.0, 1004.99))  # bursts 1000..1004 missing: 5 s without ranges
+    spans = gap_spans(t, bounds=(0.0, 3600.0))
+    assert spans.shape == (1, 2)
+    assert 999.09 < spans[0, 0] < 999.1 and 1005.0 <= spans[0, 1] < 1005.01
+    x, _ = break_gaps(t, t)
+    assert np.flatnonzero(np.isnan(x)).size == 1
+    # and on a platform's panel: an outage there, a reference missing for 11 s elsewhere
+    has = (t < 2000.0) | (t > 2011.0)
+    gaps = series_gaps(t, has, bounds=(0.0, 3600.0))
+    assert gaps.outages.tolist() == spans.tolist()
+    assert gaps.no_reference.shape == (1, 2)
+    assert gaps.no_reference[0, 0] > 1999.09 and gaps.no_reference[0, 1] < 2012.0
+
+
+def test_staggered_pairs_keep_the_limit_of_their_step() -> None:
+    """19 pairs at 1 Hz spread over the second: one step of 1/19 s; a 3 s hole is a gap."""
+    t = (np.arange(600.0)[:, None] + np.arange(19)[None, :] / 19.0).ravel()
+    assert line_gap_limit_s(t) == pytest.approx(2.5 / 19.0)
+    holed = t[(t < 300.0) | (t > 303.0)]
+    assert gap_spans(holed).ravel() == pytest.approx([300.0 - 1 / 19.0, 303.0 + 1 / 19.0])
+
+
+def test_irregular_steps_keep_the_percentile_limit_and_show_an_outage() -> None:
+    """Real-ish steps: 0.135 s with jitter, dropped samples (2, 3 steps), a 4 s outage; the
+    limit is the old one, 2.5 x the 90th percentile, and only the outage is a gap."""
+    rng = np.random.default_rng(3)
+    steps = 0.135 * rng.choice([1, 2, 3], 3000, p=[0.85, 0.12, 0.03])
+    steps += rng.normal(0.0, 0.002, steps.size)
+    steps[1500] = 4.0
+    t = np.concatenate([[0.0], np.cumsum(steps)])
+    assert line_gap_limit_s(t) == pytest.approx(2.5 * np.percentile(steps, 90))
+    assert gap_spans(t).tolist() == [[t[1500], t[1501]]]
+
+
+def test_an_outage_carrying_most_of_the_time_is_not_the_cycle() -> None:
+    """A pair ranging 5 of 60 minutes: its 55 min outage carries most of its time but is
+    one step, so it stays a gap (the time-weighted median leaves it out)."""
+    t = np.concatenate([np.arange(0.0, 150.0), np.arange(3450.0, 3600.0)])
+    assert line_gap_limit_s(t) == pytest.approx(2.5)
+    assert gap_spans(t).tolist() == [[149.0, 3450.0]]
+    bursty = leader_epochs()
+    bursty = bursty[(bursty < 150.0) | (bursty > 3450.0)]
+    assert gap_spans(bursty).shape == (1, 2)
+    assert line_gap_limit_s(bursty) < 2.5
 
 
 def test_break_gaps_puts_a_nan_in_each_gap() -> None:
