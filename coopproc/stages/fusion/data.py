@@ -2,23 +2,31 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numba
 import numpy as np
 import pandas as pd
+from numpy.typing import NDArray
 
 from coopproc.errors import StageError
 from coopproc.model import FloatArray, Session, pair_name
 
 __all__ = [
+    "RangeRows",
     "anchor_positions",
+    "clean_range_rows",
     "clean_ranges",
     "epoch_groups",
+    "nav_at_epochs",
     "pair_names",
     "platform_codes",
     "range_sigma_default",
 ]
 
 _REQUIRED = ("time", "from", "to", "range")
+
+IntArray = NDArray[np.int64]
 
 
 def range_sigma_default(session: Session, fallback_m: float) -> float:
@@ -45,6 +53,48 @@ def anchor_positions(session: Session) -> dict[str, FloatArray]:
     return out
 
 
+@dataclass(frozen=True)
+class RangeRows:
+    """The usable range rows as arrays (:func:`clean_range_rows`), in time order.
+
+    ``from_code`` / ``to_code`` index ``ids``, the session's platform ids sorted: the
+    fusion works on these codes, never on a string per row.
+    """
+
+    time: FloatArray
+    range: FloatArray
+    var: FloatArray  # m^2
+    from_code: IntArray
+    to_code: IntArray
+    ids: tuple[str, ...]
+
+    def __len__(self) -> int:
+        return int(self.time.shape[0])
+
+    def take(self, index: np.ndarray) -> RangeRows:
+        """The rows at ``index`` (positions), in that order."""
+        return RangeRows(
+            self.time[index], self.range[index], self.var[index], self.from_code[index],
+            self.to_code[index], self.ids,
+        )  # fmt: skip
+
+    def id_column(self, codes: IntArray) -> pd.api.extensions.ExtensionArray:
+        """The platform ids of ``codes`` as a string column (one take, no per-row str)."""
+        return pd.array(list(self.ids), dtype="str").take(codes)
+
+    def frame(self) -> pd.DataFrame:
+        """Columns time, from, to, range, var (what :func:`clean_ranges` returns)."""
+        return pd.DataFrame(
+            {
+                "time": self.time,
+                "from": self.id_column(self.from_code),
+                "to": self.id_column(self.to_code),
+                "range": self.range,
+                "var": self.var,
+            }
+        )
+
+
 def clean_ranges(session: Session, ranges: pd.DataFrame, default_sigma_m: float) -> pd.DataFrame:
     """The usable range rows: columns time, from, to, range, var (m^2), in time order.
 
@@ -52,6 +102,11 @@ def clean_ranges(session: Session, ranges: pd.DataFrame, default_sigma_m: float)
     dropped; a missing or non-positive ``sigma`` becomes ``default_sigma_m``. A platform id
     that the session does not know is an error.
     """
+    return clean_range_rows(session, ranges, default_sigma_m).frame()
+
+
+def clean_range_rows(session: Session, ranges: pd.DataFrame, default_sigma_m: float) -> RangeRows:
+    """:func:`clean_ranges` as arrays with platform codes (:class:`RangeRows`)."""
     missing = [c for c in _REQUIRED if c not in ranges.columns]
     if missing:
         raise StageError(
@@ -59,28 +114,21 @@ def clean_ranges(session: Session, ranges: pd.DataFrame, default_sigma_m: float)
             "(expected columns time, from, to, range[, sigma]; found "
             f"{', '.join(map(str, ranges.columns))})"
         )
-    frame = pd.DataFrame(
-        {
-            "time": pd.to_numeric(ranges["time"], errors="coerce").to_numpy(np.float64),
-            "from": ranges["from"].astype(str).to_numpy(),
-            "to": ranges["to"].astype(str).to_numpy(),
-            "range": pd.to_numeric(ranges["range"], errors="coerce").to_numpy(np.float64),
-        }
-    )
+    time = pd.to_numeric(ranges["time"], errors="coerce").to_numpy(np.float64)
+    value = pd.to_numeric(ranges["range"], errors="coerce").to_numpy(np.float64)
     if "sigma" in ranges.columns:
         sigma = pd.to_numeric(ranges["sigma"], errors="coerce").to_numpy(np.float64)
     else:
-        sigma = np.full(len(frame), np.nan)
+        sigma = np.full(time.shape[0], np.nan)
     sigma = np.where(np.isfinite(sigma) & (sigma > 0), sigma, default_sigma_m)
-    frame["var"] = sigma * sigma
-    frame = frame[np.isfinite(frame["time"]) & np.isfinite(frame["range"])]
+    keep = np.flatnonzero(np.isfinite(time) & np.isfinite(value))
     ids = sorted(session.platforms)
-    index = pd.Index(ids)
     codes = {}
     for column in ("from", "to"):
-        code = index.get_indexer(frame[column].to_numpy())
+        code, raw, names = _id_codes(ranges[column], ids)
+        code = code[keep]
         if (code < 0).any():
-            unknown = frame[column].to_numpy()[code < 0][0]
+            unknown = names[raw[keep[np.flatnonzero(code < 0)[0]]]]
             raise StageError(
                 f"fusion: range rows name platform '{unknown}' in column '{column}', which "
                 f"the session does not have (platforms: {', '.join(ids)})"
@@ -88,13 +136,28 @@ def clean_ranges(session: Session, ranges: pd.DataFrame, default_sigma_m: float)
         codes[column] = code
     same = codes["from"] == codes["to"]
     if same.any():
-        row = frame[same].iloc[0]
-        raise StageError(f"fusion: range from '{row['from']}' to itself at time {row['time']}")
+        row = int(np.flatnonzero(same)[0])
+        raise StageError(
+            f"fusion: range from '{ids[codes['from'][row]]}' to itself at time {time[keep[row]]}"
+        )
     is_anchor = np.array([session.platforms[p].role == "anchor" for p in ids], dtype=bool)
-    frame = frame[~(is_anchor[codes["from"]] & is_anchor[codes["to"]])]
-    if not frame["time"].is_monotonic_increasing:
-        frame = frame.sort_values("time", kind="stable")
-    return frame.reset_index(drop=True)
+    pick = ~(is_anchor[codes["from"]] & is_anchor[codes["to"]])
+    rows = RangeRows(
+        time[keep], value[keep], sigma[keep] * sigma[keep], codes["from"], codes["to"], tuple(ids)
+    ).take(np.flatnonzero(pick))
+    if rows.time.shape[0] > 1 and not bool(np.all(rows.time[1:] >= rows.time[:-1])):
+        rows = rows.take(np.argsort(rows.time, kind="stable"))
+    return rows
+
+
+def _id_codes(values: pd.Series, order: list[str]) -> tuple[IntArray, IntArray, list[str]]:
+    """Position in ``order`` of each value's ``str`` (-1 where absent), each row's code into
+    the distinct strings, and those strings: one factorization, one ``str`` per distinct
+    value (not per row)."""
+    raw, uniques = pd.factorize(values, use_na_sentinel=False)
+    names = [str(u) for u in uniques]
+    lut = pd.Index(order).get_indexer(pd.Index(names, dtype=object))
+    return lut[raw].astype(np.int64), raw, names
 
 
 def epoch_groups(time_s: FloatArray, merge_s: float) -> tuple[FloatArray, np.ndarray]:
@@ -114,9 +177,30 @@ def epoch_groups(time_s: FloatArray, merge_s: float) -> tuple[FloatArray, np.nda
     return unique, inverse.astype(np.int64)
 
 
+def nav_at_epochs(session: Session, moving: list[str], epochs: FloatArray) -> FloatArray:
+    """(P, K, 3): each moving platform's own navigation interpolated at the epochs.
+
+    What stacking ``session.nav[p].interpolate(epochs)`` gives (the same ``np.interp``),
+    written into one array: no per-platform (K, 3) copies next to it (at 20 platforms x
+    1 h the array is 320 MB).
+    """
+    out = np.empty((len(moving), epochs.shape[0], 3))
+    for p, pid in enumerate(moving):
+        traj = session.nav[pid]
+        for axis in range(3):
+            out[p, :, axis] = np.interp(epochs, traj.time_s, traj.enu_m[:, axis])
+        outside = (epochs < traj.time_s[0]) | (epochs > traj.time_s[-1])
+        if outside.any():
+            out[p, outside] = np.nan
+    return out
+
+
 def platform_codes(ids: pd.Series, order: list[str]) -> np.ndarray:
-    """Position of each id in ``order`` (-1 where absent), vectorized."""
-    return np.asarray(pd.Index(order).get_indexer(pd.Index(ids)), dtype=np.int64)
+    """Position of each id in ``order`` (-1 where absent), vectorized: one factorization
+    and a lookup per distinct id (hashing millions of strings against an index is slow)."""
+    raw, uniques = pd.factorize(ids)  # a missing id: code -1, absent from order
+    lut = np.append(pd.Index(order).get_indexer(uniques), -1)
+    return np.asarray(lut[raw], dtype=np.int64)
 
 
 @numba.njit(cache=True)
@@ -136,19 +220,21 @@ def _window_groups(unique: FloatArray, merge_s: float) -> np.ndarray:
 def pair_names(first: object, second: object) -> np.ndarray:
     """:func:`pair_name` of every row of two id columns (array-likes), as an object array.
 
-    Vectorized: each distinct (first, second) combination is named once, so a table of
-    millions of ranges costs a factorization, not a Python call per row.
+    Vectorized: each column is factorized on its own (a string column is never turned
+    into a Python string per row) and each distinct (first, second) combination is named
+    once, so a table of millions of ranges costs two factorizations, not a call per row.
     """
-    a = np.asarray(first, dtype=object)
-    b = np.asarray(second, dtype=object)
-    if a.shape[0] == 0:
+    a = first if isinstance(first, pd.Series | pd.Index | np.ndarray) else np.asarray(first)
+    b = second if isinstance(second, pd.Series | pd.Index | np.ndarray) else np.asarray(second)
+    if len(a) == 0:
         return np.empty(0, dtype=object)
-    codes, uniques = pd.factorize(np.concatenate([a, b]))
-    width = max(len(uniques), 1)
-    key = codes[: a.shape[0]].astype(np.int64) * width + codes[a.shape[0] :]
+    code_a, uniq_a = pd.factorize(a, use_na_sentinel=False)
+    code_b, uniq_b = pd.factorize(b, use_na_sentinel=False)
+    width = max(len(uniq_b), 1)
+    key = code_a.astype(np.int64) * width + code_b
     combos, inverse = np.unique(key, return_inverse=True)
     names = np.array(
-        [pair_name(str(uniques[k // width]), str(uniques[k % width])) for k in combos],
+        [pair_name(str(uniq_a[k // width]), str(uniq_b[k % width])) for k in combos],
         dtype=object,
     )
     return names[inverse.reshape(-1)]

@@ -40,9 +40,11 @@ from coopproc.configtools import from_table
 from coopproc.errors import StageError
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.stages.fusion.data import (
+    RangeRows,
     anchor_positions,
-    clean_ranges,
+    clean_range_rows,
     epoch_groups,
+    nav_at_epochs,
 )
 from coopproc.stages.fusion.data import range_sigma_default as _range_sigma_default
 from coopproc.stages.fusion.ekf import (
@@ -216,18 +218,17 @@ def fuse(
         if pid not in session.nav or len(session.nav[pid]) < 2:
             raise StageError(f"fusion: platform '{pid}' has no navigation (needs 2+ epochs)")
     anchors = anchor_positions(session)
-    rows = clean_ranges(session, ranges, _range_sigma_default(session, params.range_sigma_m))
+    rows = clean_range_rows(session, ranges, _range_sigma_default(session, params.range_sigma_m))
     start = max(session.nav[p].time_s[0] for p in moving)
     stop = min(session.nav[p].time_s[-1] for p in moving)
-    inside = (rows["time"] >= start) & (rows["time"] <= stop)
-    rows = rows[inside.to_numpy()].reset_index(drop=True)
-    epochs, ep_idx = epoch_groups(rows["time"].to_numpy(), params.epoch_merge_s)
+    rows = rows.take(np.flatnonzero((rows.time >= start) & (rows.time <= stop)))
+    epochs, ep_idx = epoch_groups(rows.time, params.epoch_merge_s)
     if epochs.shape[0] == 0:
         raise StageError(
             f"fusion: no range epoch inside the span every platform has navigation "
             f"({start:.3f} .. {stop:.3f} s)"
         )
-    nav = np.stack([session.nav[p].interpolate(epochs) for p in moving])  # (P, K, 3)
+    nav = nav_at_epochs(session, moving, epochs)  # (P, K, 3)
     n_ep = epochs.shape[0]
     dt = np.diff(epochs, prepend=epochs[0])
     scale = drift_scale or {}
@@ -256,8 +257,8 @@ def fuse(
     table = pd.DataFrame(
         {
             "time": epochs[ep_idx],
-            "from": rows["from"].to_numpy(),
-            "to": rows["to"].to_numpy(),
+            "from": rows.id_column(rows.from_code),
+            "to": rows.id_column(rows.to_code),
             "range": obs["z"][at],
             "innovation": innov[at],
             "innovation_var": innov_var[at],
@@ -287,7 +288,7 @@ def _drift(session: Session, pid: str, params: FusionParams) -> float:
 
 def _initial_state(
     session: Session,
-    rows: pd.DataFrame,
+    rows: RangeRows,
     ep_idx: np.ndarray,
     epochs: FloatArray,
     nav: FloatArray,
@@ -307,7 +308,7 @@ def _initial_state(
     if params.init_from_anchors and has_anchor:
         lsq = dataclasses.replace(params.lsq, dims=dim)
         window = max(lsq.epoch_merge_s, 0.0)
-        first = rows[rows["time"].to_numpy() <= epochs[0] + window]
+        first = rows.take(np.flatnonzero(rows.time <= epochs[0] + window)).frame()
         fixes = robust_lsq_positions(session, first, lsq)
         for p, pid in enumerate(moving):
             fix = fixes.get(pid)

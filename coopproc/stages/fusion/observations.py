@@ -26,10 +26,9 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from coopproc.model import FloatArray, Session
-from coopproc.stages.fusion.data import platform_codes
+from coopproc.stages.fusion.data import RangeRows
 from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_POSITION, OBS_RANGE
 
 if TYPE_CHECKING:
@@ -65,9 +64,15 @@ def nav_sigma(session: Session, pid: str, times: FloatArray, default_m: float) -
     return out
 
 
+def _lookup(ids: tuple[str, ...], order: list[str]) -> np.ndarray:
+    """Position in ``order`` of each of ``ids`` (-1 where absent)."""
+    where = {pid: i for i, pid in enumerate(order)}
+    return np.array([where.get(pid, -1) for pid in ids], dtype=np.int64)
+
+
 def build_observations(
     session: Session,
-    rows: pd.DataFrame,
+    rows: RangeRows,
     ep_idx: np.ndarray,
     epochs: FloatArray,
     nav: FloatArray,
@@ -78,8 +83,9 @@ def build_observations(
     """Flat observation arrays in epoch order and the epoch pointers ``ptr`` (K + 1)."""
     dim = params.dims
     index = {pid: i for i, pid in enumerate(moving)}
-    a_from = platform_codes(rows["from"], moving)
-    a_to = platform_codes(rows["to"], moving)
+    to_moving_code = _lookup(rows.ids, moving)
+    a_from = to_moving_code[rows.from_code]
+    a_to = to_moving_code[rows.to_code]
     from_moving = a_from >= 0
     to_moving = a_to >= 0
     both = from_moving & to_moving
@@ -87,10 +93,10 @@ def build_observations(
     b = np.where(both, a_to, -1).astype(np.int64)
     anchor_ids = sorted(anchors)
     anchor_table = np.array([anchors[k] for k in anchor_ids] + [np.zeros(3)])
-    to_code = platform_codes(rows["to"], anchor_ids)
-    anchor_code = np.where(from_moving, to_code, platform_codes(rows["from"], anchor_ids))
+    to_anchor_code = _lookup(rows.ids, anchor_ids)
+    anchor_code = to_anchor_code[np.where(from_moving, rows.to_code, rows.from_code)]
     anchor = anchor_table[np.where(anchor_code >= 0, anchor_code, len(anchor_ids))]
-    row_t = rows["time"].to_numpy()
+    row_t = rows.time
     late = np.flatnonzero(row_t != epochs[ep_idx])
     if late.size:  # ranges after their (merged) epoch time: carry the DR motion to them
         motion = np.zeros((len(rows), 2, 3))
@@ -130,8 +136,8 @@ def build_observations(
     obs["b"][at] = b
     obs["anchor"][at] = anchor
     obs["dz2"][at] = dz2
-    obs["z"][at] = rows["range"].to_numpy(np.float64)
-    obs["var"][at] = rows["var"].to_numpy(np.float64)
+    obs["z"][at] = rows.range
+    obs["var"][at] = rows.var
     obs["at"] = at  # where each range row is, in row order
     earlier = np.cumsum(fixes, axis=0) - fixes  # fixing leaders before this one, per epoch
     for j, pid in enumerate(leaders):

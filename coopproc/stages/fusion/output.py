@@ -90,9 +90,11 @@ def trajectories_from_slots(
             hold=hold,
         )  # fmt: skip
     epoch_of = np.repeat(np.arange(n_ep), np.diff(rec_ptr))
+    by_plat = np.argsort(rec_plat, kind="stable")  # each platform's slots, ascending
+    bounds = np.searchsorted(rec_plat[by_plat], np.arange(n_plat + 1))
     out: dict[str, Trajectory] = {}
     for p, pid in enumerate(moving):
-        slots = np.flatnonzero(rec_plat == p)
+        slots = by_plat[bounds[p] : bounds[p + 1]]
         at = epoch_of[slots]
         enu = nav[p, at].copy()
         enu[:, :dim] = xs[slots]
