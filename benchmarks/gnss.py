@@ -9,8 +9,10 @@ position (the accuracy the SPP test asserts: <= 5 m and <= 3 m).
 Then the tightly coupled filter (``tight``, issue 13 item 4) on a simulated session
 (``anchors`` scenario, seed 0, 600 s, the tag's GPS at 1 Hz and about 4 UWB ranges/s
 to four anchors, written and read back as files): GPS-only (``gnss``) and GPS/UWB
-(``tight``), robust, as GPS epochs/s (the UWB updates in between included), with the
-tag's horizontal RMS error against the reference.
+(``tight``), robust, with the constant-velocity model and with paper 002's INS error
+states (the tag's 100 Hz IMU mechanised in between), as GPS epochs/s wall and per CPU
+second (the UWB updates in between included), with the tag's horizontal RMS error
+against the reference.
 
     python benchmarks/gnss.py [--repeat 5] [--data ../shared/data/gnss]
 """
@@ -82,6 +84,7 @@ def main() -> None:
 def tight(repeat: int) -> None:
     """The tight filter's throughput on a simulated session (module docstring)."""
     import tempfile
+    import time
 
     from coopproc.io.session import read_session
     from coopproc.sim import simulate, write_simulation
@@ -89,23 +92,35 @@ def tight(repeat: int) -> None:
 
     with tempfile.TemporaryDirectory(prefix="coopproc-bench-") as tmp:
         path = Path(tmp) / "anchors"
-        write_simulation(simulate("anchors", seed=0, gnss_obs=True), path)
+        write_simulation(simulate("anchors", seed=0, gnss_obs=True, imu_rate_hz=100), path)
         session = read_session(path)
     epochs = session.gnss["tag"].epoch_time_s.size
     ranges = len(session.ranges.frame)
-    print(f"tight: anchors seed 0, {epochs} GPS epochs of the tag, {ranges} UWB ranges")
+    imu = session.imu["tag"].time_s.size
+    print(
+        f"tight: anchors seed 0, {epochs} GPS epochs of the tag, {ranges} UWB ranges, "
+        f"{imu} IMU samples (100 Hz)"
+    )
     ref = session.reference["tag"]
-    for label, uwb in (("gnss", False), ("tight", True)):
+    for label, uwb, ins in (
+        ("gnss", False, False),
+        ("tight", True, False),
+        ("gnss+INS", False, True),
+        ("tight+INS", True, True),
+    ):
+        params = GnssParams(ins=ins)
         seconds, times = median_seconds(
-            lambda u=uwb: solve(session, session.ranges.frame, GnssParams(), u, True), repeat
+            lambda u=uwb, p=params: solve(session, session.ranges.frame, p, u, True), repeat
         )
-        out, _ = solve(session, session.ranges.frame, GnssParams(), uwb, True)
+        cpu = time.process_time()
+        out, _ = solve(session, session.ranges.frame, params, uwb, True)
+        cpu = time.process_time() - cpu
         t = np.asarray(out["tag"].time_s)
         err = np.asarray(out["tag"].state)[:, :2] - ref.interpolate_within(t)[:, :2]
         rms = float(np.sqrt(np.nanmean(np.sum(err**2, axis=1))))
         print(
-            f"  {label:<6} {epochs / seconds:8.0f} GPS epochs/s ({spread(times)}); "
-            f"horizontal RMS {rms:.2f} m; {load()}"
+            f"  {label:<9} {epochs / seconds:8.0f} GPS epochs/s wall ({spread(times)}), "
+            f"{epochs / cpu:8.0f} per CPU s; horizontal RMS {rms:.2f} m; {load()}"
         )
 
 
