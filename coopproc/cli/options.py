@@ -11,6 +11,7 @@ import click
 __all__ = [
     "comma_names",
     "config_option",
+    "max_pages_option",
     "max_panels_option",
     "output_option",
     "session_argument",
@@ -62,6 +63,20 @@ def max_panels_option() -> Callable[[F], F]:
         metavar="N",
         help="Most panels per figure page (default 24); more go on further pages "
         "(distance_errors.png, distance_errors_2.png, ...).",
+    )
+
+
+def max_pages_option(default_help: str) -> Callable[[F], F]:
+    """``--max-pages N``: most pages a figure draws unless --pairs / --platforms chose
+    (None: not given; 0: all)."""
+    return click.option(
+        "--max-pages",
+        type=click.IntRange(min=0),
+        default=None,
+        metavar="N",
+        help="Most pages a figure draws when --pairs / --platforms are not given; beyond, "
+        "the pairs with the largest observed range RMSE, the platforms with the largest "
+        f"position error, the largest NLOS events; 0: all (default: {default_help}).",
     )
 
 

@@ -7,7 +7,12 @@ from typing import TYPE_CHECKING
 
 import click
 
-from coopproc.cli.options import comma_names, max_panels_option, style_option
+from coopproc.cli.options import (
+    comma_names,
+    max_pages_option,
+    max_panels_option,
+    style_option,
+)
 
 if TYPE_CHECKING:
     from coopproc.report.rundir import RunTables
@@ -62,6 +67,14 @@ def _outage_origin(run: RunTables) -> float:
     return run.time_origin_s
 
 
+def _run_max_pages(run: RunTables) -> int:
+    """The run's ``[run] max_pages`` (run.json), else the default."""
+    from coopproc.report.style import MAX_PAGES
+
+    value = ((run.info.get("config") or {}).get("run") or {}).get("max_pages")
+    return value if isinstance(value, int) and value >= 0 else MAX_PAGES
+
+
 @click.command("report")
 @click.argument("out", type=click.Path(path_type=Path, file_okay=False))
 @click.option("--table", "show_table", is_flag=True, help="Print Table 2 and Table 3 (default).")
@@ -114,6 +127,7 @@ def _outage_origin(run: RunTables) -> float:
     help="Resolution of PNG figures.",
 )
 @max_panels_option()
+@max_pages_option("the run's [run] max_pages, else 2")
 @style_option()
 @click.option("--html", "make_html", is_flag=True, help="Write OUT/report.html.")
 @click.option(
@@ -173,6 +187,7 @@ def report(
     svg: bool,
     dpi: int,
     max_panels: int | None,
+    max_pages: int | None,
     figure_style: str | None,
     make_html: bool,
     evaluate: bool,
@@ -231,6 +246,7 @@ def report(
             comma_names(platforms),
             max_panels or MAX_PANELS,
             STYLES[figure_style or "default"],
+            _run_max_pages(run) if max_pages is None else max_pages,
         )
     if plots or make_html or stochastic:
         check_writable_dir(out, out)
@@ -323,12 +339,22 @@ def report(
         from coopproc.report.figures import write_figures
 
         formats = ["png", *(["pdf"] if pdf else []), *(["svg"] if svg else [])]
+        cap_notes: list[str] = []  # what the page cap left out
         with output_errors(out):
             written = write_figures(
-                run, out / "figures", formats=formats, dpi=dpi, options=figure_options
+                run,
+                out / "figures",
+                formats=formats,
+                dpi=dpi,
+                options=figure_options,
+                notes=cap_notes,
             )
         for path in written:
             click.echo(f"wrote {path}")
+        for text in cap_notes:
+            click.echo(
+                f"note: {text.replace('coopproc report OUT', f'coopproc report {out}')}", err=True
+            )
     if make_html:
         from coopproc.report.html import write_html
 

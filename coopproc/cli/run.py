@@ -12,6 +12,7 @@ import click
 from coopproc.cli.options import (
     comma_names,
     config_option,
+    max_pages_option,
     max_panels_option,
     output_option,
     session_argument,
@@ -45,6 +46,7 @@ __all__ = ["run"]
 @click.option("--pairs", help="Pairs to draw in the figures, comma separated (e.g. A-B,B-C).")
 @click.option("--platforms", help="Platforms to draw in the figures, comma separated.")
 @max_panels_option()
+@max_pages_option("the config's [run] max_pages, else 2")
 @style_option("the config's [run] figure_style, else default")
 @click.option(
     "--format",
@@ -75,6 +77,7 @@ def run(
     pairs: str | None,
     platforms: str | None,
     max_panels: int | None,
+    max_pages: int | None,
     figure_style: str | None,
     table_format: str | None,
     outages: tuple[str, ...],
@@ -124,6 +127,10 @@ def run(
         )
     if windows:
         config = dataclasses.replace(config, run=dataclasses.replace(config.run, outages=windows))
+    if max_pages is not None:  # run.json records it: `coopproc report --plots` follows it
+        config = dataclasses.replace(
+            config, run=dataclasses.replace(config.run, max_pages=max_pages)
+        )
     if config.run.format == "parquet":
         from coopproc.io.parquet import require_pyarrow
 
@@ -137,6 +144,7 @@ def run(
         figure_options = _figure_options(
             data, pairs, platforms, max_panels, figure_style or config.run.figure_style
         )  # checked early
+        figure_options = dataclasses.replace(figure_options, max_pages=config.run.max_pages)
         check_output_dir(out_dir, force=force, protect=[data.root, *data.inputs])
         note(
             f"session {data.name}: {len(data.platforms)} platforms, "
@@ -167,6 +175,8 @@ def run(
             timings_before=before,
             timings_after={"summary": phases.timings_s["summary"]},
         )
+    for text in files.notes:  # e.g. what the figures' page cap left out
+        note(f"note: {text.replace('coopproc report OUT', f'coopproc report {out_dir}')}")
     for line in calibration_lines(output):
         say(line)
     for line in summary.lines:

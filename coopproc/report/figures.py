@@ -49,6 +49,7 @@ from coopproc.report.gaps import GapSpans, line_gap_limit_s, pair_gaps, platform
 from coopproc.report.methods import position_methods, primary_method, range_methods
 from coopproc.report.outage_figure import OUTAGE_FIGURE_NAMES, outage_panels
 from coopproc.report.pages import FigureOptions, page_ranges, page_stem
+from coopproc.report.panel_cap import Capped, cap_panels, event_score
 from coopproc.report.panels import (
     Panels,
     colorbar_below,
@@ -151,7 +152,7 @@ def _distance_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels 
         gaps = g.gaps("pairs", lambda: pair_gaps(g.ranges())).get(pair)
         plot_distance_errors(ax, rows, shaded, methods=methods, time_origin_s=t0, gaps=gaps)
 
-    return Panels(pairs, pairs, stack_layout(opts.style), draw, _time_finish(t0))
+    return Panels(pairs, pairs, stack_layout(opts.style), draw, _time_finish(t0), "pairs")
 
 
 def _di_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
@@ -167,7 +168,7 @@ def _di_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None
         gaps = g.gaps("pairs", lambda: pair_gaps(g.ranges())).get(pairs[i])
         plot_di_errors(ax, by_pair[pairs[i]], time_origin_s=t0, gaps=gaps)
 
-    return Panels(pairs, pairs, stack_layout(opts.style), draw, _time_finish(t0))
+    return Panels(pairs, pairs, stack_layout(opts.style), draw, _time_finish(t0), "pairs")
 
 
 def _platform_rows(
@@ -202,7 +203,8 @@ def _position_errors(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels 
         plot_position_errors(ax, rows, methods=methods, time_origin_s=t0, gaps=gap)
 
     titles = [f"Platform {p}" for p in platforms]
-    return Panels(platforms, titles, stack_layout(opts.style), draw, _time_finish(t0))
+    layout = stack_layout(opts.style)
+    return Panels(platforms, titles, layout, draw, _time_finish(t0), "platforms")
 
 
 def _nlos_convergence(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
@@ -220,7 +222,9 @@ def _nlos_convergence(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels
         plot_nlos_convergence(ax, rows, reference_bias_m=bias, gap_limit_s=limit)
 
     titles = [title for title, _, _ in panels]
-    return Panels(titles, titles, grid_layout(1.55, opts.style), draw)
+    scores = [event_score(rows) for _, rows, _ in panels]  # the cap keeps the largest
+    layout = grid_layout(1.55, opts.style)
+    return Panels(titles, titles, layout, draw, noun="NLOS events", scores=scores)
 
 
 def _trajectories(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
@@ -237,7 +241,7 @@ def _trajectories(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | N
         plot_trajectory(ax, by_platform[platforms[i]], methods=methods, anchors=anchors)
 
     titles = [f"Platform {p}" for p in platforms]
-    return Panels(platforms, titles, grid_layout(2.3, opts.style), draw)
+    return Panels(platforms, titles, grid_layout(2.3, opts.style), draw, noun="platforms")
 
 
 def _error_cdf(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
@@ -252,7 +256,7 @@ def _error_cdf(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None
         plot_error_cdf(ax, by_platform[platforms[i]], methods=methods)
 
     titles = [f"Platform {p}" for p in platforms]
-    return Panels(platforms, titles, grid_layout(2.0, opts.style), draw)
+    return Panels(platforms, titles, grid_layout(2.0, opts.style), draw, noun="platforms")
 
 
 def _error_track(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | None:
@@ -286,7 +290,7 @@ def _error_track(run: RunTables, opts: FigureOptions, g: _Groups) -> Panels | No
 
     titles = [f"Platform {p}" for p in platforms]
     layout = grid_layout(2.3, opts.style, colorbar=True)
-    return Panels(platforms, titles, layout, draw, finish)
+    return Panels(platforms, titles, layout, draw, finish, "platforms")
 
 
 _BUILDERS: dict[str, Callable[[RunTables, FigureOptions, _Groups], Panels | None]] = {
@@ -305,7 +309,8 @@ FIGURE_NAMES: tuple[str, ...] = tuple(n for n in _BUILDERS if n not in OUTAGE_FI
 @dataclass(frozen=True)
 class FigurePage:
     """One page of a figure: file ``stem`` (``name``, ``name_2``...), the keys of its
-    panels and where it stands (page ``index`` of ``count``, ``total`` panels)."""
+    panels and where it stands (page ``index`` of ``count``, ``total`` panels drawn);
+    ``capped``: what the figure's cap left out (:mod:`coopproc.report.panel_cap`)."""
 
     name: str
     stem: str
@@ -315,17 +320,20 @@ class FigurePage:
     first: int
     total: int
     draw: Callable[[], Figure]
+    capped: Capped | None = None
 
 
 def figure_pages(run: RunTables, options: FigureOptions | None = None) -> Iterator[FigurePage]:
-    """Every page the run's data allow, in figure order; nothing is drawn until a page's
-    ``draw()`` is called (it applies the style of ``options``: ``rc_context(style.rc)``)."""
+    """Every page the run's data allow (within the cap of ``options.max_pages``), in
+    figure order; nothing is drawn until a page's ``draw()`` is called (it applies the
+    style of ``options``: ``rc_context(style.rc)``)."""
     opts = options or FigureOptions()
     g = _Groups(run)
     for name, build in _BUILDERS.items():
-        panels = build(run, opts, g)
-        if panels is None:
+        built = build(run, opts, g)
+        if built is None:
             continue
+        panels, capped = cap_panels(name, built, run, opts)
         pages = page_ranges(len(panels.keys), opts.max_panels)
         for index, at in enumerate(pages):
             yield FigurePage(
@@ -337,6 +345,7 @@ def figure_pages(run: RunTables, options: FigureOptions | None = None) -> Iterat
                 first=at.start,
                 total=len(panels.keys),
                 draw=lambda p=panels, at=at: _draw_styled(p, at, opts),  # type: ignore[misc]
+                capped=capped,
             )
 
 
@@ -349,9 +358,10 @@ def _draw_styled(panels: Panels, at: Sequence[int], opts: FigureOptions) -> Figu
 def _first_page(name: str) -> Callable[..., Figure | None]:
     def first(run: RunTables, options: FigureOptions | None = None) -> Figure | None:
         opts = options or FigureOptions()
-        panels = _BUILDERS[name](run, opts, _Groups(run))
-        if panels is None:
+        built = _BUILDERS[name](run, opts, _Groups(run))
+        if built is None:
             return None
+        panels, _ = cap_panels(name, built, run, opts)
         return _draw_styled(panels, range(min(len(panels.keys), opts.max_panels)), opts)
 
     first.__doc__ = f"The first page of ``{name}`` (None without data)."
@@ -392,9 +402,11 @@ def write_figures(
     formats: Sequence[str] = ("png",),
     dpi: int = 300,
     options: FigureOptions | None = None,
+    notes: list[str] | None = None,
 ) -> list[Path]:
     """Save every page as ``fig_dir/<stem>.<format>`` (one page in memory at a time) and
-    remove further pages an earlier call left; returns the paths written, in order."""
+    remove further pages an earlier call left; returns the paths written, in order.
+    ``notes``: appended with one sentence per figure the page cap shortened."""
     bad = [f for f in formats if f not in FORMATS]
     if bad:
         raise ConfigError(f"unknown figure format {bad[0]!r}; expected one of {', '.join(FORMATS)}")
@@ -404,6 +416,8 @@ def write_figures(
     style = (options or FigureOptions()).style
     with mpl.rc_context(style.rc):
         for page in figure_pages(run, options):
+            if notes is not None and page.capped is not None and page.index == 0:
+                notes.append(page.capped.note())
             fig = page.draw()
             for fmt in formats:
                 path = fig_dir / f"{page.stem}.{fmt}"

@@ -17,7 +17,9 @@ the same size in every figure, one journal column wide or the full text width (n
 screens shrink them all alike).
 
 The section also says which pairs and platforms the figures leave out (``--pairs``,
-``--platforms``) and how a figure of many panels is split into pages.
+``--platforms``, or the cap on pages of :mod:`coopproc.report.panel_cap`: each capped
+figure's caption says what it drew, lists what it left out and how to draw it) and how a
+figure of many panels is split into pages.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ import matplotlib as mpl
 
 from coopproc.report.figures import PANEL_SEPARATOR, PANELS_KEY, FigurePage, figure_pages
 from coopproc.report.pages import FigureOptions, panel_letter, selection_note
+from coopproc.report.panel_cap import Capped
 from coopproc.report.rundir import RunTables
 from coopproc.report.style import RC
 
@@ -140,6 +143,14 @@ def _pages_note(pages: Sequence[FigurePage], linked: set[str]) -> str:
     )
 
 
+def _capped_note(capped: Capped) -> str:
+    """What a capped figure drew, how to draw the rest, and every panel it left out."""
+    return (
+        f'<p class="note">{html.escape(capped.note())} Left out: '
+        f"{html.escape('; '.join(capped.left_out))}.</p>"
+    )
+
+
 def figures_section(
     out_dir: Path,
     run: RunTables,
@@ -192,6 +203,8 @@ def figures_section(
                 left_out.append(page.stem)
         if len(fig_pages) > 1:
             caption += _pages_note(fig_pages, usable)
+        if fig_pages[0].capped is not None:
+            caption += _capped_note(fig_pages[0].capped)
         parts.append(
             f'<figure id="fig-{name}">{"".join(body)}<figcaption>{caption}</figcaption></figure>'
         )

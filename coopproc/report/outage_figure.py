@@ -52,4 +52,4 @@ def outage_panels(run: RunTables, opts: FigureOptions, _groups: Any = None) -> P
 
     titles = [f"Platform {p}" for p in platforms]
     layout = stack_layout(opts.style) if len(platforms) == 1 else grid_layout(2.0, opts.style)
-    return Panels(platforms, titles, layout, draw)
+    return Panels(platforms, titles, layout, draw, noun="platforms")

@@ -12,6 +12,10 @@ convergence) to those pairs; ``platforms`` restricts the per-platform figures (p
 errors, trajectories, CDFs, error tracks) to those platforms. Given alone, ``platforms``
 also keeps the pairs whose two platforms are both chosen, and ``pairs`` alone keeps the
 platforms of the chosen pairs, so either option draws one sub-network.
+
+Cap: unless pairs or platforms were chosen, a figure draws at most ``max_pages`` pages
+(``--max-pages``, default :data:`~coopproc.report.style.MAX_PAGES`; 0: all), the panels
+most worth looking at (:mod:`coopproc.report.panel_cap`).
 """
 
 from __future__ import annotations
@@ -24,7 +28,7 @@ import pandas as pd
 from coopproc.errors import ConfigError
 from coopproc.model import pair_members, pair_name
 from coopproc.report.rundir import RunTables
-from coopproc.report.style import DEFAULT_STYLE, MAX_PANELS, FigureStyle
+from coopproc.report.style import DEFAULT_STYLE, MAX_PAGES, MAX_PANELS, FigureStyle
 
 __all__ = [
     "FigureOptions",
@@ -42,17 +46,29 @@ __all__ = [
 
 @dataclass(frozen=True)
 class FigureOptions:
-    """The pairs and platforms to draw (None: all), the most panels per page and the
-    figure style (sizes and fonts, ``--style``)."""
+    """The pairs and platforms to draw (None: all), the most panels per page, the figure
+    style (sizes and fonts, ``--style``) and the most pages of a figure whose panels were
+    not chosen (``max_pages``; 0: no cap)."""
 
     pairs: tuple[str, ...] | None = None
     platforms: tuple[str, ...] | None = None
     max_panels: int = MAX_PANELS
     style: FigureStyle = DEFAULT_STYLE
+    max_pages: int = MAX_PAGES
 
     def __post_init__(self) -> None:
         if self.max_panels < 1:
             raise ConfigError(f"max panels must be at least 1, not {self.max_panels}")
+        if self.max_pages < 0:
+            raise ConfigError(f"max pages must be at least 0 (0: all), not {self.max_pages}")
+
+    @property
+    def panel_cap(self) -> int | None:
+        """Most panels a figure draws, None for all: the cap applies only when neither
+        pairs nor platforms were chosen (what the user chose is drawn whole)."""
+        if self.selects or self.max_pages == 0:
+            return None
+        return self.max_pages * self.max_panels
 
     def keep_pair(self, pair: str) -> bool:
         """Whether the per-pair figures draw ``pair`` (see the module docstring)."""
@@ -153,6 +169,7 @@ def check_selection(
     platforms: Sequence[str] | None = None,
     max_panels: int = MAX_PANELS,
     style: FigureStyle = DEFAULT_STYLE,
+    max_pages: int = MAX_PAGES,
 ) -> FigureOptions:
     """:class:`FigureOptions` for ``run``; an unknown pair or platform raises ConfigError
     listing the run's. ``B-A`` is taken as the pair ``A-B``."""
@@ -163,6 +180,7 @@ def check_selection(
         else check_names(platforms, run_platforms(run), "platform"),
         max_panels=max_panels,
         style=style,
+        max_pages=max_pages,
     )
 
 

@@ -180,13 +180,32 @@ def _legend_only(fig: Figure, axes: list[Axes], drawn: list[Any]) -> None:
 class Panels:
     """The panels of one figure kind: ``keys`` (pair, platform or event) with ``titles``;
     ``draw(ax, i)`` draws panel ``i`` and returns what a ``finish`` step may need (e.g.
-    the dots for a colour bar); ``finish(fig, axes, drawn)`` adds legend, axis labels."""
+    the dots for a colour bar); ``finish(fig, axes, drawn)`` adds legend, axis labels.
+    ``noun`` names the keys ("pairs", "platforms", "NLOS events"); ``scores`` (one per
+    panel, higher first; None: the first are kept) rank the panels when a cap leaves
+    some out (:mod:`coopproc.report.panel_cap`)."""
 
     keys: Sequence[str]
     titles: Sequence[str]
     layout: Layout
     draw: Callable[[Axes, int], Any]
     finish: Callable[[Figure, list[Axes], list[Any]], None] = _legend_only
+    noun: str = "panels"
+    scores: Sequence[float] | None = None
+
+    def subset(self, indices: Sequence[int]) -> Panels:
+        """The panels at ``indices`` (in that order), numbered from 0 again."""
+        at = list(indices)
+        draw = self.draw
+        return Panels(
+            keys=[self.keys[i] for i in at],
+            titles=[self.titles[i] for i in at],
+            layout=self.layout,
+            draw=lambda ax, j: draw(ax, at[j]),
+            finish=self.finish,
+            noun=self.noun,
+            scores=None if self.scores is None else [self.scores[i] for i in at],
+        )
 
     def page(self, indices: Sequence[int]) -> Figure:
         """The figure of the panels at ``indices`` (labels from their index)."""

@@ -23,6 +23,7 @@ __all__ = [
     "EXTRA_COLORS",
     "EXTRA_DASHES",
     "MAX_LINE_POINTS",
+    "MAX_PAGES",
     "MAX_PANELS",
     "METHOD_STYLES",
     "NLOS_SPAN",
@@ -45,6 +46,10 @@ PANEL_HEIGHT_IN = 1.45
 #: Most panels on one page of a figure; more go on further pages (``name_2.png``...).
 #: ``coopproc run`` / ``coopproc report --plots`` take ``--max-panels`` to change it.
 MAX_PANELS = 24
+#: Most pages a figure draws unless ``--pairs`` / ``--platforms`` chose its panels: 48
+#: panels, every pair of 10 platforms; beyond, the panels most worth looking at
+#: (:mod:`coopproc.report.panel_cap`). ``--max-pages`` / ``[run] max_pages``; 0: all.
+MAX_PAGES = 2
 #: Most points drawn per line and panel: longer series are drawn from their min/max
 #: envelope (:mod:`coopproc.report.decimate`); statistics always use every sample.
 MAX_LINE_POINTS = 5000

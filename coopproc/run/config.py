@@ -62,6 +62,16 @@ class RunParams:
             "'double-column' (7.16 in, 9 pt) or 'default'; --style overrides it"
         },
     )
+    max_pages: int = field(
+        default=2,
+        metadata={
+            "help": "most pages (of --max-panels, 24, panels) a figure draws unless "
+            "--pairs / --platforms chose its panels: beyond, the pairs with the largest "
+            "observed range RMSE, the platforms with the largest position error, the "
+            "largest NLOS events (the run notes say what was left out); 0 = all; "
+            "--max-pages overrides it"
+        },
+    )
     outages: tuple[tuple[float, float], ...] = field(
         default=(),
         metadata={
@@ -79,6 +89,10 @@ class RunParams:
             'pip install "coopproc[parquet]"); the summary tables are always CSV'
         },
     )
+
+    def __post_init__(self) -> None:
+        if self.max_pages < 0:
+            raise ValueError(f"max_pages must be >= 0 (0: all pages), found {self.max_pages}")
 
 
 @dataclass(frozen=True)

@@ -50,6 +50,8 @@ class RunFiles:
     figures: tuple[Path, ...]
     html: Path | None
     run_json: Path
+    #: notes of the writing, e.g. what the figures' page cap left out (also in run.json)
+    notes: tuple[str, ...] = ()
 
 
 def sha256_of(path: Path) -> str:
@@ -184,9 +186,15 @@ def write_run(
         if config.run.figures:
             phase("figures")
             since = clock()
+            cap_notes: list[str] = []  # what the figures' page cap left out
             figures = write_figures(
-                run, tmp / "figures", formats=figure_formats, options=figure_options
+                run,
+                tmp / "figures",
+                formats=figure_formats,
+                options=figure_options,
+                notes=cap_notes,
             )
+            info["notes"] = [*info["notes"], *cap_notes]
             timings["figures"] = clock() - since
             info["figures"] = [str(p.relative_to(tmp)) for p in figures]
         # report.html also without figures (--no-figures): the page says it has none
@@ -214,6 +222,7 @@ def write_run(
         figures=tuple(final / p.relative_to(tmp) for p in figures),
         html=final / html.name,
         run_json=final / "run.json",
+        notes=tuple(info["notes"][len(session.notes) :]),
     )
 
 

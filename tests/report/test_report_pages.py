@@ -69,7 +69,7 @@ def test_page_names_and_ranges() -> None:
 
 
 def test_pages_of_one_panel_keep_labels_running(run: RunTables, tmp_path: Path) -> None:
-    figs = make_figures(run, FigureOptions(max_panels=1))
+    figs = make_figures(run, FigureOptions(max_panels=1, max_pages=0))  # 0: no page cap
     assert titles(figs["distance_errors"]) == ["(a) A-B"]
     assert titles(figs["distance_errors_2"]) == ["(b) A-C"]
     assert titles(figs["distance_errors_3"]) == ["(c) B-C"]
@@ -108,7 +108,8 @@ def test_cli_report_plots_follow_pairs_and_max_panels(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     assert panels_of(out / "figures" / "distance_errors.png") == "B-C"
     result = runner.invoke(
-        main, ["report", str(out), "--plots", "--max-panels", "1", "--dpi", "50"]
+        main,
+        ["report", str(out), "--plots", "--max-panels", "1", "--max-pages", "0", "--dpi", "50"],
     )
     assert result.exit_code == 0, result.output
     assert panels_of(out / "figures" / "distance_errors_3.png") == "B-C"
