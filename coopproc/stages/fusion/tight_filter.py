@@ -1,7 +1,9 @@
 """The tightly coupled GPS/UWB robust Kalman filter of paper 002 (eq. 6-20), all platforms
 in one time-ordered pass.
 
-State of each platform with GPS observations (session ENU frame):
+State of each platform with GPS observations and no IMU (session ENU frame; with an
+IMU: paper 002's INS error states, :mod:`coopproc.stages.fusion.tight_ins`, through the
+same :class:`CvTrack` methods):
 ``[e, n, u, v_e, v_n, v_u, c dt_r, c dt_r']`` - position, velocity (constant-velocity
 model, white acceleration of PSD ``q_h`` horizontally, ``q_v`` vertically), receiver
 clock bias and drift (eq. 6-7, a two-state clock with the TCXO figures h0 = 2e-19,

@@ -8,8 +8,10 @@
 - ``gnss_kf``: GPS only, standard Kalman filter.
 
 They run on the observed ranges only, for every platform with ``obs_<ID>.*``
-(``Session.gnss``). Paper 002's experiments are ``[gnss]`` settings: satellites kept per
-epoch (``max_satellites``, windows ``[[gnss.mask]]``) and pseudorange gross errors
+(``Session.gnss``); a platform that also has IMU samples runs paper 002's INS error
+states (:mod:`coopproc.stages.fusion.tight_ins`; ``[gnss] ins``), with a note. Paper
+002's experiments are ``[gnss]`` settings: satellites kept per epoch
+(``max_satellites``, windows ``[[gnss.mask]]``) and pseudorange gross errors
 (``[[gnss.gross]]``); UWB gross errors come from ``coopproc inject --gross``.
 """
 
