@@ -18,12 +18,22 @@ are often optimistic (the dr-faults scenario: a 3 deg/min heading drift). So
    MAD, combined with the declared sigma as a prior
    (:func:`~coopproc.stages.ranging.calibration.posterior_sigma`), and never below the declared
    sigma (inflate only) nor below ``sigma_floor``;
-3. when one platform's pairs are all worse than the others' (:func:`_platform_range_factor`)
-   estimates a constant range bias of that platform by iteration and corrects its ranges,
-   if that cuts the platform's residual RMS by 10 % (:func:`_platform_bias`; a note says
-   so), then re-checks that platform's drift;
+3. when one platform's pairs are all worse than the others' and its ranges' median
+   residual differs from the others' by a bias that matters (a fraction of its ranging
+   sigma, :func:`~.calibration_bias.biased_platform`), estimates a constant range bias of
+   that platform by iteration and corrects its ranges, if that cuts the platform's
+   residual RMS by 10 % (:func:`~.calibration_bias.platform_bias`; a note says so),
+   then re-checks that platform's drift;
 4. fuses with those sigmas, corrections and drifts (or keeps the first fusion when nothing
    changed).
+
+Every test is on an effect size (a median NIS ratio, an RMS ratio, a bias against the
+ranging sigma), none on a significance that grows with the number of ranges, so a longer
+session of the same quality calibrates the same way. Above
+:data:`~coopproc.stages.fusion.calibration_subset.CALIBRATION_EPOCHS` range epochs, steps
+1-3 fuse a time-stratified subset of the ranges
+(:func:`~coopproc.stages.fusion.calibration_subset.calibration_rows`) and step 4 fuses
+every range.
 
 Each pair's median post-fit residual is reported as its bias, not removed: a fit absorbs
 part of it, and biases of several pairs trade off against the positions.
@@ -38,8 +48,16 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
-from coopproc.model import FloatArray, Session, pair_members
-from coopproc.stages.fusion.data import anchor_positions, pair_names
+from coopproc.model import Session
+from coopproc.stages.fusion.calibration_bias import (
+    biased_platform,
+    corrected,
+    groups,
+    platform_bias,
+    postfit_residuals,
+)
+from coopproc.stages.fusion.calibration_subset import CALIBRATION_EPOCHS, calibration_rows
+from coopproc.stages.fusion.data import pair_names
 from coopproc.stages.fusion.fuse import FusionOutput, FusionParams, fuse
 from coopproc.stages.ranging.calibration import MAD_SCALE, posterior_sigma
 
@@ -47,20 +65,12 @@ __all__ = ["FusionCalibration", "calibrated_fuse", "postfit_residuals"]
 
 #: Median NIS / median chi^2(1) above which a platform's dead reckoning is inflated.
 NIS_LIMIT = 2.0
-#: A platform bias is kept only if it cuts the RMS of that platform's residuals to this.
-BIAS_GAIN = 0.9
 #: Rounds of drift inflation at most.
 NIS_ROUNDS = 5
 #: Median of the chi-square distribution with one degree of freedom.
 CHI2_1_MEDIAN = 0.4549
 #: Gross errors dropped from the per-pair RMS: beyond this many MADs from the median.
 GROSS_MADS = 5.0
-#: A platform whose pairs' median sigma is this many times the others' is weighted down.
-PLATFORM_RANGE_LIMIT = 1.5
-#: Platform range bias iteration: stop when it moves less than this (m) ...
-BIAS_TOL_M = 0.01
-#: ... or after this many fusions.
-BIAS_ITERATIONS = 8
 #: Fewer residuals than this: the pair keeps its given sigma.
 MIN_RESIDUALS = 20
 
@@ -75,48 +85,6 @@ class FusionCalibration:
     platform_nis: Mapping[str, float]  # median NIS / 0.455 of each platform's ranges
     drift_scale: Mapping[str, float]  # factor applied to a platform's drift sigma
     notes: tuple[str, ...] = field(default=())
-
-
-def _positions(
-    session: Session,
-    fused: FusionOutput,
-    anchors: Mapping[str, FloatArray],
-    pid: str,
-    t: FloatArray,
-) -> FloatArray:
-    if pid in anchors:
-        return np.tile(anchors[pid], (t.shape[0], 1))
-    return fused.smoothed[pid].interpolate(t)
-
-
-def postfit_residuals(session: Session, fused: FusionOutput, ranges: pd.DataFrame) -> pd.DataFrame:
-    """Columns time, pair, residual: each range minus the fused distance at its time."""
-    anchors = anchor_positions(session)
-    frame = ranges[np.isfinite(ranges["range"].to_numpy(dtype=np.float64))]
-    pairs = pair_names(frame["from"], frame["to"])
-    t = frame["time"].to_numpy(dtype=np.float64)
-    resid = np.full(t.shape[0], np.nan)
-    from_ids, to_ids = frame["from"].to_numpy(), frame["to"].to_numpy()
-    for _, sel in _groups(pairs):
-        a, b = from_ids[sel[0]], to_ids[sel[0]]
-        if (a not in anchors and a not in fused.smoothed) or (
-            b not in anchors and b not in fused.smoothed
-        ):
-            continue
-        xa = _positions(session, fused, anchors, str(a), t[sel])
-        xb = _positions(session, fused, anchors, str(b), t[sel])
-        resid[sel] = frame["range"].to_numpy(dtype=np.float64)[sel] - np.linalg.norm(
-            xa - xb, axis=1
-        )
-    return pd.DataFrame({"time": t, "pair": pairs, "residual": resid})
-
-
-def _groups(names: np.ndarray) -> list[tuple[str, np.ndarray]]:
-    """(name, row indices) of each distinct name, names sorted (one sort, no scans)."""
-    unique, inverse = np.unique(names, return_inverse=True)
-    order = np.argsort(inverse, kind="stable")
-    bounds = np.searchsorted(inverse[order], np.arange(unique.shape[0] + 1))
-    return [(str(unique[i]), order[bounds[i] : bounds[i + 1]]) for i in range(unique.shape[0])]
 
 
 def _pair_figures(
@@ -154,79 +122,6 @@ def _platform_nis(observations: pd.DataFrame) -> dict[str, float]:
         if values.shape[0] >= MIN_RESIDUALS:
             out[str(platform)] = float(np.median(values)) / CHI2_1_MEDIAN
     return out
-
-
-def _platform_range_factor(pair_sigma: Mapping[str, float]) -> dict[str, float]:
-    """The platform whose pairs are all worse than the rest (a body-blocked antenna), if
-    any: the median sigma of its pairs over the median of the other pairs, where above
-    :data:`PLATFORM_RANGE_LIMIT` and the platform has 3+ pairs and the others 3+ too. Only
-    the worst one: biases of several platforms at once trade off against each other."""
-    members: dict[str, list[float]] = {}
-    for pair, sigma in pair_sigma.items():
-        for platform in pair_members(pair):
-            members.setdefault(platform, []).append(sigma)
-    factors: dict[str, float] = {}
-    for platform, own in members.items():
-        others = [s for pair, s in pair_sigma.items() if platform not in pair_members(pair)]
-        if len(own) < 3 or len(others) < 3:
-            continue
-        factors[platform] = float(np.median(own)) / float(np.median(others))
-    if not factors:
-        return {}
-    worst = max(sorted(factors), key=lambda p: factors[p])
-    return {worst: factors[worst]} if factors[worst] > PLATFORM_RANGE_LIMIT else {}
-
-
-def _platform_bias(
-    session: Session,
-    ranges: pd.DataFrame,
-    params: FusionParams,
-    platforms: Mapping[str, float],
-) -> tuple[pd.DataFrame, dict[str, float]]:
-    """A constant range bias of each listed platform: every range it takes part in reads
-    long (or short) by b_p. The fit absorbs part of a bias into the positions, so b_p is
-    found by iteration: fuse, add the median post-fit residual of the platform's ranges to
-    b_p, correct the ranges, fuse again, until b_p moves less than :data:`BIAS_TOL_M` (at
-    most :data:`BIAS_ITERATIONS` times). Identifiable because the platform is ranged from
-    three or more directions: a position shift lengthens some ranges and shortens others."""
-    base = ranges["range"].to_numpy(dtype=np.float64)
-    ends = (ranges["from"].to_numpy(), ranges["to"].to_numpy())
-    involved = {p: (ends[0] == p) | (ends[1] == p) for p in platforms}
-    bias = dict.fromkeys(platforms, 0.0)
-    current = ranges
-    rms_first = float("nan")
-    for _ in range(BIAS_ITERATIONS):
-        fused = fuse(session, current, params, output="ranges", smoothed_sigma=False)
-        resid = postfit_residuals(session, fused, current)["residual"].to_numpy()
-        if np.isnan(rms_first):
-            rms_first = _rms(resid, involved)
-        step = {}
-        for platform, sel in involved.items():
-            r = resid[sel]
-            r = r[np.isfinite(r)]
-            step[platform] = float(np.median(r)) if r.shape[0] else 0.0
-            bias[platform] += step[platform]
-        corrected = base.copy()
-        for platform, sel in involved.items():
-            corrected[sel] -= bias[platform]
-        current = ranges.assign(range=corrected)
-        if max(abs(v) for v in step.values()) < BIAS_TOL_M:
-            break
-    fused = fuse(session, current, params, output="ranges", smoothed_sigma=False)
-    rms_last = _rms(postfit_residuals(session, fused, current)["residual"].to_numpy(), involved)
-    if not rms_last < BIAS_GAIN * rms_first:
-        return ranges, {}  # the bias does not explain the disagreement: leave the ranges
-    return current, bias
-
-
-def _rms(resid: FloatArray, involved: Mapping[str, np.ndarray]) -> float:
-    """RMS of the finite residuals of the ranges of the listed platforms."""
-    sel = np.zeros(resid.shape[0], dtype=bool)
-    for mask in involved.values():
-        sel |= mask
-    r = resid[sel]
-    r = r[np.isfinite(r)]
-    return float(np.sqrt(np.mean(r * r))) if r.shape[0] else float("nan")
 
 
 def _drift_scales(
@@ -286,6 +181,7 @@ def calibrated_fuse(
     label: str = "observed",
     sigma_floor: Mapping[str, float] | None = None,
     smoothed_sigma: bool = True,
+    max_epochs: int | None = CALIBRATION_EPOCHS,
 ) -> tuple[FusionOutput, FusionCalibration]:
     """Fuse with per-pair sigmas and drift scales estimated from the data (module docstring).
 
@@ -295,14 +191,19 @@ def calibrated_fuse(
     floor: their post-fit residuals are small, but their errors are correlated over many
     epochs, so weighting them by that RMS as if white makes the fusion overconfident
     (measured on paper-experiment seed 1: fused DI mean error 0.080 m against 0.074 m).
+    ``max_epochs``: above this many distinct range times the calibration rounds fuse a
+    time-stratified subset (:func:`calibration_rows`; None: always every range).
     """
     if not params.self_calibrate:
         plain = fuse(session, ranges, params, output=output, smoothed_sigma=smoothed_sigma)
         return plain, FusionCalibration({}, {}, {}, {}, {})
+    rows = calibration_rows(ranges["time"].to_numpy(dtype=np.float64), max_epochs)
+    sample = ranges if rows is None else ranges.iloc[rows]
     # 1. dead reckoning that the ranges contradict, with the given range sigmas
-    first, scale, _ = _drift_scales(session, ranges, params, {}, smoothed_sigma=smoothed_sigma)
+    first, scale, _ = _drift_scales(session, sample, params, {}, smoothed_sigma=smoothed_sigma)
     # 2. per-pair ranging sigma from the post-fit residuals
-    rms, bias, count = _pair_figures(postfit_residuals(session, first, ranges))
+    resid = postfit_residuals(session, first, sample)
+    rms, bias, count = _pair_figures(resid)
     pairs = pair_names(ranges["from"], ranges["to"])
     given = pd.to_numeric(ranges["sigma"], errors="coerce").to_numpy(dtype=np.float64)
     default = session.config.uwb_sigma_m or params.range_sigma_m
@@ -310,7 +211,7 @@ def calibrated_fuse(
     sigma_used: dict[str, float] = {}
     notes: list[str] = []
     new_sigma = given.copy()
-    for pair, sel in _groups(pairs):
+    for pair, sel in groups(pairs):
         prior = float(np.median(given[sel]))
         if pair in rms:
             # inflate only: a declared sigma above the post-fit RMS stays (shrinking it
@@ -325,26 +226,31 @@ def calibrated_fuse(
             sigma_used[str(pair)] = max(sigma_used[str(pair)], sigma_floor[str(pair)])
         new_sigma[sel] = sigma_used[str(pair)]
     calibrated = ranges.assign(sigma=new_sigma)
-    # 3. a platform whose ranges all disagree: its range bias, then its drift afresh
-    platform_factor = _platform_range_factor(sigma_used)
+    # 3. a platform whose ranges all disagree, by a bias that matters: its range bias,
+    # then its drift afresh
+    platform_factor = biased_platform(
+        sigma_used, resid["residual"].to_numpy(dtype=np.float64), sample, given, rows
+    )
     if platform_factor:
         unscaled = {p: v for p, v in scale.items() if p not in platform_factor}
-        calibrated, platform_bias = _platform_bias(session, calibrated, params, platform_factor)
-        platform_factor = {p: f for p, f in platform_factor.items() if p in platform_bias}
+        sample = calibrated if rows is None else calibrated.iloc[rows]
+        sample, found = platform_bias(session, sample, params, platform_factor)
+        platform_factor = {p: f for p, f in platform_factor.items() if p in found}
+        calibrated = sample if rows is None else corrected(calibrated, found)
         for platform, factor in sorted(platform_factor.items()):
             notes.append(
                 f"fusion ({label}): the ranges of {platform} disagree with the rest of the "
                 f"network (its pairs' sigma {factor:.1f} x the others') and read "
-                f"{platform_bias[platform]:+.3f} m long on average (body shadowing or an "
+                f"{found[platform]:+.3f} m long on average (body shadowing or an "
                 "antenna delay): corrected by that in the fusion"
             )
         if platform_factor:
             _, scale, _ = _drift_scales(
-                session, calibrated, params, unscaled, only=set(platform_factor),
+                session, sample, params, unscaled, only=set(platform_factor),
                 smoothed_sigma=False, smoothed=False,
             )  # fmt: skip
     unchanged = np.array_equal(new_sigma, given) and not platform_factor
-    if unchanged and output == "ranges":
+    if unchanged and output == "ranges" and rows is None:
         result = first  # the sigmas, biases and drifts of the first fusion stand
     else:
         result = fuse(
