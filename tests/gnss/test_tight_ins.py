@@ -9,6 +9,7 @@ defaults); GPS alone with 10 satellites is about 0.9 m horizontal RMS here.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -192,3 +193,23 @@ def test_cli_run_writes_the_ins_coupled_tight(sim_dir: Path, tmp_path: Path) -> 
     pos = pd.read_csv(out / "positions.csv")
     tight = pos[(pos["method"] == "tight") & (pos["platform"] == "tag")]
     assert len(tight) > 100
+
+
+def test_imu_ending_before_the_gps_coasts_like_the_cv_filter(session: Session) -> None:
+    """After the last IMU sample the track moves its nav at constant velocity with the
+    CV filter's noise; corrections stay consistent (the error stays at the CV level:
+    about 1 m GPS-only, 1.5 m with UWB in the 1-satellite window)."""
+    imu = session.imu["tag"]
+    keep = imu.time_s < imu.time_s[0] + 30.0
+    short = dataclasses.replace(
+        imu, time_s=imu.time_s[keep], gyro_radps=imu.gyro_radps[keep],
+        accel_mps2=imu.accel_mps2[keep],
+    )  # fmt: skip
+    cut = dataclasses.replace(session, imu={"tag": short})
+    for uwb in (False, True):
+        got, _ = solve(cut, cut.ranges.frame, GnssParams(), uwb, True)
+        t, e, s = _errors(session, got["tag"])
+        after = t > 31.0
+        assert after.sum() > 20
+        assert e[after].max() < 2.0  # a drifting nav: tens of metres
+        assert s[after].max() > s[(t > 20.0) & (t < 29.0)].max()  # the sigma grows

@@ -43,7 +43,7 @@ from coopproc.gnss.ephemeris import SPEED_OF_LIGHT
 from coopproc.gnss.tight import GnssEpochs, LocalFrame
 from coopproc.ins.aiding import rad_llh
 from coopproc.ins.align import Alignment
-from coopproc.ins.earth import ecef_to_enu_matrix, llh_to_ecef, normal_gravity
+from coopproc.ins.earth import ecef_to_enu_matrix, llh_to_ecef, normal_gravity, radii
 from coopproc.ins.errorstate import ErrorStateEkf, level_correlated
 from coopproc.ins.mechanize import increments_from_rates, ins_step, make_nav
 from coopproc.ins.models import ImuFigures
@@ -141,6 +141,8 @@ class InsTrack(CvTrack):
         self.sens = np.zeros(6)
         self.prev = np.concatenate([self.dth[0], self.dv[0]])
         self.k = 0
+        #: the time the nav holds (the last IMU sample, or later when coasting past the end)
+        self.t_nav = float(self.imu_t[0])
         self.nav = self._nav_at(self.start_enu, self.start_vel)
         self._geometry()
 
@@ -172,6 +174,7 @@ class InsTrack(CvTrack):
                      self.sens, p, phi_tot, self.qc, float(self.figures.correlation_time),
                      COV_EVERY)  # fmt: skip
             self.k = k1 - 1
+            self.t_nav = float(self.imu_t[self.k])
             self._geometry()
         return phi_tot
 
@@ -204,6 +207,18 @@ class InsTrack(CvTrack):
         dt = t - self.t
         p = np.ascontiguousarray(self.c[:_N, :_N])
         phi = self._run(t, p)
+        extra = t - max(self.t, float(self.imu_t[-1]))
+        if extra > 0.0:  # past the last IMU sample: constant velocity, the CV filter's noise
+            phi_x = np.eye(_N)
+            phi_x[0:3, 3:6] = extra * np.eye(3)
+            qa = np.array([opt.q_h, opt.q_h, opt.q_v])
+            q_x = np.zeros((_N, _N))
+            q_x[0:3, 0:3] = np.diag(qa * extra**3 / 3.0)
+            q_x[0:3, 3:6] = q_x[3:6, 0:3] = np.diag(qa * extra**2 / 2.0)
+            q_x[3:6, 3:6] = np.diag(qa * extra)
+            p = phi_x @ p @ phi_x.T + q_x
+            phi = phi_x @ phi
+            self._coast(t)
         f = np.array([[1.0, dt], [0.0, 1.0]])
         sb, sd = SPEED_OF_LIGHT**2 * _H0 / 2.0, SPEED_OF_LIGHT**2 * 2.0 * np.pi**2 * _H2
         q = np.array([[sb * dt + sd * dt**3 / 3.0, sd * dt**2 / 2.0], [sd * dt**2 / 2.0, sd * dt]])
@@ -217,9 +232,20 @@ class InsTrack(CvTrack):
         self.x[_N:] = f @ self.x[_N:]
         self.t = t
 
+    def _coast(self, t: float) -> None:
+        """Past the last IMU sample: move the nav to ``t`` at its velocity."""
+        dt = t - self.t_nav
+        m, n = radii(self.nav[0])
+        h = self.nav[2]
+        self.nav[0] += self.nav[4] * dt / (m + h)
+        self.nav[1] += self.nav[3] * dt / ((n + h) * np.cos(self.nav[0]))
+        self.nav[2] += self.nav[5] * dt
+        self.t_nav = t
+        self._geometry()
+
     def _lag(self) -> float:
         """Seconds from the last mechanized IMU sample to the filter time."""
-        return 0.0 if self.t is None else max(self.t - float(self.imu_t[self.k]), 0.0)
+        return 0.0 if self.t is None else max(self.t - self.t_nav, 0.0)
 
     def _imu_enu(self) -> FloatArray:
         return self.enu + self.rot @ self.nav[3:6] * self._lag()
