@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numba
@@ -22,11 +25,17 @@ __all__ = [
     "pair_names",
     "platform_codes",
     "range_sigma_default",
+    "shared_nav",
 ]
 
 _REQUIRED = ("time", "from", "to", "range")
 
 IntArray = NDArray[np.int64]
+
+#: The last navigation at the epochs inside :func:`shared_nav` (None: outside any).
+_SHARED_NAV: contextvars.ContextVar[
+    list[tuple[Session, tuple[str, ...], FloatArray, FloatArray]] | None
+] = contextvars.ContextVar("coopproc_fusion_shared_nav", default=None)
 
 
 def range_sigma_default(session: Session, fallback_m: float) -> float:
@@ -182,8 +191,19 @@ def nav_at_epochs(session: Session, moving: list[str], epochs: FloatArray) -> Fl
 
     What stacking ``session.nav[p].interpolate(epochs)`` gives (the same ``np.interp``),
     written into one array: no per-platform (K, 3) copies next to it (at 20 platforms x
-    1 h the array is 320 MB).
+    1 h the array is 320 MB). Inside :func:`shared_nav` the last result is given again to
+    a call with the same session, platforms and epochs (read only: nobody writes to it).
     """
+    shared = _SHARED_NAV.get()
+    if shared:
+        was_session, was_moving, was_epochs, was_nav = shared[0]
+        if (
+            was_session is session
+            and was_moving == tuple(moving)
+            and was_epochs.shape == epochs.shape
+            and np.array_equal(was_epochs, epochs)
+        ):
+            return was_nav
     out = np.empty((len(moving), epochs.shape[0], 3))
     for p, pid in enumerate(moving):
         traj = session.nav[pid]
@@ -192,7 +212,22 @@ def nav_at_epochs(session: Session, moving: list[str], epochs: FloatArray) -> Fl
         outside = (epochs < traj.time_s[0]) | (epochs > traj.time_s[-1])
         if outside.any():
             out[p, outside] = np.nan
+    if shared is not None:
+        shared[:] = [(session, tuple(moving), epochs, out)]
     return out
+
+
+@contextlib.contextmanager
+def shared_nav() -> Iterator[None]:
+    """Share :func:`nav_at_epochs` between the fusions of the block (one context, e.g. one
+    thread): the self-calibration fuses one range set several times (drift rounds, the
+    platform-bias iteration) with the same range times, so the same (P, K, 3) navigation
+    at the epochs. Only the last one is kept, and only until the block ends."""
+    token = _SHARED_NAV.set([])
+    try:
+        yield
+    finally:
+        _SHARED_NAV.reset(token)
 
 
 def platform_codes(ids: pd.Series, order: list[str]) -> np.ndarray:

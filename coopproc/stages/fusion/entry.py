@@ -24,6 +24,7 @@ from coopproc.errors import StageError
 from coopproc.model import Session, Trajectory
 from coopproc.stages.base import PositionInput, PositionProduct, PositionStage
 from coopproc.stages.fusion.calibration import calibrated_fuse
+from coopproc.stages.fusion.data import shared_nav
 from coopproc.stages.fusion.fuse import FusionParams
 from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
 from coopproc.stages.fusion.uwb_kf import uwb_kf_positions
@@ -36,23 +37,24 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
     floor = None
     if inp.observed is not None and inp.observed.calibration is not None:
         floor = inp.observed.calibration.pair_sigma_m
-    fused, cal = calibrated_fuse(
-        inp.session,
-        inp.ranges,
-        params,
-        output=inp.output,
-        label=inp.range_set,
-        sigma_floor=floor,
-        smoothed_sigma=False,  # positions.csv and the ranging stage take positions only
-    )
-    cp = None
-    if inp.want_cp:
-        at_ranges = fused
-        if inp.output != "ranges":
-            at_ranges, _ = calibrated_fuse(
-                inp.session, inp.ranges, params, output="ranges", smoothed_sigma=False
-            )
-        cp = (at_ranges.forward, at_ranges.smoothed)
+    with shared_nav():  # the calibration's fusions of this range set: the same epochs
+        fused, cal = calibrated_fuse(
+            inp.session,
+            inp.ranges,
+            params,
+            output=inp.output,
+            label=inp.range_set,
+            sigma_floor=floor,
+            smoothed_sigma=False,  # positions.csv and the ranging stage take positions only
+        )
+        cp = None
+        if inp.want_cp:
+            at_ranges = fused
+            if inp.output != "ranges":
+                at_ranges, _ = calibrated_fuse(
+                    inp.session, inp.ranges, params, output="ranges", smoothed_sigma=False
+                )
+            cp = (at_ranges.forward, at_ranges.smoothed)
     return PositionProduct(positions=fused.smoothed, cp=cp, calibration=cal, notes=cal.notes)
 
 
