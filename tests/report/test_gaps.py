@@ -83,6 +83,20 @@ def test_staggered_pairs_keep_the_limit_of_their_step() -> None:
     assert gap_spans(holed).ravel() == pytest.approx([300.0 - 1 / 19.0, 303.0 + 1 / 19.0])
 
 
+def test_pairs_in_groups_a_missed_range_between_pauses_is_no_gap() -> None:
+    """A platform whose 19 pairs range in a burst and two single slots a second (pauses of
+    0.2, 0.2 and 0.44 s: the 90th percentile step is 0.2 s), 2 % of its ranges missed: a
+    missed single slot joins two pauses (0.64 s), no outage; a 3 s hole is one."""
+    offsets = np.concatenate([np.arange(17) * 0.01, [0.36, 0.56]])
+    t = (np.arange(3600.0)[:, None] + offsets).ravel()
+    t = t[np.random.default_rng(5).uniform(size=t.size) > 0.02]
+    assert np.percentile(np.diff(t), 90) == pytest.approx(0.2, abs=0.01)
+    assert typical_step_s(t) == pytest.approx(0.44, abs=0.01)
+    assert gap_spans(t).shape == (0, 2)
+    holed = t[(t < 1800.0) | (t > 1803.0)]
+    assert gap_spans(holed).shape == (1, 2)
+
+
 def test_irregular_steps_keep_the_percentile_limit_and_show_an_outage() -> None:
     """Real-ish steps: 0.135 s with jitter, dropped samples (2, 3 steps), a 4 s outage; the
     limit is the old one, 2.5 x the 90th percentile, and only the outage is a gap."""
