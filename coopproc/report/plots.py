@@ -10,7 +10,7 @@ those found in the rows themselves.
 Nothing is drawn across a gap: a time-series line breaks (a NaN is inserted) where
 consecutive samples are further apart than the figures' gap rule
 (:func:`~coopproc.report.gaps.line_gap_limit_s`: 2.5 times the series' typical step,
-the longer of the 90th percentile and the time-weighted median of its steps), and the
+the longer of the 90th percentile and the time-weighted 75th percentile of its steps), and the
 spans without data given as ``gaps`` (UWB outages, no reference:
 :class:`~coopproc.report.gaps.GapSpans`) are shaded under the data. A line of more than
 :data:`~coopproc.report.style.MAX_LINE_POINTS` samples is drawn from its min/max envelope
