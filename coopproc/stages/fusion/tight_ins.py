@@ -33,6 +33,7 @@ or zero-velocity rows: paper 002's filter is GPS/UWB/INS.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 
 import numba
 import numpy as np
@@ -49,7 +50,7 @@ from coopproc.ins.mechanize import increments_from_rates, ins_step, make_nav
 from coopproc.ins.models import ImuFigures
 from coopproc.ins.propagation import apply_correction_nb, continuous_noise, phi_q, propagate_cov
 from coopproc.ins.quat import quat_to_dcm, skew
-from coopproc.model import FloatArray, Session
+from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.sensors import ImuData
 from coopproc.stages.fusion.tight_filter import CvTrack, TightOptions
 
@@ -333,6 +334,16 @@ def track_factory(
         except StageError as exc:
             notes.append(f"{pid}: no INS start ({exc}); constant-velocity model")
             return CvTrack(pid, epochs, start)
+        al, vel, how = st.alignment, st.vel_enu_mps, st.how
+        if by_nav and _moves(nav, imu.time_s[0], imu.time_s[max(al.static_samples - 1, 0)]):
+            # steady motion looks static to the IMU: the levelling has the acceleration in
+            # it; the in-motion sigmas and the navigation file's velocity instead
+            al = replace(al, sigma_level=float(np.radians(ip.level_sigma_deg)),
+                         sigma_yaw=max(al.sigma_yaw, float(np.radians(ip.heading_sigma_deg))),
+                         static_samples=0)  # fmt: skip
+            assert nav is not None
+            vel = _nav_velocity(nav, float(imu.time_s[0]))
+            how += "; moving in the navigation file: in-motion sigmas"
         cfg = session.platforms[pid]
         levers = (
             np.asarray(cfg.gnss_lever_arm_m or (0.0, 0.0, 0.0), dtype=np.float64),
@@ -340,9 +351,24 @@ def track_factory(
         )
         notes.append(
             f"{pid}: with the INS (paper 002: 15 INS error states + clock; "
-            f"{imu.time_s.size} IMU samples, no NHC/odometer; start: {st.how})"
+            f"{imu.time_s.size} IMU samples, no NHC/odometer; start: {how})"
         )
-        return InsTrack(pid, epochs, start, frame, imu, imu_figures(cfg.imu), st.alignment,
-                        st.vel_enu_mps, levers)  # fmt: skip
+        return InsTrack(pid, epochs, start, frame, imu, imu_figures(cfg.imu), al, vel,
+                        levers)  # fmt: skip
 
     return make
+
+
+def _moves(nav: Trajectory | None, t0: float, t1: float) -> bool:
+    """Whether the navigation file moves more than 0.5 m horizontally in [t0, t1]."""
+    if nav is None or t1 <= t0:
+        return False
+    pts = nav.enu_m[(nav.time_s >= t0) & (nav.time_s <= t1), :2]
+    return bool(pts.shape[0] >= 2 and np.linalg.norm(pts - pts[0], axis=1).max() > 0.5)
+
+
+def _nav_velocity(nav: Trajectory, t: float) -> FloatArray:
+    """Mean velocity of the navigation file over (t, t + 1 s)."""
+    a = np.array([np.interp(t, nav.time_s, nav.enu_m[:, i]) for i in range(3)])
+    b = np.array([np.interp(t + 1.0, nav.time_s, nav.enu_m[:, i]) for i in range(3)])
+    return b - a
