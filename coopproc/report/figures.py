@@ -48,6 +48,7 @@ from coopproc.report.evaluation_plots import (
 from coopproc.report.gaps import GapSpans, line_gap_limit_s, pair_gaps, platform_gaps
 from coopproc.report.methods import position_methods, primary_method, range_methods
 from coopproc.report.outage_figure import OUTAGE_FIGURE_NAMES, outage_panels
+from coopproc.report.page_workers import save_pages
 from coopproc.report.pages import FigureOptions, page_ranges, page_stem
 from coopproc.report.panel_cap import Capped, cap_panels, event_score
 from coopproc.report.panels import (
@@ -403,29 +404,37 @@ def write_figures(
     dpi: int = 300,
     options: FigureOptions | None = None,
     notes: list[str] | None = None,
+    workers: int | None = None,
 ) -> list[Path]:
-    """Save every page as ``fig_dir/<stem>.<format>`` (one page in memory at a time) and
-    remove further pages an earlier call left; returns the paths written, in order.
-    ``notes``: appended with one sentence per figure the page cap shortened."""
+    """Save every page as ``fig_dir/<stem>.<format>`` (one page in memory at a time per
+    process) and remove further pages an earlier call left; returns the paths written, in
+    order. ``notes``: appended with one sentence per figure the page cap shortened.
+    ``workers``: processes drawing pages (None: one per CPU, at most 4; 1: this one;
+    :mod:`coopproc.report.page_workers`), the files the same either way."""
     bad = [f for f in formats if f not in FORMATS]
     if bad:
         raise ConfigError(f"unknown figure format {bad[0]!r}; expected one of {', '.join(FORMATS)}")
     fig_dir = Path(fig_dir)
     fig_dir.mkdir(parents=True, exist_ok=True)
-    written = []
     style = (options or FigureOptions()).style
+
+    def save(page: FigurePage) -> list[Path]:
+        fig, out = page.draw(), []
+        for fmt in formats:
+            path = fig_dir / f"{page.stem}.{fmt}"
+            meta = dict(_METADATA[fmt])
+            if fmt == "png":
+                meta[PANELS_KEY] = PANEL_SEPARATOR.join(page.keys)
+            fig.savefig(path, format=fmt, dpi=dpi, metadata=meta)
+            out.append(path)
+        return out
+
     with mpl.rc_context(style.rc):
-        for page in figure_pages(run, options):
-            if notes is not None and page.capped is not None and page.index == 0:
-                notes.append(page.capped.note())
-            fig = page.draw()
-            for fmt in formats:
-                path = fig_dir / f"{page.stem}.{fmt}"
-                meta = dict(_METADATA[fmt])
-                if fmt == "png":
-                    meta[PANELS_KEY] = PANEL_SEPARATOR.join(page.keys)
-                fig.savefig(path, format=fmt, dpi=dpi, metadata=meta)
-                written.append(path)
+        pages = list(figure_pages(run, options))  # panels built here, shared by workers
+        notes_of = [p.capped.note() for p in pages if p.capped is not None and p.index == 0]
+        written = save_pages(pages, save, workers=workers, cost=lambda p: len(p.keys))
+    if notes is not None:
+        notes.extend(notes_of)
     stems = {p.stem for p in written}
     for fmt in FORMATS:
         for path in _stale_pages(fig_dir, fmt, stems):

@@ -6,10 +6,13 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
+import threading
 from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from matplotlib.figure import Figure
 from PIL import Image
 from report_synth import make_run
 from test_report_rundir import write_run_dir
@@ -19,6 +22,7 @@ from coopproc.cli import main
 from coopproc.errors import ConfigError
 from coopproc.report.figures import FigurePage, figure_pages
 from coopproc.report.html import render_html
+from coopproc.report.page_workers import page_workers, save_pages
 from coopproc.report.pages import FigureOptions
 from coopproc.report.panel_cap import cap_indices
 from coopproc.report.rundir import RunTables
@@ -168,3 +172,36 @@ def test_cli_report_follows_the_runs_max_pages(
     page = (out / "report.html").read_text()
     assert "Left out" not in page and "3 panels on 3 pages of at most 1" in page
     assert json.loads((out / "run.json").read_text())["config"]["run"]["max_pages"] == 1
+
+
+def _draw_page(page: tuple[Path, float]) -> list[Path]:
+    """A small matplotlib page saved as PNG with the drawing process's id beside it."""
+    path, slope = page
+    fig = Figure(figsize=(2, 1.5))
+    fig.subplots().plot([0.0, 1.0, 2.0], [0.0, slope, 2 * slope], label=f"{slope}")
+    fig.legend()
+    fig.savefig(path, dpi=40, metadata={"Software": None})
+    path.with_suffix(".pid").write_text(str(os.getpid()))
+    return [path]
+
+
+def test_pages_drawn_in_workers_are_the_same_files(tmp_path: Path) -> None:
+    def pages(where: str) -> list[tuple[Path, float]]:
+        (tmp_path / where).mkdir()
+        return [(tmp_path / where / f"p{i}.png", 0.5 * i) for i in range(4)]
+
+    serial = save_pages(pages("a"), _draw_page, workers=1)
+    forked = save_pages(pages("b"), _draw_page, workers=2, cost=lambda page: page[1])
+    assert [p.name for p in forked] == [p.name for p in serial] == [f"p{i}.png" for i in range(4)]
+    assert all(a.read_bytes() == b.read_bytes() for a, b in zip(serial, forked, strict=True))
+
+    def pids(paths: list[Path]) -> set[int]:
+        return {int(p.with_suffix(".pid").read_text()) for p in paths}
+
+    assert pids(serial) == {os.getpid()} and os.getpid() not in pids(forked)
+    # off the main thread (coopproc batch's threaded Dask workers): drawn in the caller
+    found: list[int] = []
+    worker = threading.Thread(target=lambda: found.append(page_workers()))
+    worker.start()
+    worker.join()
+    assert found == [1]
