@@ -193,6 +193,18 @@ def test_cli_run_writes_the_ins_coupled_tight(sim_dir: Path, tmp_path: Path) -> 
     pos = pd.read_csv(out / "positions.csv")
     tight = pos[(pos["method"] == "tight") & (pos["platform"] == "tag")]
     assert len(tight) > 100
+    # states.csv: the INS attitude; the heading against the truth's (the tag drives at
+    # 0.6 m/s: a 0.1 m/s Doppler sigma sees the heading to about 10 deg an epoch, the
+    # filter averages it to a few degrees; the CV filter has no attitude)
+    st = pd.read_csv(out / "states.csv")
+    st = st[(st["method"] == "tight") & (st["platform"] == "tag")]
+    truth = pd.read_csv(sim_dir / "truth" / "traj_tag.csv")
+    ref = np.degrees(np.unwrap(np.radians(truth["heading"].to_numpy())))
+    diff = (st["yaw"].to_numpy() - np.interp(st["time"], truth["time"], ref) + 180.0) % 360.0
+    late = st["time"].to_numpy() > st["time"].iloc[0] + 10.0
+    assert np.median(np.abs(diff[late] - 180.0)) < 5.0
+    assert np.abs(diff[late] - 180.0).max() < 15.0
+    assert st[["roll", "pitch"]].abs().max().max() < 5.0  # a level drive
 
 
 def test_imu_ending_before_the_gps_coasts_like_the_cv_filter(session: Session) -> None:

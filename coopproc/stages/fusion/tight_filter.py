@@ -97,6 +97,8 @@ class TrackOutput:
     state: list[FloatArray] = field(default_factory=list)
     sigma: list[FloatArray] = field(default_factory=list)
     n_sat: list[int] = field(default_factory=list)
+    #: roll, pitch, heading (deg, states.csv's convention) per row; empty without an INS
+    att_deg: list[FloatArray] = field(default_factory=list)
 
 
 class CvTrack:

@@ -49,7 +49,7 @@ from coopproc.ins.errorstate import ErrorStateEkf, level_correlated
 from coopproc.ins.mechanize import increments_from_rates, ins_step, make_nav
 from coopproc.ins.models import ImuFigures
 from coopproc.ins.propagation import apply_correction_nb, continuous_noise, phi_q, propagate_cov
-from coopproc.ins.quat import quat_to_dcm, skew
+from coopproc.ins.quat import quat_to_dcm, quat_to_euler, skew
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.sensors import ImuData
 from coopproc.stages.fusion.tight_filter import CvTrack, TightOptions
@@ -303,6 +303,13 @@ class InsTrack(CvTrack):
         self.c[:6, :6] = c[:6, :6]
         super().record(t)
         self.x, self.c = x, c
+        e = np.degrees(quat_to_euler(self.nav[6:10]))
+        att = np.array([e[0], -e[1], np.mod(90.0 - e[2], 360.0)])
+        out = self.out
+        if len(out.att_deg) == len(out.time_s):
+            out.att_deg[-1] = att
+        else:
+            out.att_deg.append(att)
 
 
 def track_factory(

@@ -216,15 +216,21 @@ def _trajectories(
         t = np.asarray(out.time_s)
         x = np.asarray(out.state)
         s = np.asarray(out.sigma)
+        att = np.asarray(out.att_deg) if out.att_deg else None  # the INS's
         if output == "nav" and pid in session.nav:
             tn = session.nav[pid].time_s
             tn = tn[(tn >= t[0]) & (tn <= t[-1])]
             x = np.column_stack([np.interp(tn, t, x[:, i]) for i in range(6)])
             s = np.column_stack([np.interp(tn, t, s[:, i]) for i in range(6)])
+            if att is not None:
+                att[:, 2] = np.degrees(np.unwrap(np.radians(att[:, 2])))
+                att = np.column_stack([np.interp(tn, t, att[:, i]) for i in range(3)])
+                att[:, 2] = np.mod(att[:, 2], 360.0)
             t = tn
         positions[pid] = Trajectory(pid, t, x[:, :3].copy(), s[:, :3].copy())
         nan3 = np.full((t.size, 3), np.nan)
-        states[pid] = NavStates(t, x[:, 3:6].copy(), nan3, s[:, 3:6].copy(), nan3.copy())
+        att = nan3.copy() if att is None else att
+        states[pid] = NavStates(t, x[:, 3:6].copy(), att, s[:, 3:6].copy(), nan3)
     return positions, states
 
 
