@@ -30,10 +30,11 @@ are often optimistic (the dr-faults scenario: a 3 deg/min heading drift). So
 Every test is on an effect size (a median NIS ratio, an RMS ratio, a bias against the
 ranging sigma), none on a significance that grows with the number of ranges, so a longer
 session of the same quality calibrates the same way. Above
-:data:`~coopproc.stages.fusion.calibration_subset.CALIBRATION_EPOCHS` range epochs, steps
-1-3 fuse a time-stratified subset of the ranges
-(:func:`~coopproc.stages.fusion.calibration_subset.calibration_rows`) and step 4 fuses
-every range.
+:data:`~coopproc.stages.fusion.calibration_subset.CALIBRATION_EPOCHS` range epochs, the
+bias iteration of step 3 (up to 9 whole fusions) fuses an evenly thinned subset of the
+ranges (:func:`~coopproc.stages.fusion.calibration_subset.calibration_rows`); steps 1, 2
+and 4 fuse every range (the drift NIS depends on the interval between a platform's
+ranges, so drift rounds on a thinned subset inflate more: measured, not adopted).
 
 Each pair's median post-fit residual is reported as its bias, not removed: a fit absorbs
 part of it, and biases of several pairs trade off against the positions.
@@ -191,18 +192,17 @@ def calibrated_fuse(
     floor: their post-fit residuals are small, but their errors are correlated over many
     epochs, so weighting them by that RMS as if white makes the fusion overconfident
     (measured on paper-experiment seed 1: fused DI mean error 0.080 m against 0.074 m).
-    ``max_epochs``: above this many distinct range times the calibration rounds fuse a
-    time-stratified subset (:func:`calibration_rows`; None: always every range).
+    ``max_epochs``: above this many distinct range times the platform range-bias
+    iteration fuses an evenly thinned subset (:func:`calibration_rows`; None: always
+    every range).
     """
     if not params.self_calibrate:
         plain = fuse(session, ranges, params, output=output, smoothed_sigma=smoothed_sigma)
         return plain, FusionCalibration({}, {}, {}, {}, {})
-    rows = calibration_rows(ranges["time"].to_numpy(dtype=np.float64), max_epochs)
-    sample = ranges if rows is None else ranges.iloc[rows]
     # 1. dead reckoning that the ranges contradict, with the given range sigmas
-    first, scale, _ = _drift_scales(session, sample, params, {}, smoothed_sigma=smoothed_sigma)
+    first, scale, _ = _drift_scales(session, ranges, params, {}, smoothed_sigma=smoothed_sigma)
     # 2. per-pair ranging sigma from the post-fit residuals
-    resid = postfit_residuals(session, first, sample)
+    resid = postfit_residuals(session, first, ranges)
     rms, bias, count = _pair_figures(resid)
     pairs = pair_names(ranges["from"], ranges["to"])
     given = pd.to_numeric(ranges["sigma"], errors="coerce").to_numpy(dtype=np.float64)
@@ -227,12 +227,13 @@ def calibrated_fuse(
         new_sigma[sel] = sigma_used[str(pair)]
     calibrated = ranges.assign(sigma=new_sigma)
     # 3. a platform whose ranges all disagree, by a bias that matters: its range bias,
-    # then its drift afresh
+    # then its drift afresh; the bias iteration on a thinned subset of a long session
     platform_factor = biased_platform(
-        sigma_used, resid["residual"].to_numpy(dtype=np.float64), sample, given, rows
+        sigma_used, resid["residual"].to_numpy(dtype=np.float64), ranges, given
     )
     if platform_factor:
         unscaled = {p: v for p, v in scale.items() if p not in platform_factor}
+        rows = calibration_rows(ranges["time"].to_numpy(dtype=np.float64), max_epochs)
         sample = calibrated if rows is None else calibrated.iloc[rows]
         sample, found = platform_bias(session, sample, params, platform_factor)
         platform_factor = {p: f for p, f in platform_factor.items() if p in found}
@@ -246,11 +247,11 @@ def calibrated_fuse(
             )
         if platform_factor:
             _, scale, _ = _drift_scales(
-                session, sample, params, unscaled, only=set(platform_factor),
+                session, calibrated, params, unscaled, only=set(platform_factor),
                 smoothed_sigma=False, smoothed=False,
             )  # fmt: skip
     unchanged = np.array_equal(new_sigma, given) and not platform_factor
-    if unchanged and output == "ranges" and rows is None:
+    if unchanged and output == "ranges":
         result = first  # the sigmas, biases and drifts of the first fusion stand
     else:
         result = fuse(

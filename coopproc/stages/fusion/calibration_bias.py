@@ -180,20 +180,19 @@ def _rms(resid: FloatArray, involved: Mapping[str, np.ndarray]) -> float:
 def biased_platform(
     pair_sigma: Mapping[str, float],
     resid: FloatArray,
-    sample: pd.DataFrame,
+    ranges: pd.DataFrame,
     given: FloatArray,
-    rows: np.ndarray | None,
 ) -> dict[str, float]:
     """The platform whose pairs are all worse than the rest (:func:`platform_range_factor`)
     if its relative median residual (:func:`relative_bias`) is :data:`BIAS_EFFECT` of its
-    ranges' median given sigma or more; else none."""
+    ranges' median given sigma or more; else none. ``resid``, ``given``: per row of
+    ``ranges``."""
     out = {}
-    given_sample = given if rows is None else given[rows]
-    ends = (sample["from"].to_numpy(), sample["to"].to_numpy())
+    ends = (ranges["from"].to_numpy(), ranges["to"].to_numpy())
     for platform, factor in platform_range_factor(pair_sigma).items():
         own = (ends[0] == platform) | (ends[1] == platform)
-        sigma = float(np.median(given_sample[own])) if own.any() else float("nan")
-        if abs(relative_bias(resid, sample, platform)) >= BIAS_EFFECT * sigma:
+        sigma = float(np.median(given[own])) if own.any() else float("nan")
+        if abs(relative_bias(resid, ranges, platform)) >= BIAS_EFFECT * sigma:
             out[platform] = factor
     return out
 

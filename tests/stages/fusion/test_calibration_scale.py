@@ -1,6 +1,6 @@
 """The self-calibration on long sessions (issue 11): the platform range-bias decision is an
 effect size (it does not flag ever smaller biases as the session grows), and above a cap
-the calibration rounds fuse a bounded, time-spread, deterministic subset of the ranges."""
+the calibration rounds fuse a bounded, evenly thinned, deterministic subset of the ranges."""
 
 from __future__ import annotations
 
@@ -52,7 +52,7 @@ def test_no_bias_estimated_on_an_unbiased_platform_however_long(n_per_pair: int)
     resid = _residuals(frame, spread_p4=0.45, bias_p4=0.0, seed=1)
     given = frame["sigma"].to_numpy(dtype=np.float64)
     assert calibration_bias.platform_range_factor(_sigmas(0.45)) == {"P4": 3.0}
-    assert biased_platform(_sigmas(0.45), resid, frame, given, None) == {}
+    assert biased_platform(_sigmas(0.45), resid, frame, given) == {}
 
 
 @pytest.mark.parametrize("n_per_pair", [100, 10_000])
@@ -60,12 +60,12 @@ def test_a_bias_that_matters_is_estimated_whatever_the_length(n_per_pair: int) -
     frame = _network(n_per_pair)
     given = frame["sigma"].to_numpy(dtype=np.float64)
     biased = _residuals(frame, spread_p4=0.45, bias_p4=0.15, seed=2)  # 1 x sigma
-    assert biased_platform(_sigmas(0.45), biased, frame, given, None) == {"P4": 3.0}
+    assert biased_platform(_sigmas(0.45), biased, frame, given) == {"P4": 3.0}
     # below the effect size: not estimated, even with 10,000 ranges per pair, where a
     # significance test would call a 0.02 m offset certain
     small = _residuals(frame, spread_p4=0.45, bias_p4=0.02, seed=3)
     assert BIAS_EFFECT * 0.15 > 0.02
-    assert biased_platform(_sigmas(0.45), small, frame, given, None) == {}
+    assert biased_platform(_sigmas(0.45), small, frame, given) == {}
 
 
 def test_relative_bias_ignores_a_network_wide_offset() -> None:
@@ -108,59 +108,69 @@ def test_calibration_rows_none_at_or_below_the_cap() -> None:
         calibration_rows(times, 0)
 
 
-@pytest.mark.parametrize(
-    ("n", "cap", "blocks"), [(1001, 1000, 10), (10_000, 999, 7), (500, 30, 40)]
-)
-def test_calibration_rows_bounded_spread_whole_epochs(n: int, cap: int, blocks: int) -> None:
+@pytest.mark.parametrize(("n", "cap"), [(1001, 1000), (10_000, 999), (5000, 3), (90_000, 30_000)])
+def test_calibration_rows_bounded_and_spread(n: int, cap: int) -> None:
     rng = np.random.default_rng(n)
     epochs = np.cumsum(rng.uniform(0.01, 0.05, n))
     times = np.repeat(epochs, 2)  # two ranges at every time: kept or dropped together
-    rows = calibration_rows(times, cap, blocks)
+    rows = calibration_rows(times, cap)
     assert rows is not None
     assert np.all(np.diff(rows) > 0)
     kept = np.unique(times[rows])
-    assert kept.shape[0] <= cap
-    size = cap // min(blocks, cap)
-    assert kept.shape[0] == size * min(blocks, cap)
+    assert cap - 3 <= kept.shape[0] <= cap
     assert rows.shape[0] == 2 * kept.shape[0]
-    # the first block starts at the first epoch, the last ends at the last one
-    assert kept[0] == epochs[0] and kept[-1] == epochs[-1]
+    # every tenth of the session keeps its share of the epochs
     index = np.searchsorted(epochs, kept)
-    starts = index[np.r_[0, np.flatnonzero(np.diff(index) > 1) + 1]]
-    if starts.shape[0] > 1:  # evenly spread block starts (within rounding)
-        gaps = np.diff(starts)
-        assert gaps.max() - gaps.min() <= 1
+    share = np.bincount(index * 10 // n, minlength=10) / kept.shape[0]
+    assert np.all(np.abs(share - 0.1) <= 0.1 * 0.1 + 2.0 / kept.shape[0]), share
+
+
+@pytest.mark.parametrize("step", [3, 4, 45])
+def test_calibration_rows_keep_every_pair_of_a_polling_round(step: int) -> None:
+    # 45 pairs polled in turn (epoch i is pair i mod 45); a cap of 1/step of the epochs
+    # keeps every pair's share (every step-th epoch would keep 45 / gcd(step, 45) pairs)
+    n = 45 * 400
+    pair = np.arange(n) % 45
+    rows = calibration_rows(np.arange(n) * 0.0222, n // step)
+    assert rows is not None
+    counts = np.bincount(pair[rows], minlength=45)
+    assert counts.min() >= 0.85 * 400 / step and counts.max() <= 1.15 * 400 / step + 1
 
 
 def test_calibration_rows_depend_on_the_times_only() -> None:
     rng = np.random.default_rng(5)
     times = np.repeat(np.arange(3000.0) * 0.1, 3)
     order = rng.permutation(times.shape[0])
-    rows = calibration_rows(times, 600, 4)
-    shuffled = calibration_rows(times[order], 600, 4)
+    rows = calibration_rows(times, 600)
+    shuffled = calibration_rows(times[order], 600)
     assert rows is not None and shuffled is not None
     assert np.array_equal(np.sort(times[rows]), np.sort(times[order][shuffled]))
-    assert np.array_equal(rows, calibration_rows(times, 600, 4))
+    assert np.array_equal(rows, calibration_rows(times, 600))
 
 
-def test_rounds_fuse_the_subset_and_the_result_every_range(monkeypatch) -> None:
+def test_bias_iteration_fuses_the_subset_and_the_rest_every_range(monkeypatch) -> None:
     session, frame = _biased_session(0.5)
-    seen: list[int] = []
-    real = calibration.fuse
+    seen: dict[str, list[int]] = {"calibration": [], "bias": []}
 
-    def counting(session_, ranges, *args, **kwargs):
-        seen.append(len(ranges))
-        return real(session_, ranges, *args, **kwargs)
+    def counting(where: str, real):
+        def fuse(session_, ranges, *args, **kwargs):
+            seen[where].append(len(ranges))
+            return real(session_, ranges, *args, **kwargs)
 
-    monkeypatch.setattr(calibration, "fuse", counting)
-    monkeypatch.setattr(calibration_bias, "fuse", counting)
+        return fuse
+
+    monkeypatch.setattr(calibration, "fuse", counting("calibration", calibration.fuse))
+    monkeypatch.setattr(calibration_bias, "fuse", counting("bias", calibration_bias.fuse))
     cap = 120  # of 239 range times
     rows = calibration_rows(frame["time"].to_numpy(), cap)
     assert rows is not None
     out, cal = calibration.calibrated_fuse(
         session, frame, FusionParams(), smoothed_sigma=False, max_epochs=cap
     )
-    assert len(seen) >= 3  # first fusion, bias iteration, final fusion
-    assert seen[-1] == len(frame) and set(seen[:-1]) == {rows.shape[0]}
+    assert len(seen["bias"]) >= 2 and set(seen["bias"]) == {rows.shape[0]}
+    assert len(seen["calibration"]) >= 2 and set(seen["calibration"]) == {len(frame)}
     assert out.epochs_s.shape[0] == np.unique(frame["time"]).shape[0]
-    assert any("the ranges of A " in n for n in cal.notes)
+    noted = [n for n in cal.notes if "the ranges of A " in n]
+    assert len(noted) == 1
+    found = float(noted[0].split(" read ")[1].split(" m long")[0])
+    assert found == pytest.approx(0.5, abs=0.1)
