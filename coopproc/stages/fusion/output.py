@@ -96,7 +96,7 @@ def trajectories_from_slots(
     for p, pid in enumerate(moving):
         slots = by_plat[bounds[p] : bounds[p + 1]]
         at = epoch_of[slots]
-        enu = nav[p, at].copy()
+        enu = nav[p, at]  # a copy (fancy indexing)
         enu[:, :dim] = xs[slots]
         sig = None
         if var is not None:
