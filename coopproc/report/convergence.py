@@ -129,6 +129,7 @@ def convergence_panels(
         by_pair.setdefault(ev.pair, []).append(ev)
     ranges = groups(run.ranges, "pair") if by_pair else {}
     panels = []
+    t0 = run.time_origin_s  # once: a min over the ranges and positions tables
     for pair in sorted(by_pair):
         mains = [e for e in by_pair[pair] if e.method == primary]  # in time order
         main_starts = np.array([e.start for e in mains], dtype=np.float64)
@@ -156,7 +157,7 @@ def convergence_panels(
             head = group[0]
             # the primary method's panels unnamed: the titles fit a third of the text width
             name = "" if head.method == primary else f"{method_label(head.method)} "
-            at = head.start - run.time_origin_s
+            at = head.start - t0
             title = f"{pair}, {name}event {head.number} (t = {at:.0f} s)"
             bias = _reference_bias(ranges.get(pair), head)
             panels.append((title, pd.concat([e.rows for e in group]), bias))

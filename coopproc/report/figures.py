@@ -405,12 +405,14 @@ def write_figures(
     options: FigureOptions | None = None,
     notes: list[str] | None = None,
     workers: int | None = None,
+    pages: Sequence[FigurePage] | None = None,
 ) -> list[Path]:
     """Save every page as ``fig_dir/<stem>.<format>`` (one page in memory at a time per
     process) and remove further pages an earlier call left; returns the paths written, in
     order. ``notes``: appended with one sentence per figure the page cap shortened.
     ``workers``: processes drawing pages (None: one per CPU, at most 4; 1: this one;
-    :mod:`coopproc.report.page_workers`), the files the same either way."""
+    :mod:`coopproc.report.page_workers`), the files the same either way. ``pages``: those
+    of ``figure_pages(run, options)`` if the caller listed them (e.g. for report.html)."""
     bad = [f for f in formats if f not in FORMATS]
     if bad:
         raise ConfigError(f"unknown figure format {bad[0]!r}; expected one of {', '.join(FORMATS)}")
@@ -430,7 +432,8 @@ def write_figures(
         return out
 
     with mpl.rc_context(style.rc):
-        pages = list(figure_pages(run, options))  # panels built here, shared by workers
+        if pages is None:  # the panels built here, shared by the workers
+            pages = list(figure_pages(run, options))
         notes_of = [p.capped.note() for p in pages if p.capped is not None and p.index == 0]
         written = save_pages(pages, save, workers=workers, cost=lambda p: len(p.keys))
     if notes is not None:

@@ -11,11 +11,12 @@ from __future__ import annotations
 
 import html
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from coopproc.report.evaluation_tables import evaluation_html
+from coopproc.report.figures import FigurePage
 from coopproc.report.formats import render_table
 from coopproc.report.html_figures import figures_section
 from coopproc.report.injected import injected_tables
@@ -201,6 +202,7 @@ def render_html(
     options: FigureOptions | None = None,
     *,
     figures: bool = True,
+    pages: Sequence[FigurePage] | None = None,
 ) -> str:
     """The page as a string (see :func:`write_html`)."""
     session = run.info.get("session")
@@ -230,7 +232,7 @@ def render_html(
     # 3-D / vertical errors and RPE (evaluation.csv, rpe.csv)
     parts.append(_wide(evaluation_html(run)))
     if figures:
-        parts.append(figures_section(Path(out_dir), run, options, FIGURE_CAPTIONS))
+        parts.append(figures_section(Path(out_dir), run, options, FIGURE_CAPTIONS, pages))
     else:
         parts.append(NO_FIGURES)
     if stochastic is not None:  # coopproc report OUT --stochastic --html
@@ -246,12 +248,15 @@ def write_html(
     options: FigureOptions | None = None,
     *,
     figures: bool = True,
+    pages: Sequence[FigurePage] | None = None,
 ) -> Path:
     """Write ``out_dir/report.html`` and return its path; ``stochastic`` adds the
     stochastic-analysis section (:mod:`coopproc.report.stochastic`); ``options``: the
     pairs, platforms and panels per page of the figures (as given to ``write_figures``);
-    ``figures=False``: no figures, the section says so (``coopproc run --no-figures``)."""
+    ``figures=False``: no figures, the section says so (``coopproc run --no-figures``);
+    ``pages``: the pages of ``figure_pages(run, options)`` if the caller listed them
+    (``write_run``: not built twice)."""
     path = Path(out_dir) / "report.html"
-    page = render_html(Path(out_dir), run, stochastic, options, figures=figures)
+    page = render_html(Path(out_dir), run, stochastic, options, figures=figures, pages=pages)
     path.write_text(page, encoding="utf-8")
     return path

@@ -27,6 +27,7 @@ from __future__ import annotations
 import base64
 import html
 import io
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -145,10 +146,8 @@ def _pages_note(pages: Sequence[FigurePage], linked: set[str]) -> str:
 
 def _capped_note(capped: Capped) -> str:
     """What a capped figure drew, how to draw the rest, and every panel it left out."""
-    return (
-        f'<p class="note">{html.escape(capped.note())} Left out: '
-        f"{html.escape('; '.join(capped.left_out))}.</p>"
-    )
+    note = re.sub(r"`([^`]+)`", r"<code>\1</code>", html.escape(capped.note()))
+    return f'<p class="note">{note} Left out: {html.escape("; ".join(capped.left_out))}.</p>'
 
 
 def figures_section(
@@ -156,11 +155,12 @@ def figures_section(
     run: RunTables,
     options: FigureOptions | None = None,
     captions: Mapping[str, str] | None = None,
+    pages: Sequence[FigurePage] | None = None,
 ) -> str:
     """The ``<h2>Figures</h2>`` section (see the module docstring); ``captions`` by
-    figure name."""
+    figure name; ``pages``: those of ``figure_pages(run, options)`` if already listed."""
     opts = options or FigureOptions()
-    pages = list(figure_pages(run, opts))
+    pages = list(figure_pages(run, opts) if pages is None else pages)
     fig_dir = Path(out_dir) / "figures"
     files = {p.stem: fig_dir / f"{p.stem}.png" for p in pages}
     usable = {p.stem for p in pages if _usable(files[p.stem], p)}

@@ -24,7 +24,7 @@ from coopproc.io.outdir import atomic_output_dir, write_csv
 from coopproc.io.parquet import require_pyarrow, write_parquet
 from coopproc.model import Session
 from coopproc.report.evaluation import evaluation
-from coopproc.report.figures import write_figures
+from coopproc.report.figures import FigurePage, figure_pages, write_figures
 from coopproc.report.html import write_html
 from coopproc.report.injected import injected_scores
 from coopproc.report.pages import FigureOptions
@@ -114,6 +114,8 @@ def write_run(
     up to ``duration_s``.
     """
     phase = progress or (lambda label: None)
+    if figure_options is None:  # e.g. coopproc batch: the configuration's page cap
+        figure_options = FigureOptions(max_pages=config.run.max_pages)
     timings: dict[str, float] = {
         **(timings_before or {}),
         **output.timings_s,
@@ -182,17 +184,20 @@ def write_run(
         ]
         timings["write tables"] = clock() - since
         figures: list[Path] = []
+        pages: list[FigurePage] | None = None
         info["summary"] = dict(summary or {})
         if config.run.figures:
             phase("figures")
             since = clock()
             cap_notes: list[str] = []  # what the figures' page cap left out
+            pages = list(figure_pages(run, figure_options))  # listed once, for report.html too
             figures = write_figures(
                 run,
                 tmp / "figures",
                 formats=figure_formats,
                 options=figure_options,
                 notes=cap_notes,
+                pages=pages,
             )
             info["notes"] = [*info["notes"], *cap_notes]
             timings["figures"] = clock() - since
@@ -206,6 +211,7 @@ def write_run(
             dataclasses.replace(run, info=dict(info)),
             options=figure_options,
             figures=config.run.figures,
+            pages=pages,
         )
         timings["html"] = clock() - since
         info["figures"] = [str(p.relative_to(tmp)) for p in figures]

@@ -144,6 +144,7 @@ def test_html_says_what_the_cap_left_out(
     monkeypatch.setattr(html_figures, "_render", lambda page: b"not drawn")  # no matplotlib
     page = render_html(tmp_path, run, options=FigureOptions(max_panels=1, max_pages=1))
     assert "distance_errors: drew 1 of 3 pairs (the 1 with the largest observed range" in page
+    assert "<code>coopproc report OUT --plots --pairs A-B,A-C</code>" in page
     assert "Left out: A-B; A-C.</p>" in page
     assert "Left out: B-C, event 1" in page or "Left out: A-B, event 1" in page
     page = render_html(tmp_path, run, options=FigureOptions())
