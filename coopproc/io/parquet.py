@@ -10,14 +10,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from coopproc.errors import OutputError
-
-if TYPE_CHECKING:
-    import pandas as pd
 
 __all__ = ["PARQUET_INSTALL", "require_pyarrow", "write_parquet"]
 
@@ -41,17 +39,44 @@ def require_pyarrow() -> None:
     _pyarrow()
 
 
-def write_parquet(frame: pd.DataFrame, path: Path, columns: Sequence[str] | None = None) -> Path:
-    """Write ``frame`` to ``path`` as Parquet, ``columns`` first (as write_csv orders them)."""
+#: Rows per Parquet row group: the table is rounded and converted a group at a time, so
+#: a day's positions table is never held twice (rounded copy, Arrow table).
+ROW_GROUP_ROWS = 1 << 20
+
+
+def write_parquet(
+    frame: pd.DataFrame,
+    path: Path,
+    columns: Sequence[str] | None = None,
+    row_group_rows: int = ROW_GROUP_ROWS,
+) -> Path:
+    """Write ``frame`` to ``path`` as Parquet, ``columns`` first (as write_csv orders them).
+
+    Categorical text columns are written as plain text (the file reads back as the CSV
+    does); the rows go in groups of ``row_group_rows``, each rounded and converted on its
+    own.
+    """
     from coopproc.io.csv_fast import round_like_csv
     from coopproc.io.outdir import columns_first
 
     pa, pq = _pyarrow()
     frame = columns_first(frame, path, columns)
-    rounded = frame.copy(deep=False)
-    for j, dtype in enumerate(frame.dtypes):
-        if isinstance(dtype, np.dtype) and dtype.kind == "f":
-            rounded.isetitem(j, round_like_csv(frame.iloc[:, j].to_numpy()))
-    table = pa.Table.from_pandas(rounded, preserve_index=False)
-    pq.write_table(table, path, compression="zstd")
+    writer = None
+    try:
+        for start in range(0, max(len(frame), 1), row_group_rows):
+            part = frame.iloc[start : start + row_group_rows]
+            rounded = part.copy(deep=False)
+            for j, dtype in enumerate(part.dtypes):
+                if isinstance(dtype, np.dtype) and dtype.kind == "f":
+                    rounded.isetitem(j, round_like_csv(part.iloc[:, j].to_numpy()))
+                elif isinstance(dtype, pd.CategoricalDtype):
+                    rounded.isetitem(j, part.iloc[:, j].astype(dtype.categories.dtype).array)
+            schema = None if writer is None else writer.schema  # every group as the first
+            table = pa.Table.from_pandas(rounded, schema=schema, preserve_index=False)
+            if writer is None:
+                writer = pq.ParquetWriter(path, table.schema, compression="zstd")
+            writer.write_table(table)
+    finally:
+        if writer is not None:
+            writer.close()
     return path

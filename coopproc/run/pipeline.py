@@ -32,11 +32,9 @@ from coopproc.model import (
     DI_COLUMNS,
     NLOS_ESTIMATE_COLUMNS,
     NLOS_EVENT_COLUMNS,
-    POSITIONS_COLUMNS,
     FloatArray,
     Result,
     Session,
-    Trajectory,
 )
 from coopproc.report.metrics import distance_metrics, nlos_scores, position_metrics
 from coopproc.report.scores import nlos_event_scores
@@ -45,6 +43,7 @@ from coopproc.run.config import RunConfig
 from coopproc.run.gnss_methods import gnss_pipeline
 from coopproc.run.ins import states_table, with_ins
 from coopproc.run.odo_methods import odo_pipeline
+from coopproc.run.positions_table import positions_table
 from coopproc.run.range_sets import ranges_for, row_sigma
 from coopproc.run.tags import tag_pipeline, tag_rows, widen, without_tags
 from coopproc.stages.base import PositionInput, PositionProduct, RangeInput, RangeProduct
@@ -77,106 +76,6 @@ class PipelineOutput:
     methods: Mapping[str, tuple[str, ...]] | None = None
     #: the range methods that detect NLOS, in chain order
     nlos_methods: tuple[str, ...] = ()
-
-
-def _positions_rows(
-    session: Session,
-    method: str,
-    trajectories: Mapping[str, Trajectory],
-) -> dict[tuple[str, str], pd.DataFrame]:
-    frames = {}
-    for platform in sorted(trajectories):
-        traj = trajectories[platform]
-        error_h = np.full(len(traj), np.nan)
-        ref = session.reference.get(platform)
-        if ref is not None and len(ref) >= 2:
-            truth = ref.interpolate_within(traj.time_s)
-            error_h = np.hypot(traj.enu_m[:, 0] - truth[:, 0], traj.enu_m[:, 1] - truth[:, 1])
-        frames[platform, method] = pd.DataFrame(
-            {
-                "time": traj.time_s,
-                "platform": platform,
-                "method": method,
-                "east": traj.enu_m[:, 0],
-                "north": traj.enu_m[:, 1],
-                "up": traj.enu_m[:, 2],
-                "error_h": error_h,
-            }
-        )
-    return frames
-
-
-def _reference_rows(
-    session: Session, like: Mapping[str, Trajectory]
-) -> dict[tuple[str, str], pd.DataFrame]:
-    """Rows of method ``reference``: the reference trajectory at the fused output epochs
-    (an extension of DATA.md's positions.csv; epochs without reference are left out)."""
-    frames = {}
-    for platform in sorted(like):
-        ref = session.reference.get(platform)
-        if ref is None or len(ref) < 2:
-            continue
-        t = like[platform].time_s
-        pos = ref.interpolate_within(t)
-        ok = np.all(np.isfinite(pos), axis=1)
-        frames[platform, "reference"] = pd.DataFrame(
-            {
-                "time": t[ok],
-                "platform": platform,
-                "method": "reference",
-                "east": pos[ok, 0],
-                "north": pos[ok, 1],
-                "up": pos[ok, 2],
-                "error_h": np.nan,
-            }
-        )
-    return frames
-
-
-def _own_epochs(session: Session) -> dict[str, FloatArray]:
-    """Per platform, the times of the ranges it took part in (sorted, unique)."""
-    frame = session.ranges.frame
-    times = frame["time"].to_numpy(dtype=np.float64)
-    ids = pd.Index(list(session.platform_ids))
-    first = ids.get_indexer(pd.Index(frame["from"]))  # codes: no string compare per platform
-    second = ids.get_indexer(pd.Index(frame["to"]))
-    out = {}
-    for code, platform in enumerate(ids):
-        involved = (first == code) | (second == code)
-        out[str(platform)] = np.unique(times[involved])
-    return out
-
-
-def _at_own_epochs(
-    trajectories: Mapping[str, Trajectory], own: Mapping[str, FloatArray] | None
-) -> dict[str, Trajectory]:
-    """Each platform's solution only at the epochs of its own ranges (``positions_at =
-    "ranges"``): the fusion runs at every range time of the session (with staggered pair
-    polling, many per second), but a platform's position is reported, and scored, at
-    the epochs where it was ranged, as paper 000's 1 Hz cooperative updates are."""
-    if own is None:
-        return dict(trajectories)
-    out = {}
-    for platform, traj in trajectories.items():
-        keep = np.isin(traj.time_s, own.get(platform, np.empty(0)))
-        out[platform] = Trajectory(
-            platform,
-            traj.time_s[keep],
-            traj.enu_m[keep],
-            None if traj.sigma_enu_m is None else traj.sigma_enu_m[keep],
-        )
-    return out
-
-
-def _nav_at(session: Session, like: Mapping[str, Trajectory]) -> dict[str, Trajectory]:
-    """Each platform's own solution at the epochs of the fused output."""
-    out = {}
-    for platform, traj in like.items():
-        if platform not in session.nav:
-            continue  # a tag: no navigation of its own
-        nav = session.nav[platform]
-        out[platform] = Trajectory(platform, traj.time_s, nav.interpolate(traj.time_s))
-    return out
 
 
 def run_pipeline(
@@ -257,7 +156,7 @@ def run_pipeline(
     columns = {m: columns[m] for m in pipeline.ranges}
     with timed("metrics"):
         table = _range_table(base, columns, range_products)
-        positions = _positions_table(session, products, output)
+        positions = positions_table(session, products, output)
         sigma = {p: s for prod in range_products for p, s in prod.sigma.items()}
         # true NLOS is labelled against the declared sigma (or, without one, the robust
         # spread of observed - reference), never against what the detector estimated
@@ -350,40 +249,6 @@ def _range_table(
     table["nlos_flag"] = np.asarray(flag, dtype=np.int64)
     table["nlos_estimate"] = np.asarray(estimate, dtype=np.float64)
     return table
-
-
-def _positions_table(
-    session: Session, products: Mapping[str, PositionProduct], output: str
-) -> pd.DataFrame:
-    """positions.csv: the reference and the own navigation at the epochs of the observed
-    fusion (else of the first position method), then every position method."""
-    own = _own_epochs(session) if output == "ranges" else None
-    solutions = {m: _at_own_epochs(p.positions, own) for m, p in products.items()}
-    basis = solutions.get("observed") or next(iter(solutions.values()), None)
-    parts: dict[tuple[str, str], pd.DataFrame] = {}
-    if basis is not None:
-        parts |= _reference_rows(session, basis)
-        parts |= _positions_rows(session, "nav", _nav_at(session, basis))
-        for solution in solutions.values():  # tags the basis leaves out: their first method's
-            tags = {
-                p: t
-                for p, t in solution.items()
-                if session.platforms[p].role == "tag" and (p, "reference") not in parts
-            }
-            parts |= _reference_rows(session, tags)
-    for method, solution in solutions.items():
-        parts |= _positions_rows(session, method, solution)
-    parts = {k: v for k, v in parts.items() if len(v)}
-    if not parts:
-        return pd.DataFrame(columns=list(POSITIONS_COLUMNS))
-    # rows by platform, method, time: the pieces in that order, each in time order,
-    # make one concatenation (sorting a day's table copied it twice)
-    ordered = [parts[key] for key in sorted(parts)]
-    if all(p["time"].is_monotonic_increasing for p in ordered):
-        return pd.concat(ordered, ignore_index=True)[list(POSITIONS_COLUMNS)]
-    positions = pd.concat(ordered, ignore_index=True)
-    positions = positions.sort_values(["platform", "method", "time"], kind="stable")
-    return positions.reset_index(drop=True)[list(POSITIONS_COLUMNS)]
 
 
 def _concat_or_empty(frames: list[pd.DataFrame | None], columns: tuple[str, ...]) -> pd.DataFrame:

@@ -183,3 +183,25 @@ def test_batch_pools_and_resumes_parquet_runs(
     assert res.exit_code == 0, res.output
     assert "1 skipped (complete and current)" in res.output
     assert csv_run.is_dir()
+
+
+def test_row_groups_and_categorical_text_read_back_as_one_table(tmp_path: Path) -> None:
+    from coopproc.io.parquet import write_parquet
+
+    frame = pd.DataFrame(
+        {
+            "time": np.arange(7) + 0.12345678,
+            "platform": pd.Categorical.from_codes([0, 0, 1, 1, 1, 2, 2], ["A", "B", "C"]),
+            "east": np.linspace(-1.0, 1.0, 7) / 3,
+        }
+    )
+    whole = pd.read_parquet(write_parquet(frame, tmp_path / "whole.parquet"))
+    path = write_parquet(frame, tmp_path / "groups.parquet", row_group_rows=3)
+    import pyarrow.parquet as pq
+
+    assert pq.ParquetFile(path).num_row_groups == 3
+    groups = pd.read_parquet(path)
+    pd.testing.assert_frame_equal(groups, whole)
+    assert groups["platform"].tolist() == ["A", "A", "B", "B", "B", "C", "C"]
+    assert not isinstance(groups["platform"].dtype, pd.CategoricalDtype)  # text, as the CSV
+    assert groups["time"].tolist() == [float(f"{t:.6f}") for t in frame["time"]]
