@@ -52,7 +52,6 @@ import pandas as pd
 from coopproc.model import Session
 from coopproc.stages.fusion.calibration_bias import (
     biased_platform,
-    corrected,
     groups,
     platform_bias,
     postfit_residuals,
@@ -234,10 +233,8 @@ def calibrated_fuse(
     if platform_factor:
         unscaled = {p: v for p, v in scale.items() if p not in platform_factor}
         rows = calibration_rows(ranges["time"].to_numpy(dtype=np.float64), max_epochs)
-        sample = calibrated if rows is None else calibrated.iloc[rows]
-        sample, found = platform_bias(session, sample, params, platform_factor)
+        calibrated, found = platform_bias(session, calibrated, params, platform_factor, rows)
         platform_factor = {p: f for p, f in platform_factor.items() if p in found}
-        calibrated = sample if rows is None else corrected(calibrated, found)
         for platform, factor in sorted(platform_factor.items()):
             notes.append(
                 f"fusion ({label}): the ranges of {platform} disagree with the rest of the "

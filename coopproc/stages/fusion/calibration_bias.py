@@ -130,13 +130,42 @@ def platform_bias(
     ranges: pd.DataFrame,
     params: FusionParams,
     platforms: Mapping[str, float],
+    rows: np.ndarray | None = None,
 ) -> tuple[pd.DataFrame, dict[str, float]]:
     """A constant range bias of each listed platform: every range it takes part in reads
     long (or short) by b_p. The fit absorbs part of a bias into the positions, so b_p is
     found by iteration: fuse, add the median post-fit residual of the platform's ranges to
     b_p, correct the ranges, fuse again, until b_p moves less than :data:`BIAS_TOL_M` (at
     most :data:`BIAS_ITERATIONS` times). Identifiable because the platform is ranged from
-    three or more directions: a position shift lengthens some ranges and shortens others."""
+    three or more directions: a position shift lengthens some ranges and shortens others.
+
+    ``rows``: iterate on these rows only (a thinned subset of a long session,
+    :mod:`~coopproc.stages.fusion.calibration_subset`), then one step on every range (a
+    thinned fusion absorbs a little more of a bias). Returns every row, corrected."""
+    if rows is None:
+        return _iterate(session, ranges, params, platforms)
+    _, bias = _iterate(session, ranges.iloc[rows], params, platforms)
+    if not bias:
+        return ranges, {}
+    current = corrected(ranges, bias)
+    fused = fuse(session, current, params, output="ranges", smoothed_sigma=False)
+    resid = postfit_residuals(session, fused, current)["residual"].to_numpy()
+    ends = (ranges["from"].to_numpy(), ranges["to"].to_numpy())
+    for platform in bias:
+        r = resid[(ends[0] == platform) | (ends[1] == platform)]
+        r = r[np.isfinite(r)]
+        bias[platform] += float(np.median(r)) if r.shape[0] else 0.0
+    return corrected(ranges, bias), bias
+
+
+def _iterate(
+    session: Session,
+    ranges: pd.DataFrame,
+    params: FusionParams,
+    platforms: Mapping[str, float],
+) -> tuple[pd.DataFrame, dict[str, float]]:
+    """:func:`platform_bias` on ``ranges``; the bias is kept only if it cuts the RMS of
+    the platform's residuals to :data:`BIAS_GAIN` of what it was."""
     base = ranges["range"].to_numpy(dtype=np.float64)
     ends = (ranges["from"].to_numpy(), ranges["to"].to_numpy())
     involved = {p: (ends[0] == p) | (ends[1] == p) for p in platforms}
