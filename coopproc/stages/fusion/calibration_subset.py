@@ -7,8 +7,9 @@ fixed point where the platform's median post-fit residual is zero, a statistic o
 whole session that a large, spread sample gives as well, so above
 :data:`CALIBRATION_EPOCHS` distinct range times the iteration fuses only
 :data:`CALIBRATION_EPOCHS` of them, thinned evenly over the whole session: range epoch i
-(in time order) is kept when frac(i phi) < cap / n, phi the golden ratio. The fusion
-returned is one fusion of every range with the bias found.
+(in time order) is kept when frac(i phi) < cap / n, phi the golden ratio. The bias then
+takes one step on every range (a thinned fusion absorbs a little more of a bias), and the
+fusion returned fuses every range with it.
 
 - Thinned, not blocks: every stretch of the session keeps the same fraction of its
   epochs, so the filter never bridges a long gap. Blocks of consecutive epochs with gaps
