@@ -229,8 +229,40 @@ class _Texts:
         return table, bounds
 
 
-def _text_codes(column: pd.Series, texts: _Texts) -> tuple[np.ndarray, int] | None:
+class _ShiftedCodes:
+    """A categorical column's own small codes (int8 for a few categories), made int64
+    codes into the table's texts a chunk at a time (not 8 bytes per row of a day's table
+    at once)."""
+
+    def __init__(self, codes: np.ndarray, first: int) -> None:
+        self.codes = codes
+        self.first = first
+
+    def __len__(self) -> int:
+        return len(self.codes)
+
+    def __getitem__(self, rows: slice) -> np.ndarray:
+        part = self.codes[rows].astype(np.int64)
+        part[part >= 0] += self.first
+        return part
+
+
+def _category_codes(column: pd.Series, texts: _Texts) -> tuple[_ShiftedCodes, int] | None:
+    """Codes of a categorical text column (see _ShiftedCodes); None if not text."""
+    labels = list(column.cat.categories)
+    if not all(isinstance(u, str) and "\0" not in u for u in labels):
+        return None
+    cells = _quoted(labels)
+    first = texts.add(cells)
+    return _ShiftedCodes(column.cat.codes.to_numpy(), first), max([0, *(len(t) for t in cells)])
+
+
+def _text_codes(column: pd.Series, texts: _Texts) -> tuple[Any, int] | None:
     """Codes of a text column (-1: missing) and its longest cell; None if not text."""
+    import pandas as pd
+
+    if isinstance(column.dtype, pd.CategoricalDtype):
+        return _category_codes(column, texts)
     # the column's own factorize: pyarrow's dictionary encoding for a pyarrow-backed str
     codes, uniques = column.factorize(use_na_sentinel=True)
     labels = list(uniques)
@@ -277,7 +309,7 @@ def row_pieces(
     for j in range(len(labels)):
         column = frame.iloc[:, j]
         dtype = column.dtype
-        if isinstance(dtype, pd.StringDtype) or dtype == np.dtype(object):
+        if isinstance(dtype, pd.StringDtype | pd.CategoricalDtype) or dtype == np.dtype(object):
             columns.append((_TEXT, column))
             continue
         values = column.to_numpy()

@@ -19,8 +19,9 @@ with each step's label so that the CLI can show where it is.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -121,7 +122,7 @@ def run_pipeline(
     range_products: list[RangeProduct] = []
     products: dict[str, PositionProduct] = {}
     cp_product: PositionProduct | None = None
-    for step in steps:
+    for index, step in enumerate(steps):
         with timed(step.label):
             if step.kind == "ranges":
                 product = _run_range_step(step, dr_session, dr_base, config, cp_product)
@@ -131,6 +132,7 @@ def run_pipeline(
                 for method in step.methods:
                     columns[method] = product.values[method]
                     range_sets[method] = ranges_for(base, columns[method], sigma_by_row)
+                cp_product = _drop_spent(steps[index + 1 :], range_sets, products, cp_product)
                 continue
             stage = POSITION_STAGES[step.stage]
             assert step.range_set is not None
@@ -151,6 +153,7 @@ def run_pipeline(
             products[step.methods[0]] = stage.run(position_input, config.params_for(stage.section))
             if "cp" in step.outputs:
                 cp_product = products[step.methods[0]]
+            cp_product = _drop_spent(steps[index + 1 :], range_sets, products, cp_product)
 
     # ranges.csv keeps the config's column order whatever order the steps ran in
     columns = {m: columns[m] for m in pipeline.ranges}
@@ -201,6 +204,27 @@ def run_pipeline(
         },
         nlos_methods=nlos_methods,
     )
+
+
+def _drop_spent(
+    later: Sequence[Step],
+    range_sets: dict[str, pd.DataFrame],
+    products: dict[str, PositionProduct],
+    cp_product: PositionProduct | None,
+) -> PositionProduct | None:
+    """Free what no ``later`` step reads (a day's range set or CP solution is hundreds of
+    MB): a processed range set after its last position step, the CP solution (causal and
+    smoothed) after the last range step. Returns the CP product, without ``cp`` then."""
+    wanted = {s.range_set for s in later if s.kind == "positions"}
+    for name in [n for n in range_sets if n != "observed" and n not in wanted]:
+        del range_sets[name]
+    if cp_product is None or cp_product.cp is None or any(s.kind == "ranges" for s in later):
+        return cp_product
+    spent = dataclasses.replace(cp_product, cp=None)
+    for method, product in products.items():
+        if product is cp_product:
+            products[method] = spent
+    return spent
 
 
 def _run_range_step(

@@ -127,6 +127,21 @@ def test_text_needing_quotes_and_missing_values() -> None:
     _same(frame.astype({"s": "str"}))
 
 
+def test_categorical_text_is_taken_in_chunks_with_the_bytes_of_pandas() -> None:
+    texts = ["plain", "a,b", 'say "hi"', "unused"]
+    codes = np.array([0, 1, 2, -1, 1, 0, 2, 2, -1, 0], dtype=np.int8)
+    frame = pd.DataFrame(
+        {
+            "o": pd.Series(["x", "y,z"] * 5),  # a text column before: codes are offset
+            "c": pd.Categorical.from_codes(codes, categories=texts),
+            "x": np.linspace(0.0, 1.0, 10),
+        }
+    )
+    pieces = csv_chunks(frame, chunk_rows=3)
+    assert pieces is not None  # not handed to pandas
+    assert b"".join(bytes(p) for p in pieces) == _pandas(frame)
+
+
 def test_integer_columns_match_pandas() -> None:
     ints = np.array([0, 1, -1, 9, -10, 99, 100, -(2**63) + 1, 2**63 - 1], dtype=np.int64)
     frame = pd.DataFrame(
