@@ -99,11 +99,19 @@ def distance_metrics(ranges: pd.DataFrame, methods: Sequence[str] | None = None)
     if missing:
         raise ValueError(f"ranges table lacks columns {missing}")
     rows: list[dict[str, object]] = []
-    ordered = ranges.sort_values(["pair", "time"], kind="stable")
-    for pair, group in ordered.groupby("pair", sort=True):
-        reference = group["reference"].to_numpy(dtype=np.float64, na_value=np.nan)
+    # rows by pair, then time (stable), as index arrays: no sorted copy of the whole table
+    codes, pairs = pd.factorize(ranges["pair"], sort=True)
+    time = ranges["time"].to_numpy(dtype=np.float64, na_value=np.nan)
+    order = np.lexsort((time, codes))
+    order = order[codes[order] >= 0]  # rows without a pair are in no group
+    bounds = np.searchsorted(codes[order], np.arange(len(pairs) + 1))
+    reference_all = ranges["reference"].to_numpy(dtype=np.float64, na_value=np.nan)
+    values = {m: ranges[m].to_numpy(dtype=np.float64, na_value=np.nan) for m in methods}
+    for k, pair in enumerate(pairs):
+        at = order[bounds[k] : bounds[k + 1]]
+        reference = reference_all[at]
         for method in methods:
-            value = group[method].to_numpy(dtype=np.float64, na_value=np.nan)
+            value = values[method][at]
             rows.append({"pair": str(pair), "method": method, **distance_stats(value, reference)})
     out = pd.DataFrame(rows, columns=list(METRICS_COLUMNS))
     out["n"] = out["n"].astype(np.int64)

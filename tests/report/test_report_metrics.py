@@ -157,3 +157,30 @@ def test_invariants(pairs: list[tuple[float, float]]) -> None:
     assert s["rmse"] ** 2 == pytest.approx(s["mean"] ** 2 + np.var(e), abs=1e-9)
     if np.any(e != 0):
         assert s["snr_db"] == pytest.approx(10 * np.log10(np.sum(r * r) / np.sum(e * e)))
+
+
+def test_distance_metrics_of_shuffled_interleaved_rows_are_those_of_the_sorted_groups() -> None:
+    rng = np.random.default_rng(5)
+    n = 300
+    frame = pd.DataFrame(
+        {
+            "time": np.round(rng.uniform(0, 50, n), 1),  # ties: kept in row order
+            "pair": rng.choice(["B-C", "A-B", "A-C"], n),
+            "observed": rng.normal(10, 1, n),
+            "di": rng.normal(10, 0.5, n),
+            "reference": rng.normal(10, 0.1, n),
+        }
+    )
+    frame.loc[7, "pair"] = None  # in no pair
+    got = distance_metrics(frame, methods=("observed", "di"))
+    rows = []
+    ordered = frame.sort_values(["pair", "time"], kind="stable")
+    for pair, group in ordered.groupby("pair", sort=True):
+        for method in ("observed", "di"):
+            stats = distance_stats(group[method].to_numpy(), group["reference"].to_numpy())
+            rows.append({"pair": pair, "method": method, **stats})
+    assert (
+        got["pair"].tolist() == [r["pair"] for r in rows] == ["A-B"] * 2 + ["A-C"] * 2 + ["B-C"] * 2
+    )
+    for column in ("max", "mean", "rmse", "snr_db", "smoothness", "n"):
+        assert got[column].tolist() == [r[column] for r in rows]  # bit for bit
