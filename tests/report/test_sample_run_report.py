@@ -114,7 +114,7 @@ def test_gaps_are_computed_when_a_page_draws_them_once_per_run(
 ) -> None:
     """Listing the pages (report.html does, to match the figure files) computes no shaded
     spans; the distance and DI figures share the pairs' spans (computed once)."""
-    import coopproc.report.figures as figures
+    import coopproc.report.figure_builders as figures
 
     calls: list[str] = []
     for name in ("pair_gaps", "platform_gaps"):
