@@ -17,16 +17,18 @@ are missing:
     burst.
   - the *time-weighted* :data:`TIME_SHARE` (75th) percentile of its steps: the longest
     of the shortest steps that together last three quarters of the series' time, over the
-    steps that are not gaps even by the lenient :data:`LENIENT_PERCENTILE` (99th)
-    percentile's limit (2.5 times it). With many pairs the once-a-cycle step between two
-    bursts is taken by fewer than one sample in ten (19 pairs a burst: one in 19), so the
-    90th percentile is the millisecond step inside a burst and would mark every pause
-    between bursts as an outage; but those pauses last most of the time, so the
-    time-weighted percentile is their length. Likewise when the pairs come in a few
-    groups a cycle (the longest pause, one step in 19, lasting 0.4 s of the second, the
-    90th percentile 0.24 s), a missed range that joins two pauses is no gap. Leaving out
-    the steps over the lenient limit keeps long outages (which may last most of the time
-    of a pair mostly out of range) from passing for the cycle.
+    steps up to 2.5 times the *lenient step*, the longest step once the
+    :data:`LENIENT_SHARE` (1 %) longest steps, and at least :data:`LENIENT_MIN` (3), are
+    passed over. With many pairs the once-a-cycle step between two bursts is taken by
+    fewer than one sample in ten (19 pairs a burst: one in 19), so the 90th percentile is
+    the millisecond step inside a burst and would mark every pause between bursts as an
+    outage; but those pauses last most of the time, so the time-weighted percentile is
+    their length. Likewise when the pairs come in a few groups a cycle (the longest pause,
+    one step in 19, lasting 0.4 s of the second, the 90th percentile 0.24 s), a missed
+    range that joins two pauses is no gap. Passing over the longest steps keeps a few long
+    outages (which may last most of the time of a pair mostly out of range, or of a short
+    series) from passing for the cycle: a pause between bursts is one step in at most 100
+    for bursts of up to 100 pairs, so it is never passed over.
 
   On a regular or staggered series both estimates are the step itself, so the limit is
   the one of the 90th percentile alone; it is only ever longer (never shorter) than that.
@@ -57,7 +59,8 @@ from matplotlib.collections import PolyCollection
 from coopproc.model import GAP_FACTOR, FloatArray
 
 __all__ = [
-    "LENIENT_PERCENTILE",
+    "LENIENT_MIN",
+    "LENIENT_SHARE",
     "NO_REFERENCE_SPAN",
     "OUTAGE_SPAN",
     "STEP_PERCENTILE",
@@ -78,8 +81,10 @@ __all__ = [
 STEP_PERCENTILE = 90.0
 #: Share of a series' time that its steps up to its time-weighted typical step last.
 TIME_SHARE = 0.75
-#: Percentile of the steps whose lenient limit bounds the steps of the time-weighted one.
-LENIENT_PERCENTILE = 99.0
+#: Share of a series' steps, the longest, that may be outages however long (module docstring).
+LENIENT_SHARE = 0.01
+#: ... and their least number, so that a short series' few outages are passed over too.
+LENIENT_MIN = 3
 #: ``axvspan`` styles of the spans: light grey, and grey hatching, both under the data.
 OUTAGE_SPAN: dict[str, Any] = {"facecolor": "0.88", "edgecolor": "none", "zorder": 0.4}
 NO_REFERENCE_SPAN: dict[str, Any] = {
@@ -96,18 +101,28 @@ def typical_step_s(time_s: FloatArray) -> float:
     """The normal step between the distinct finite times of ``time_s`` (in any order), s:
     the longer of the :data:`STEP_PERCENTILE` percentile of the steps and their
     time-weighted :data:`TIME_SHARE` percentile over the steps up to ``GAP_FACTOR`` times the
-    :data:`LENIENT_PERCENTILE` percentile (see the module docstring); NaN with fewer than
-    two distinct times."""
+    lenient step (the longest step but the :func:`_lenient_rank` longest; see the module
+    docstring); NaN with fewer than two distinct times."""
     t = np.unique(np.asarray(time_s, dtype=np.float64))
     t = t[np.isfinite(t)]
     if t.shape[0] < 2:
         return float("nan")
-    steps = np.diff(t)
-    counted, lenient = np.percentile(steps, [STEP_PERCENTILE, LENIENT_PERCENTILE])
-    kept = np.sort(steps[steps <= GAP_FACTOR * lenient])
+    steps = np.sort(np.diff(t))
+    counted = float(np.percentile(steps, STEP_PERCENTILE))
+    rank = steps.size - 1 - _lenient_rank(steps.size)
+    lenient = steps[rank] if rank >= 0 else counted
+    kept = steps[: int(np.searchsorted(steps, GAP_FACTOR * lenient, side="right"))]
+    if not kept.size:
+        return counted
     carried = np.cumsum(kept)
     timed = kept[min(int(np.searchsorted(carried, TIME_SHARE * carried[-1])), kept.size - 1)]
     return float(max(counted, timed))
+
+
+def _lenient_rank(n_steps: int) -> int:
+    """How many of the longest steps may be outages and are passed over for the lenient
+    step: :data:`LENIENT_SHARE` of the steps, at least :data:`LENIENT_MIN`."""
+    return max(LENIENT_MIN, int(np.ceil(LENIENT_SHARE * n_steps)))
 
 
 def line_gap_limit_s(time_s: FloatArray) -> float:

@@ -213,3 +213,12 @@ def test_convergence_line_breaks_where_the_steps_are_far_apart_in_time() -> None
     ax = Figure().subplots()
     plot_nlos_convergence(ax, rows)
     assert not np.isnan(np.asarray(ax.get_lines()[0].get_ydata(), dtype=np.float64)).any()
+
+
+def test_a_short_series_with_outages_over_most_of_its_time_keeps_them() -> None:
+    """90 samples a second apart around two 61 s holes (the holes last most of the
+    series' time; under the old lenient 99th percentile they were taken for the cycle):
+    both are gaps, the cycle is the 1 s step."""
+    t = np.concatenate([np.arange(0.0, 30.0), np.arange(90.0, 120.0), np.arange(180.0, 210.0)])
+    assert typical_step_s(t) == pytest.approx(1.0)
+    assert gap_spans(t).tolist() == [[29.0, 90.0], [119.0, 180.0]]
