@@ -13,7 +13,7 @@ spent writing the outputs. :func:`csv_chunks` makes the same bytes in a numba ke
   fraction bits left) are formatted by Python, as text cells;
 - integers as ``str`` writes them, booleans ``True``/``False``;
 - text (``str`` or ``object`` columns of strings; missing values are empty cells):
-  quoted by the :mod:`csv` module itself, once per distinct value.
+  quoted by the :mod:`csv` module itself, once per distinct value (:mod:`coopproc.io.csv_text`).
 
 A table the kernel cannot match exactly (another column type, non-text column labels,
 fewer than two columns, a NUL character in a text) gives ``None``; the caller then
@@ -30,6 +30,8 @@ from typing import TYPE_CHECKING, Any
 
 import numba
 import numpy as np
+
+from coopproc.io.csv_text import TextCells, text_codes
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -197,84 +199,6 @@ def round_like_csv(values: np.ndarray) -> np.ndarray:
     return out
 
 
-def _quoted(texts: list[str]) -> list[bytes]:
-    """Each text as the csv module writes it inside a row (quoted when it must be)."""
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    out = []
-    for text in texts:
-        buffer.seek(0)
-        buffer.truncate()
-        writer.writerow([text, ""])
-        out.append(buffer.getvalue()[:-2].encode("utf-8"))
-    return out
-
-
-class _Texts:
-    """The distinct text cells of a table: codes into one byte table."""
-
-    def __init__(self) -> None:
-        self.cells: list[bytes] = []
-
-    def add(self, texts: list[bytes]) -> int:
-        """Append ``texts``; the code of the first."""
-        first = len(self.cells)
-        self.cells += texts
-        return first
-
-    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        table = np.frombuffer(b"".join(self.cells) or b"\0", dtype=np.uint8)
-        bounds = np.zeros(len(self.cells) + 1, dtype=np.int64)
-        np.cumsum([len(t) for t in self.cells], out=bounds[1:])
-        return table, bounds
-
-
-class _ShiftedCodes:
-    """A categorical column's own small codes (int8 for a few categories), made int64
-    codes into the table's texts a chunk at a time (not 8 bytes per row of a day's table
-    at once)."""
-
-    def __init__(self, codes: np.ndarray, first: int) -> None:
-        self.codes = codes
-        self.first = first
-
-    def __len__(self) -> int:
-        return len(self.codes)
-
-    def __getitem__(self, rows: slice) -> np.ndarray:
-        part = self.codes[rows].astype(np.int64)
-        part[part >= 0] += self.first
-        return part
-
-
-def _category_codes(column: pd.Series, texts: _Texts) -> tuple[_ShiftedCodes, int] | None:
-    """Codes of a categorical text column (see _ShiftedCodes); None if not text."""
-    labels = list(column.cat.categories)
-    if not all(isinstance(u, str) and "\0" not in u for u in labels):
-        return None
-    cells = _quoted(labels)
-    first = texts.add(cells)
-    return _ShiftedCodes(column.cat.codes.to_numpy(), first), max([0, *(len(t) for t in cells)])
-
-
-def _text_codes(column: pd.Series, texts: _Texts) -> tuple[Any, int] | None:
-    """Codes of a text column (-1: missing) and its longest cell; None if not text."""
-    import pandas as pd
-
-    if isinstance(column.dtype, pd.CategoricalDtype):
-        return _category_codes(column, texts)
-    # the column's own factorize: pyarrow's dictionary encoding for a pyarrow-backed str
-    codes, uniques = column.factorize(use_na_sentinel=True)
-    labels = list(uniques)
-    if not all(isinstance(u, str) and "\0" not in u for u in labels):
-        return None
-    cells = _quoted(labels)
-    first = texts.add(cells)
-    codes = codes.astype(np.int64)
-    codes[codes >= 0] += first
-    return codes, max([0, *(len(t) for t in cells)])
-
-
 @numba.njit(cache=True, nogil=True)
 def _any_slow(x: np.ndarray) -> bool:  # pragma: no cover - jit
     """Whether a finite value of ``x`` has a magnitude the kernel does not take."""
@@ -284,7 +208,7 @@ def _any_slow(x: np.ndarray) -> bool:  # pragma: no cover - jit
     return False
 
 
-def _slow_floats(x: np.ndarray, texts: _Texts) -> tuple[np.ndarray, int] | None:
+def _slow_floats(x: np.ndarray, texts: TextCells) -> tuple[np.ndarray, int] | None:
     """A float column with magnitudes the kernel does not take, as text codes."""
     if not _any_slow(x):
         return None
@@ -326,7 +250,7 @@ def row_pieces(
             return None
     header = io.StringIO()
     csv.writer(header, lineterminator="\n").writerow(labels)
-    texts = _Texts()
+    texts = TextCells()
     kinds, widths = [], []
     plan: list[list[np.ndarray]] = [[], [], []]
     for kind, values in columns:
@@ -334,7 +258,7 @@ def row_pieces(
             codes = values.astype(np.int64) + texts.add([b"False", b"True"])
             coded: tuple[np.ndarray, int] | None = (codes, 5)
         elif kind == _TEXT:
-            coded = _text_codes(values, texts)
+            coded = text_codes(values, texts)
             if coded is None:
                 return None
         else:
