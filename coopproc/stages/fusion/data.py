@@ -22,6 +22,7 @@ __all__ = [
     "clean_ranges",
     "epoch_groups",
     "nav_at_epochs",
+    "nav_points",
     "pair_names",
     "platform_codes",
     "range_sigma_default",
@@ -186,13 +187,17 @@ def epoch_groups(time_s: FloatArray, merge_s: float) -> tuple[FloatArray, np.nda
     return unique, inverse.astype(np.int64)
 
 
-def nav_at_epochs(session: Session, moving: list[str], epochs: FloatArray) -> FloatArray:
-    """(P, K, 3): each moving platform's own navigation interpolated at the epochs.
+def nav_at_epochs(
+    session: Session, moving: list[str], epochs: FloatArray, axes: int = 3
+) -> FloatArray:
+    """(P, K, axes): each moving platform's own navigation interpolated at the epochs.
 
     What stacking ``session.nav[p].interpolate(epochs)`` gives (the same ``np.interp``),
     written into one array: no per-platform (K, 3) copies next to it (at 20 platforms x
-    1 h the array is 320 MB). Inside :func:`shared_nav` the last result is given again to
-    a call with the same session, platforms and epochs (read only: nobody writes to it).
+    1 h the array is 320 MB). ``axes``: the first east/north[/up] axes only (the 2D fusion
+    needs no height at every epoch: :func:`nav_points` gives it where it is read, the same
+    ``np.interp`` values). Inside :func:`shared_nav` the last result is given again to a
+    call with the same session, platforms, epochs and axes (read only: nobody writes to it).
     """
     shared = _SHARED_NAV.get()
     if shared:
@@ -200,20 +205,34 @@ def nav_at_epochs(session: Session, moving: list[str], epochs: FloatArray) -> Fl
         if (
             was_session is session
             and was_moving == tuple(moving)
+            and was_nav.shape[2] == axes
             and was_epochs.shape == epochs.shape
             and np.array_equal(was_epochs, epochs)
         ):
             return was_nav
-    out = np.empty((len(moving), epochs.shape[0], 3))
+    out = np.empty((len(moving), epochs.shape[0], axes))
     for p, pid in enumerate(moving):
         traj = session.nav[pid]
-        for axis in range(3):
+        for axis in range(axes):
             out[p, :, axis] = np.interp(epochs, traj.time_s, traj.enu_m[:, axis])
         outside = (epochs < traj.time_s[0]) | (epochs > traj.time_s[-1])
         if outside.any():
             out[p, outside] = np.nan
     if shared is not None:
         shared[:] = [(session, tuple(moving), epochs, out)]
+    return out
+
+
+def nav_points(session: Session, pid: str, times: FloatArray, axes: range) -> FloatArray:
+    """(n, len(axes)): ``pid``'s navigation at ``times`` on ``axes``, what
+    :func:`nav_at_epochs` holds there (the same ``np.interp``, element by element)."""
+    traj = session.nav[pid]
+    out = np.empty((times.shape[0], len(axes)))
+    for j, axis in enumerate(axes):
+        out[:, j] = np.interp(times, traj.time_s, traj.enu_m[:, axis])
+    outside = (times < traj.time_s[0]) | (times > traj.time_s[-1])
+    if outside.any():
+        out[outside] = np.nan
     return out
 
 

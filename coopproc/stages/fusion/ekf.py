@@ -19,10 +19,12 @@ factors) instead of storing K covariances.
 Observation kinds (``obs_kind``):
 
 - ``OBS_RANGE`` (0): range between moving platforms ``a`` and ``b``, |X_a - X_b - o| with
-  ``o = obs_anchor`` the difference of their dead-reckoning motion from the epoch time to
-  the range's own time (0 when the range is at the epoch time);
+  ``o = anchor_tab[obs_anchor]`` the difference of their dead-reckoning motion from the
+  epoch time to the range's own time (0 when the range is at the epoch time);
 - ``OBS_ANCHOR`` (1): range between moving platform ``a`` and the fixed point ``anchor``
-  (the anchor minus a's dead-reckoning motion from the epoch time to the range time);
+  (the anchor minus a's dead-reckoning motion from the epoch time to the range time),
+  also the row ``obs_anchor`` of ``anchor_tab`` (a few anchors, not a point per
+  observation: codes are int8/int32, read only here);
 - ``OBS_POSITION`` (2): coordinate ``b`` (axis) of platform ``a`` (a leader's own fix).
 
 With ``dim == 2`` the range model is sqrt(de^2 + dn^2 + dz2) where ``dz2`` is the squared
@@ -145,7 +147,8 @@ def epoch_innovations(
     obs_kind: IntArray,
     obs_a: IntArray,
     obs_b: IntArray,
-    obs_anchor: FloatArray,
+    obs_anchor: IntArray,
+    anchor_tab: FloatArray,
     obs_dz2: FloatArray,
     z: FloatArray,
     r_var: FloatArray,
@@ -160,7 +163,7 @@ def epoch_innovations(
     for j in range(m):
         o = lo + j
         pred, cnt = _observe(
-            x, obs_kind[o], obs_a[o], obs_b[o], obs_anchor[o], obs_dz2[o], dim,
+            x, obs_kind[o], obs_a[o], obs_b[o], anchor_tab[obs_anchor[o]], obs_dz2[o], dim,
             h_idx[j], h_val[j],
         )  # fmt: skip
         h_cnt[j] = cnt
@@ -270,7 +273,8 @@ def ekf_forward(
     obs_kind: IntArray,
     obs_a: IntArray,
     obs_b: IntArray,
-    obs_anchor: FloatArray,
+    obs_anchor: IntArray,
+    anchor_tab: FloatArray,
     obs_dz2: FloatArray,
     z: FloatArray,
     r_var: FloatArray,
@@ -331,8 +335,8 @@ def ekf_forward(
         lo = obs_ptr[k]
         m = obs_ptr[k + 1] - lo
         epoch_innovations(
-            x, c, lo, m, obs_kind, obs_a, obs_b, obs_anchor, obs_dz2, z, r_var, dim,
-            h_idx, h_val, h_cnt, v, d,
+            x, c, lo, m, obs_kind, obs_a, obs_b, obs_anchor, anchor_tab, obs_dz2, z, r_var,
+            dim, h_idx, h_val, h_cnt, v, d,
         )  # fmt: skip
         for j in range(m):
             innov[lo + j] = v[j]

@@ -228,7 +228,7 @@ def fuse(
             f"fusion: no range epoch inside the span every platform has navigation "
             f"({start:.3f} .. {stop:.3f} s)"
         )
-    nav = nav_at_epochs(session, moving, epochs)  # (P, K, 3)
+    nav = nav_at_epochs(session, moving, epochs, dim)  # (P, K, dim): no height (dz2 has it)
     n_ep = epochs.shape[0]
     dt = np.diff(epochs, prepend=epochs[0])
     scale = drift_scale or {}
@@ -245,8 +245,8 @@ def fuse(
     smooth = params.smoother and n_ep > 1
     block = block_size(n_ep) if smooth else 0
     kernel_obs = (
-        obs["ptr"], obs["kind"], obs["a"], obs["b"], obs["anchor"], obs["dz2"], obs["z"],
-        obs["var"],
+        obs["ptr"], obs["kind"], obs["a"], obs["b"], obs["anchor"], obs["anchor_table"],
+        obs["dz2"], obs["z"], obs["var"],
     )  # fmt: skip
     noise = (nav, q_coef, q_squared, dt)
     xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c = ekf_forward(
@@ -265,6 +265,7 @@ def fuse(
             "gamma": gamma[at],
         }
     )
+    del innov, innov_var, at  # memory (issue 11): what the table took is spent
     if smooth and discard is not None and discard(table):
         smooth = False
     if smooth:
@@ -274,7 +275,9 @@ def fuse(
         )  # fmt: skip
     else:
         xs_s, var_s = xs_f, var_f
-    del cp_x, cp_c
+    # memory (issue 11): the observations and the range rows are spent; free them before
+    # the trajectories are built (the outputs the caller keeps)
+    del cp_x, cp_c, obs, kernel_obs, gamma, rows, ep_idx, noise
     slots = (session, moving, epochs, nav, rec_ptr, rec_plat, dim, output)
     forward = trajectories_from_slots(*slots, xs_f, var_f, hold=True)
     smoothed = trajectories_from_slots(*slots, xs_s, var_s if smoothed_sigma else None, hold=False)
@@ -315,8 +318,8 @@ def _initial_state(
             if fix is None or session.platforms[pid].role == "leader":
                 continue
             # the first fix, carried back to the first epoch by the platform's own DR
-            back = session.nav[pid].interpolate(fix.time_s[:1])[0] - nav[p, 0]
-            x0[p * dim : (p + 1) * dim] = fix.enu_m[0, :dim] - back[:dim]
+            back = session.nav[pid].interpolate(fix.time_s[:1])[0, :dim] - nav[p, 0, :dim]
+            x0[p * dim : (p + 1) * dim] = fix.enu_m[0, :dim] - back
             assert fix.sigma_enu_m is not None
             sig[p * dim : (p + 1) * dim] = np.maximum(fix.sigma_enu_m[0, :dim], 1e-3)
     return x0, np.diag(sig * sig)

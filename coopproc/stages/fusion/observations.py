@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from coopproc.model import FloatArray, Session
-from coopproc.stages.fusion.data import RangeRows
+from coopproc.stages.fusion.data import RangeRows, nav_points
 from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_POSITION, OBS_RANGE
 
 if TYPE_CHECKING:
@@ -70,6 +70,19 @@ def _lookup(ids: tuple[str, ...], order: list[str]) -> np.ndarray:
     return np.array([where.get(pid, -1) for pid in ids], dtype=np.int64)
 
 
+def _row_heights(
+    session: Session, moving: list[str], plat: np.ndarray, epochs: FloatArray, ep_idx: np.ndarray
+) -> FloatArray:
+    """Height (m) of platform ``moving[plat[i]]``'s navigation at epoch ``ep_idx[i]`` of each
+    row (0 where ``plat`` is -1): what (P, K, 3) navigation at the epochs holds there."""
+    out = np.zeros(plat.shape[0])
+    for p, pid in enumerate(moving):
+        sel = np.flatnonzero(plat == p)
+        if sel.size:
+            out[sel] = nav_points(session, pid, epochs[ep_idx[sel]], range(2, 3))[:, 0]
+    return out
+
+
 def build_observations(
     session: Session,
     rows: RangeRows,
@@ -80,7 +93,12 @@ def build_observations(
     anchors: Mapping[str, FloatArray],
     params: FusionParams,
 ) -> dict[str, np.ndarray]:
-    """Flat observation arrays in epoch order and the epoch pointers ``ptr`` (K + 1)."""
+    """Flat observation arrays in epoch order and the epoch pointers ``ptr`` (K + 1).
+
+    ``nav``: (P, K, >= dims) the navigation at the epochs (east/north[/up]). Codes are
+    int8/int32; ``anchor`` is a row of ``anchor_table`` (T, 3), the fixed point or offset
+    of the range (module :mod:`~coopproc.stages.fusion.ekf`), the last row zeros.
+    """
     dim = params.dims
     index = {pid: i for i, pid in enumerate(moving)}
     to_moving_code = _lookup(rows.ids, moving)
@@ -89,13 +107,15 @@ def build_observations(
     from_moving = a_from >= 0
     to_moving = a_to >= 0
     both = from_moving & to_moving
-    a = np.where(from_moving, a_from, a_to).astype(np.int64)
-    b = np.where(both, a_to, -1).astype(np.int64)
+    a = np.where(from_moving, a_from, a_to).astype(np.int32)
+    b = np.where(both, a_to, -1).astype(np.int32)
     anchor_ids = sorted(anchors)
     anchor_table = np.array([anchors[k] for k in anchor_ids] + [np.zeros(3)])
     to_anchor_code = _lookup(rows.ids, anchor_ids)
     anchor_code = to_anchor_code[np.where(from_moving, rows.to_code, rows.from_code)]
-    anchor = anchor_table[np.where(anchor_code >= 0, anchor_code, len(anchor_ids))]
+    del a_from, a_to, from_moving, to_moving
+    anchor_code = np.where(anchor_code >= 0, anchor_code, len(anchor_ids)).astype(np.int32)
+    anchor = anchor_table[anchor_code]
     row_t = rows.time
     late = np.flatnonzero(row_t != epochs[ep_idx])
     if late.size:  # ranges after their (merged) epoch time: carry the DR motion to them
@@ -105,13 +125,22 @@ def build_observations(
                 sel = late[ids[late] == p]
                 if sel.size:
                     at_row = session.nav[pid].interpolate(row_t[sel])
-                    motion[sel, end] = at_row - nav[p, ep_idx[sel]]
+                    motion[sel, end] = at_row - nav_points(
+                        session, pid, epochs[ep_idx[sel]], range(3)
+                    )
         # OBS_RANGE: |X_a + m_a - X_b - m_b| = |X_a - X_b - (m_b - m_a)|;
         # OBS_ANCHOR: |X_a + m_a - anchor| = |X_a - (anchor - m_a)|
         anchor = np.where(both[:, None], motion[:, 1] - motion[:, 0], anchor - motion[:, 0])
-    up_a = nav[a, ep_idx, 2]
-    up_b = np.where(both, nav[np.maximum(b, 0), ep_idx, 2], anchor[:, 2])
-    dz2 = (up_a - up_b) ** 2 if dim == 2 else np.zeros(len(rows))
+        # each range row its own point (a table row), the last row zeros
+        anchor_table = np.concatenate((anchor, np.zeros((1, 3))))
+        anchor_code = np.arange(len(rows), dtype=np.int32)
+    if dim == 2:  # the heights from the navigation (``nav`` holds east/north only)
+        up_a = _row_heights(session, moving, a, epochs, ep_idx)
+        up_b = np.where(both, _row_heights(session, moving, b, epochs, ep_idx), anchor[:, 2])
+        dz2 = (up_a - up_b) ** 2
+        del up_a, up_b
+    else:
+        dz2 = np.zeros(len(rows))
     # layout in epoch order: each epoch's leader fixes, then its ranges (rows are sorted)
     n_ep = nav.shape[1]
     leaders = [pid for pid in moving if session.platforms[pid].role == "leader"]
@@ -122,11 +151,12 @@ def build_observations(
     total = int(ptr[-1])
     first_row = np.searchsorted(ep_idx, np.arange(n_ep))
     at = ptr[ep_idx] + n_fix[ep_idx] + (np.arange(len(rows)) - first_row[ep_idx])
+    # the codes in the narrowest dtype that holds them: only the compiled filter reads them
     obs: dict[str, np.ndarray] = {
-        "kind": np.full(total, OBS_POSITION, dtype=np.int64),
-        "a": np.zeros(total, dtype=np.int64),
-        "b": np.zeros(total, dtype=np.int64),
-        "anchor": np.zeros((total, 3)),
+        "kind": np.full(total, OBS_POSITION, dtype=np.int8),
+        "a": np.zeros(total, dtype=np.int32),
+        "b": np.zeros(total, dtype=np.int32),
+        "anchor": np.full(total, anchor_table.shape[0] - 1, dtype=np.int32),  # zeros row
         "dz2": np.zeros(total),
         "z": np.zeros(total),
         "var": np.ones(total),
@@ -134,7 +164,8 @@ def build_observations(
     obs["kind"][at] = np.where(both, OBS_RANGE, OBS_ANCHOR)
     obs["a"][at] = a
     obs["b"][at] = b
-    obs["anchor"][at] = anchor
+    obs["anchor"][at] = anchor_code
+    obs["anchor_table"] = anchor_table
     obs["dz2"][at] = dz2
     obs["z"][at] = rows.range
     obs["var"][at] = rows.var

@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from coopproc.model import FloatArray, Session, Trajectory
-from coopproc.stages.fusion.data import platform_codes
+from coopproc.stages.fusion.data import nav_points, platform_codes
 
 __all__ = ["recorded_slots", "trajectories_from_slots", "trajectories_from_states"]
 
@@ -96,8 +96,10 @@ def trajectories_from_slots(
     for p, pid in enumerate(moving):
         slots = by_plat[bounds[p] : bounds[p + 1]]
         at = epoch_of[slots]
-        enu = nav[p, at]  # a copy (fancy indexing)
+        enu = np.empty((at.shape[0], 3))
         enu[:, :dim] = xs[slots]
+        if dim < 3:  # the height: the platform's own navigation at those epochs
+            enu[:, dim:] = nav_points(session, pid, epochs[at], range(dim, 3))
         sig = None
         if var is not None:
             sig = np.full((at.shape[0], 3), np.nan)
@@ -129,8 +131,10 @@ def trajectories_from_states(
         sig = np.full((epochs.shape[0], 3), np.nan)
         sig[:, :dim] = np.sqrt(np.maximum(var[:, p * dim : (p + 1) * dim], 0.0))
         if output == "ranges":
-            enu = nav[p].copy()
+            enu = np.empty((epochs.shape[0], 3))
             enu[:, :dim] = est
+            if dim < 3:  # the height: the platform's own navigation at the epochs
+                enu[:, dim:] = nav_points(session, pid, epochs, range(dim, 3))
             out[pid] = Trajectory(pid, epochs.copy(), enu, sigma_enu_m=sig, source="fusion")
             continue
         traj = session.nav[pid]

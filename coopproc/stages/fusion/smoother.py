@@ -60,7 +60,8 @@ def mbf_backward(
     obs_kind: IntArray,
     obs_a: IntArray,
     obs_b: IntArray,
-    obs_anchor: FloatArray,
+    obs_anchor: IntArray,
+    anchor_tab: FloatArray,
     obs_dz2: FloatArray,
     z: FloatArray,
     r_var: FloatArray,
@@ -125,8 +126,8 @@ def mbf_backward(
             lo = obs_ptr[k]
             m = obs_ptr[k + 1] - lo
             epoch_innovations(
-                x, c, lo, m, obs_kind, obs_a, obs_b, obs_anchor, obs_dz2, z, r_var, dim,
-                h_idx, h_val, h_cnt, v, d,
+                x, c, lo, m, obs_kind, obs_a, obs_b, obs_anchor, anchor_tab, obs_dz2, z,
+                r_var, dim, h_idx, h_val, h_cnt, v, d,
             )  # fmt: skip
             at = lo - base
             epoch_update(

@@ -61,10 +61,11 @@ def _problem(seed: int, n_plat: int = 3, n_ep: int = 60) -> dict[str, np.ndarray
         "q_coef": np.full(n_plat, 0.02),
         "dt": np.full(n_ep, 0.5),
         "ptr": np.concatenate(([0], np.cumsum(counts))).astype(np.int64),
-        "kind": np.array(kinds, dtype=np.int64),
-        "a": np.array(a_list, dtype=np.int64),
-        "b": np.array(b_list, dtype=np.int64),
-        "anchor": np.array(anchors),
+        "kind": np.array(kinds, dtype=np.int8),  # the dtypes fuse() passes
+        "a": np.array(a_list, dtype=np.int32),
+        "b": np.array(b_list, dtype=np.int32),
+        "anchor": np.arange(len(anchors), dtype=np.int32),  # rows of anchor_table
+        "anchor_table": np.array(anchors),
         "dz2": np.zeros(n_obs),
         "z": z_arr,
         "var": np.array(var),
@@ -74,8 +75,8 @@ def _problem(seed: int, n_plat: int = 3, n_ep: int = 60) -> dict[str, np.ndarray
 def _forward(pb: dict[str, np.ndarray], rec_ptr: np.ndarray, rec_plat: np.ndarray, block: int):
     return ekf_forward(
         pb["x0"], pb["c0"], pb["nav"], pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"],
-        pb["a"], pb["b"], pb["anchor"], pb["dz2"], pb["z"], pb["var"], DIM, True, 3.0, 4.0,
-        1.0, 20, rec_ptr, rec_plat, block,
+        pb["a"], pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"], pb["z"], pb["var"], DIM,
+        True, 3.0, 4.0, 1.0, 20, rec_ptr, rec_plat, block,
     )  # fmt: skip
 
 
@@ -117,7 +118,8 @@ def test_mbf_smoother_equals_dense_rts(seed: int, block: int) -> None:
     assert (gamma < 1e-6).sum() >= 1  # the outlier was rejected, and the smoother knows it
     xs, var = mbf_backward(
         cp_x, cp_c, pb["nav"], pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"], pb["a"],
-        pb["b"], pb["anchor"], pb["dz2"], pb["z"], pb["var"], gamma, DIM, *rec, block,
+        pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"], pb["z"], pb["var"], gamma, DIM,
+        *rec, block,
     )  # fmt: skip
     ref_x, ref_var = _dense_rts(pb, n_plat)
     got_x = xs.reshape(n_ep, -1)[:-1]
@@ -145,7 +147,8 @@ def test_recorded_subset_gives_the_same_slots() -> None:
         xs_f, var_f, gamma, _, _, cp_x, cp_c = _forward(pb, *rec, 8)
         xs, var = mbf_backward(
             cp_x, cp_c, pb["nav"], pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"],
-            pb["a"], pb["b"], pb["anchor"], pb["dz2"], pb["z"], pb["var"], gamma, DIM, *rec, 8,
+            pb["a"], pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"], pb["z"], pb["var"],
+            gamma, DIM, *rec, 8,
         )  # fmt: skip
         outs.append((xs_f, var_f, xs, var))
     for whole, part in zip(outs[0], outs[1], strict=True):
