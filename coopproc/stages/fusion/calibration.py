@@ -49,15 +49,17 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
-from coopproc.model import Session
+from coopproc.model import FloatArray, Session
 from coopproc.stages.fusion.calibration_bias import (
+    PairCodes,
     biased_platform,
-    groups,
+    code_groups,
+    pair_codes,
     platform_bias,
     postfit_residuals,
+    residuals_by_row,
 )
 from coopproc.stages.fusion.calibration_subset import CALIBRATION_EPOCHS, calibration_rows
-from coopproc.stages.fusion.data import pair_names
 from coopproc.stages.fusion.fuse import FusionOutput, FusionParams, fuse
 from coopproc.stages.ranging.calibration import MAD_SCALE, posterior_sigma
 
@@ -88,39 +90,52 @@ class FusionCalibration:
 
 
 def _pair_figures(
-    residuals: pd.DataFrame,
+    resid: FloatArray, pairs: PairCodes
 ) -> tuple[dict[str, float], dict[str, float], dict[str, int]]:
+    """RMS, median and count of each pair's finite residuals (``resid`` per row of
+    ``pairs``), pairs in name order."""
     rms: dict[str, float] = {}
     bias: dict[str, float] = {}
     count: dict[str, int] = {}
-    for pair, group in residuals.groupby("pair", sort=True):
-        r = group["residual"].to_numpy(dtype=np.float64)
+    for code, sel in code_groups(pairs.code, len(pairs.names)):
+        pair = pairs.names[code]
+        r = resid[sel]
         r = r[np.isfinite(r)]
         if r.shape[0] < MIN_RESIDUALS:
             continue
         med = float(np.median(r))
         mad = MAD_SCALE * float(np.median(np.abs(r - med)))
         kept = r[np.abs(r - med) <= GROSS_MADS * mad] if mad > 0 else r
-        rms[str(pair)] = float(np.sqrt(np.mean(kept * kept)))
-        bias[str(pair)] = med
-        count[str(pair)] = int(kept.shape[0])
+        rms[pair] = float(np.sqrt(np.mean(kept * kept)))
+        bias[pair] = med
+        count[pair] = int(kept.shape[0])
     return rms, bias, count
 
 
 def _platform_nis(observations: pd.DataFrame) -> dict[str, float]:
+    """Median NIS / :data:`CHI2_1_MEDIAN` of each platform's ranges (as from or to),
+    platforms in name order; grouped by integer platform codes."""
     nis = observations["innovation"].to_numpy() ** 2 / observations["innovation_var"].to_numpy()
+    nis = np.asarray(nis, dtype=np.float64)
     out: dict[str, float] = {}
-    ends = pd.concat(
+    code_from, names_from = pd.factorize(observations["from"])  # missing id: -1, no group
+    code_to, names_to = pd.factorize(observations["to"])
+    names = sorted({str(n) for n in names_from} | {str(n) for n in names_to})
+    rank = {name: i for i, name in enumerate(names)}
+    codes = np.concatenate(
         [
-            pd.DataFrame({"platform": observations["from"].to_numpy(), "nis": nis}),
-            pd.DataFrame({"platform": observations["to"].to_numpy(), "nis": nis}),
+            np.append([rank[str(n)] for n in names_from], -1).astype(np.int64)[code_from],
+            np.append([rank[str(n)] for n in names_to], -1).astype(np.int64)[code_to],
         ]
     )
-    for platform, group in ends.groupby("platform", sort=True):
-        values = group["nis"].to_numpy(dtype=np.float64)
+    both = np.concatenate([nis, nis])
+    keep = codes >= 0
+    for code, sel in code_groups(codes[keep], len(names)):
+        platform = names[code]
+        values = both[keep][sel]
         values = values[np.isfinite(values)]
         if values.shape[0] >= MIN_RESIDUALS:
-            out[str(platform)] = float(np.median(values)) / CHI2_1_MEDIAN
+            out[platform] = float(np.median(values)) / CHI2_1_MEDIAN
     return out
 
 
@@ -201,35 +216,32 @@ def calibrated_fuse(
     # 1. dead reckoning that the ranges contradict, with the given range sigmas
     first, scale, _ = _drift_scales(session, ranges, params, {}, smoothed_sigma=smoothed_sigma)
     # 2. per-pair ranging sigma from the post-fit residuals
-    resid = postfit_residuals(session, first, ranges)
-    rms, bias, count = _pair_figures(resid)
-    pairs = pair_names(ranges["from"], ranges["to"])
+    pairs = pair_codes(ranges["from"], ranges["to"])
+    resid = residuals_by_row(session, first, ranges, pairs)
+    rms, bias, count = _pair_figures(resid, pairs)
     given = pd.to_numeric(ranges["sigma"], errors="coerce").to_numpy(dtype=np.float64)
     default = session.config.uwb_sigma_m or params.range_sigma_m
     given = np.where(np.isfinite(given) & (given > 0), given, default)
     sigma_used: dict[str, float] = {}
     notes: list[str] = []
     new_sigma = given.copy()
-    for pair, sel in groups(pairs):
+    for code, sel in code_groups(pairs.code, len(pairs.names)):
+        pair = pairs.names[code]
         prior = float(np.median(given[sel]))
         if pair in rms:
             # inflate only: a declared sigma above the post-fit RMS stays (shrinking it
             # lets the correlated dead-reckoning and NLOS errors through: paper-experiment
             # seed 3, fused A 0.151 m against 0.134 m with the declared 0.15 m)
-            sigma_used[str(pair)] = max(
-                prior, posterior_sigma(prior, rms[str(pair)], count[str(pair)])
-            )
+            sigma_used[pair] = max(prior, posterior_sigma(prior, rms[pair], count[pair]))
         else:
-            sigma_used[str(pair)] = prior
-        if sigma_floor is not None and str(pair) in sigma_floor:
-            sigma_used[str(pair)] = max(sigma_used[str(pair)], sigma_floor[str(pair)])
-        new_sigma[sel] = sigma_used[str(pair)]
+            sigma_used[pair] = prior
+        if sigma_floor is not None and pair in sigma_floor:
+            sigma_used[pair] = max(sigma_used[pair], sigma_floor[pair])
+        new_sigma[sel] = sigma_used[pair]
     calibrated = ranges.assign(sigma=new_sigma)
     # 3. a platform whose ranges all disagree, by a bias that matters: its range bias,
     # then its drift afresh; the bias iteration on a thinned subset of a long session
-    platform_factor = biased_platform(
-        sigma_used, resid["residual"].to_numpy(dtype=np.float64), ranges, given
-    )
+    platform_factor = biased_platform(sigma_used, resid, ranges, given)
     if platform_factor:
         unscaled = {p: v for p, v in scale.items() if p not in platform_factor}
         rows = calibration_rows(ranges["time"].to_numpy(dtype=np.float64), max_epochs)

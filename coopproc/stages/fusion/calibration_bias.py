@@ -25,15 +25,27 @@ read 0.1-0.74 m long: b^_p = +0.122 m against 0.121 m, and the iteration finds +
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from numpy.typing import NDArray
 
-from coopproc.model import FloatArray, Session, pair_members
-from coopproc.stages.fusion.data import anchor_positions, pair_names
+from coopproc.model import FloatArray, Session, pair_members, pair_name
+from coopproc.stages.fusion.data import anchor_positions
 from coopproc.stages.fusion.fuse import FusionOutput, FusionParams, fuse
 
-__all__ = ["biased_platform", "corrected", "groups", "platform_bias", "postfit_residuals"]
+__all__ = [
+    "PairCodes",
+    "biased_platform",
+    "code_groups",
+    "corrected",
+    "pair_codes",
+    "platform_bias",
+    "platform_rows",
+    "postfit_residuals",
+    "residuals_by_row",
+]
 
 #: A platform bias is kept only if it cuts the RMS of that platform's residuals to this.
 BIAS_GAIN = 0.9
@@ -61,15 +73,24 @@ def _positions(
     return fused.smoothed[pid].interpolate(t)
 
 
-def postfit_residuals(session: Session, fused: FusionOutput, ranges: pd.DataFrame) -> pd.DataFrame:
-    """Columns time, pair, residual: each range minus the fused distance at its time."""
+def residuals_by_row(
+    session: Session, fused: FusionOutput, ranges: pd.DataFrame, pairs: PairCodes | None = None
+) -> FloatArray:
+    """Each row of ``ranges`` minus the fused distance at its time (NaN where the range is
+    not finite or a platform has no position). ``pairs``: :func:`pair_codes` of ``ranges``
+    when the caller has them. Grouped by integer pair codes, not a name per row."""
     anchors = anchor_positions(session)
-    frame = ranges[np.isfinite(ranges["range"].to_numpy(dtype=np.float64))]
-    pairs = pair_names(frame["from"], frame["to"])
-    t = frame["time"].to_numpy(dtype=np.float64)
+    value = ranges["range"].to_numpy(dtype=np.float64)
+    t = ranges["time"].to_numpy(dtype=np.float64)
     resid = np.full(t.shape[0], np.nan)
-    from_ids, to_ids = frame["from"].to_numpy(), frame["to"].to_numpy()
-    for _, sel in groups(pairs):
+    if pairs is None:
+        pairs = pair_codes(ranges["from"], ranges["to"])
+    finite = np.isfinite(value)
+    from_ids, to_ids = ranges["from"].array, ranges["to"].array
+    for _, sel in code_groups(pairs.code, len(pairs.names)):
+        sel = sel[finite[sel]]
+        if not sel.shape[0]:
+            continue
         a, b = from_ids[sel[0]], to_ids[sel[0]]
         if (a not in anchors and a not in fused.smoothed) or (
             b not in anchors and b not in fused.smoothed
@@ -77,18 +98,74 @@ def postfit_residuals(session: Session, fused: FusionOutput, ranges: pd.DataFram
             continue
         xa = _positions(session, fused, anchors, str(a), t[sel])
         xb = _positions(session, fused, anchors, str(b), t[sel])
-        resid[sel] = frame["range"].to_numpy(dtype=np.float64)[sel] - np.linalg.norm(
-            xa - xb, axis=1
-        )
-    return pd.DataFrame({"time": t, "pair": pairs, "residual": resid})
+        resid[sel] = value[sel] - np.linalg.norm(xa - xb, axis=1)
+    return resid
 
 
-def groups(names: np.ndarray) -> list[tuple[str, np.ndarray]]:
-    """(name, row indices) of each distinct name, names sorted (one sort, no scans)."""
-    unique, inverse = np.unique(names, return_inverse=True)
-    order = np.argsort(inverse, kind="stable")
-    bounds = np.searchsorted(inverse[order], np.arange(unique.shape[0] + 1))
-    return [(str(unique[i]), order[bounds[i] : bounds[i + 1]]) for i in range(unique.shape[0])]
+def postfit_residuals(session: Session, fused: FusionOutput, ranges: pd.DataFrame) -> pd.DataFrame:
+    """Columns time, pair (categorical), residual: each range with a finite value minus
+    the fused distance at its time."""
+    pairs = pair_codes(ranges["from"], ranges["to"])
+    resid = residuals_by_row(session, fused, ranges, pairs)
+    keep = np.isfinite(ranges["range"].to_numpy(dtype=np.float64))
+    return pd.DataFrame(
+        {
+            "time": ranges["time"].to_numpy(dtype=np.float64)[keep],
+            "pair": pd.Categorical.from_codes(
+                pairs.code[keep], dtype=pd.CategoricalDtype(list(pairs.names))
+            ),
+            "residual": resid[keep],
+        }
+    )
+
+
+@dataclass(frozen=True)
+class PairCodes:
+    """Each row's unordered pair (:func:`~coopproc.model.pair_name`) as a code into
+    ``names``, the distinct pair names sorted."""
+
+    code: NDArray[np.int32]
+    names: tuple[str, ...]
+
+
+def pair_codes(first: pd.Series, second: pd.Series) -> PairCodes:
+    """:class:`PairCodes` of two id columns: one factorization per column, a name per
+    distinct (first, second) combination, no string per row (a missing id is named
+    ``str`` of it, as :func:`~coopproc.stages.fusion.data.pair_names` does)."""
+    code_a, uniq_a = pd.factorize(first, use_na_sentinel=False)
+    code_b, uniq_b = pd.factorize(second, use_na_sentinel=False)
+    width = max(len(uniq_b), 1)
+    key = code_a.astype(np.int64) * width + code_b
+    present = np.zeros(max(len(uniq_a), 1) * width, dtype=bool)
+    present[key] = True
+    combos = np.flatnonzero(present)
+    combo_names = [
+        pair_name(str(uniq_a[int(k) // width]), str(uniq_b[int(k) % width])) for k in combos
+    ]
+    names, rank = np.unique(np.array(combo_names, dtype=object), return_inverse=True)
+    lut = np.zeros(present.shape[0], dtype=np.int32)
+    lut[combos] = rank.reshape(-1)
+    return PairCodes(lut[key], tuple(str(n) for n in names))
+
+
+def code_groups(code: np.ndarray, n: int) -> list[tuple[int, np.ndarray]]:
+    """(code, row indices ascending) of each code 0..n-1 that occurs: one stable sort."""
+    small = code.astype(np.int16) if n < 2**15 else code  # int16: numpy's radix sort
+    order = np.argsort(small, kind="stable")
+    bounds = np.concatenate(([0], np.cumsum(np.bincount(code, minlength=n))))
+    return [(i, order[bounds[i] : bounds[i + 1]]) for i in range(n) if bounds[i + 1] > bounds[i]]
+
+
+def platform_rows(ranges: pd.DataFrame, platform: str) -> np.ndarray:
+    """Boolean mask of the rows of ``ranges`` that ``platform`` takes part in (as from or
+    to): a factorization per column, no string comparison per row."""
+    own = np.zeros(len(ranges), dtype=bool)
+    for column in ("from", "to"):
+        code, uniques = pd.factorize(ranges[column])
+        hit = [i for i, u in enumerate(uniques) if u == platform]
+        if hit:
+            own |= code == hit[0]
+    return own
 
 
 def platform_range_factor(pair_sigma: Mapping[str, float]) -> dict[str, float]:
@@ -116,8 +193,7 @@ def relative_bias(resid: FloatArray, ranges: pd.DataFrame, platform: str) -> flo
     """The median post-fit residual of the ranges ``platform`` takes part in, less the
     median of the other ranges' (a network-wide offset is no platform's bias); NaN when
     either set is empty."""
-    ends = (ranges["from"].to_numpy(), ranges["to"].to_numpy())
-    own = (ends[0] == platform) | (ends[1] == platform)
+    own = platform_rows(ranges, platform)
     finite = np.isfinite(resid)
     mine, others = resid[own & finite], resid[~own & finite]
     if not mine.shape[0] or not others.shape[0]:
@@ -149,10 +225,9 @@ def platform_bias(
         return ranges, {}
     current = corrected(ranges, bias)
     fused = fuse(session, current, params, output="ranges", smoothed_sigma=False)
-    resid = postfit_residuals(session, fused, current)["residual"].to_numpy()
-    ends = (ranges["from"].to_numpy(), ranges["to"].to_numpy())
+    resid = residuals_by_row(session, fused, current)
     for platform in bias:
-        r = resid[(ends[0] == platform) | (ends[1] == platform)]
+        r = resid[platform_rows(ranges, platform)]
         r = r[np.isfinite(r)]
         bias[platform] += float(np.median(r)) if r.shape[0] else 0.0
     return corrected(ranges, bias), bias
@@ -167,14 +242,14 @@ def _iterate(
     """:func:`platform_bias` on ``ranges``; the bias is kept only if it cuts the RMS of
     the platform's residuals to :data:`BIAS_GAIN` of what it was."""
     base = ranges["range"].to_numpy(dtype=np.float64)
-    ends = (ranges["from"].to_numpy(), ranges["to"].to_numpy())
-    involved = {p: (ends[0] == p) | (ends[1] == p) for p in platforms}
+    pairs = pair_codes(ranges["from"], ranges["to"])  # the same rows every fusion
+    involved = {p: platform_rows(ranges, p) for p in platforms}
     bias = dict.fromkeys(platforms, 0.0)
     current = ranges
     rms_first = float("nan")
     for _ in range(BIAS_ITERATIONS):
         fused = fuse(session, current, params, output="ranges", smoothed_sigma=False)
-        resid = postfit_residuals(session, fused, current)["residual"].to_numpy()
+        resid = residuals_by_row(session, fused, current, pairs)
         if np.isnan(rms_first):
             rms_first = _rms(resid, involved)
         step = {}
@@ -190,7 +265,7 @@ def _iterate(
         if max(abs(v) for v in step.values()) < BIAS_TOL_M:
             break
     fused = fuse(session, current, params, output="ranges", smoothed_sigma=False)
-    rms_last = _rms(postfit_residuals(session, fused, current)["residual"].to_numpy(), involved)
+    rms_last = _rms(residuals_by_row(session, fused, current, pairs), involved)
     if not rms_last < BIAS_GAIN * rms_first:
         return ranges, {}  # the bias does not explain the disagreement: leave the ranges
     return current, bias
@@ -217,9 +292,8 @@ def biased_platform(
     ranges' median given sigma or more; else none. ``resid``, ``given``: per row of
     ``ranges``."""
     out = {}
-    ends = (ranges["from"].to_numpy(), ranges["to"].to_numpy())
     for platform, factor in platform_range_factor(pair_sigma).items():
-        own = (ends[0] == platform) | (ends[1] == platform)
+        own = platform_rows(ranges, platform)
         sigma = float(np.median(given[own])) if own.any() else float("nan")
         if abs(relative_bias(resid, ranges, platform)) >= BIAS_EFFECT * sigma:
             out[platform] = factor
@@ -229,7 +303,6 @@ def biased_platform(
 def corrected(ranges: pd.DataFrame, bias: Mapping[str, float]) -> pd.DataFrame:
     """``ranges`` with each listed platform's ranges corrected by minus its bias."""
     corrected = ranges["range"].to_numpy(dtype=np.float64).copy()
-    ends = (ranges["from"].to_numpy(), ranges["to"].to_numpy())
     for platform, value in bias.items():
-        corrected[(ends[0] == platform) | (ends[1] == platform)] -= value
+        corrected[platform_rows(ranges, platform)] -= value
     return ranges.assign(range=corrected)
