@@ -130,9 +130,11 @@ def _platform_nis(observations: pd.DataFrame) -> dict[str, float]:
     )
     both = np.concatenate([nis, nis])
     keep = codes >= 0
-    for code, sel in code_groups(codes[keep], len(names)):
+    if not keep.all():
+        codes, both = codes[keep], both[keep]
+    for code, sel in code_groups(codes, len(names)):
         platform = names[code]
-        values = both[keep][sel]
+        values = both[sel]
         values = values[np.isfinite(values)]
         if values.shape[0] >= MIN_RESIDUALS:
             out[platform] = float(np.median(values)) / CHI2_1_MEDIAN
@@ -155,6 +157,13 @@ def _drift_scales(
     ``smoothed=False``: the caller reads only the scales (every fusion forward only)."""
     moving = set(session.moving_platforms()) if only is None else only
     scale = dict(scale)
+    last: list[tuple[pd.DataFrame, dict[str, float]]] = []
+
+    def platform_nis(observations: pd.DataFrame) -> dict[str, float]:
+        # a fusion's table is read by refitted() and then here: its NIS once
+        if not last or last[0][0] is not observations:
+            last[:] = [(observations, _platform_nis(observations))]
+        return last[0][1]
 
     def high_nis(nis: Mapping[str, float]) -> dict[str, float]:
         return {p: v for p, v in nis.items() if p in moving and v > NIS_LIMIT}
@@ -164,14 +173,14 @@ def _drift_scales(
         # its smoother pass would be thrown away (fusion 0..NIS_ROUNDS-1 may be refitted)
         if not smoothed:
             return True
-        return fits < NIS_ROUNDS and bool(high_nis(_platform_nis(observations)))
+        return fits < NIS_ROUNDS and bool(high_nis(platform_nis(observations)))
 
     fits = 0
     fused = fuse(
         session, ranges, params, output="ranges", drift_scale=scale,
         smoothed_sigma=smoothed_sigma, discard=refitted,
     )  # fmt: skip
-    nis = _platform_nis(fused.observations)
+    nis = platform_nis(fused.observations)
     for done in range(NIS_ROUNDS):
         high = high_nis(nis)
         if not high:
@@ -183,7 +192,7 @@ def _drift_scales(
             session, ranges, params, output="ranges", drift_scale=scale,
             smoothed_sigma=smoothed_sigma, discard=refitted,
         )  # fmt: skip
-        nis = _platform_nis(fused.observations)
+        nis = platform_nis(fused.observations)
     return fused, scale, nis
 
 
@@ -214,7 +223,9 @@ def calibrated_fuse(
         plain = fuse(session, ranges, params, output=output, smoothed_sigma=smoothed_sigma)
         return plain, FusionCalibration({}, {}, {}, {}, {})
     # 1. dead reckoning that the ranges contradict, with the given range sigmas
-    first, scale, _ = _drift_scales(session, ranges, params, {}, smoothed_sigma=smoothed_sigma)
+    first, scale, first_nis = _drift_scales(
+        session, ranges, params, {}, smoothed_sigma=smoothed_sigma
+    )
     # 2. per-pair ranging sigma from the post-fit residuals
     pairs = pair_codes(ranges["from"], ranges["to"])
     resid = residuals_by_row(session, first, ranges, pairs)
@@ -267,7 +278,7 @@ def calibrated_fuse(
             session, calibrated, params, output=output, drift_scale=scale,
             smoothed_sigma=smoothed_sigma,
         )  # fmt: skip
-    nis = _platform_nis(result.observations)
+    nis = first_nis if result is first else _platform_nis(result.observations)
     for platform, factor in sorted(scale.items()):
         notes.append(
             f"fusion ({label}): {platform}'s dead reckoning drifts more than declared (its "

@@ -174,12 +174,13 @@ def platform_range_factor(pair_sigma: Mapping[str, float]) -> dict[str, float]:
     :data:`PLATFORM_RANGE_LIMIT` and the platform has 3+ pairs and the others 3+ too. Only
     the worst one: biases of several platforms at once trade off against each other."""
     members: dict[str, list[float]] = {}
+    ends = {pair: pair_members(pair) for pair in pair_sigma}
     for pair, sigma in pair_sigma.items():
-        for platform in pair_members(pair):
+        for platform in ends[pair]:
             members.setdefault(platform, []).append(sigma)
     factors: dict[str, float] = {}
     for platform, own in members.items():
-        others = [s for pair, s in pair_sigma.items() if platform not in pair_members(pair)]
+        others = [s for pair, s in pair_sigma.items() if platform not in ends[pair]]
         if len(own) < 3 or len(others) < 3:
             continue
         factors[platform] = float(np.median(own)) / float(np.median(others))
