@@ -26,11 +26,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import theilslopes
 
 from coopproc.model import FloatArray, Session, Trajectory
 
-__all__ = ["DeadReckoningQuality", "dead_reckoning_quality"]
+__all__ = ["DeadReckoningQuality", "dead_reckoning_quality", "theil_sen_slope"]
 
 DRIFT_WINDOW_S = 10.0
 HEADING_WINDOW_S = 10.0
@@ -66,6 +65,27 @@ def _windows(t: FloatArray, width_s: float) -> tuple[np.ndarray, np.ndarray]:
     return starts, starts + n
 
 
+def theil_sen_slope(y: FloatArray, x: FloatArray) -> float:
+    """The median of the slopes (y_j - y_i) / (x_j - x_i) over every pair with x_j != x_i:
+    ``scipy.stats.theilslopes(y, x)[0]`` bit for bit (the same differences and quotients,
+    and the median of a set does not depend on its order), without its two n x n matrices
+    and its full sort: a day of 10 s windows (8,640) took 6.9 s CPU and 1.9 GB per
+    platform in theilslopes; here one array of the n (n - 1) / 2 slopes."""
+    x = np.asarray(x, dtype=np.float64).ravel()
+    y = np.asarray(y, dtype=np.float64).ravel()
+    n = x.shape[0]
+    slopes = np.empty(n * (n - 1) // 2)
+    filled = 0
+    for i in range(n - 1):
+        dx = x[i + 1 :] - x[i]
+        ok = (dx > 0) | (dx < 0)  # NaN and ties out, as theilslopes' deltax > 0
+        # (y_i - y_j) / (x_i - x_j) == (y_j - y_i) / (x_j - x_i): negation is exact
+        part = (y[i + 1 :][ok] - y[i]) / dx[ok]
+        slopes[filled : filled + part.shape[0]] = part
+        filled += part.shape[0]
+    return float(np.median(slopes[:filled], overwrite_input=True))
+
+
 def _platform(nav: Trajectory, fused: Trajectory) -> tuple[float, float, float]:
     if len(fused) < 2:
         return float("nan"), float("nan"), float("nan")
@@ -93,7 +113,7 @@ def _platform(nav: Trajectory, fused: Trajectory) -> tuple[float, float, float]:
         mid = 0.5 * (t[lo] + t[hi])[moving] / 60.0
         # Theil-Sen: a window whose angle a velocity bias or a short turn spoiled does
         # not tilt the slope
-        heading = float(theilslopes(np.unwrap(angle[moving], period=360.0), mid)[0])
+        heading = theil_sen_slope(np.unwrap(angle[moving], period=360.0), mid)
         ratio = np.hypot(d_nav[:, 0], d_nav[:, 1])[moving] / length[moving]
         scale = float(np.median(ratio) - 1.0)
     return drift, heading, scale
