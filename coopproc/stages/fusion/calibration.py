@@ -124,8 +124,12 @@ def _platform_nis(observations: pd.DataFrame) -> dict[str, float]:
     rank = {name: i for i, name in enumerate(names)}
     codes = np.concatenate(
         [
-            np.append([rank[str(n)] for n in names_from], -1).astype(np.int64)[code_from],
-            np.append([rank[str(n)] for n in names_to], -1).astype(np.int64)[code_to],
+            np.append([rank[str(n)] for n in names_from], -1).astype(
+                np.int16 if len(names) < 2**15 else np.int64
+            )[code_from],
+            np.append([rank[str(n)] for n in names_to], -1).astype(
+                np.int16 if len(names) < 2**15 else np.int64
+            )[code_to],
         ]
     )
     both = np.concatenate([nis, nis])

@@ -124,7 +124,7 @@ class PairCodes:
     """Each row's unordered pair (:func:`~coopproc.model.pair_name`) as a code into
     ``names``, the distinct pair names sorted."""
 
-    code: NDArray[np.int32]
+    code: NDArray[np.signedinteger]  # int16 below 32,768 pairs: 2 bytes a row
     names: tuple[str, ...]
 
 
@@ -143,14 +143,19 @@ def pair_codes(first: pd.Series, second: pd.Series) -> PairCodes:
         pair_name(str(uniq_a[int(k) // width]), str(uniq_b[int(k) % width])) for k in combos
     ]
     names, rank = np.unique(np.array(combo_names, dtype=object), return_inverse=True)
-    lut = np.zeros(present.shape[0], dtype=np.int32)
+    lut = np.zeros(present.shape[0], dtype=_code_dtype(len(names)))
     lut[combos] = rank.reshape(-1)
     return PairCodes(lut[key], tuple(str(n) for n in names))
 
 
+def _code_dtype(n: int) -> type[np.signedinteger]:
+    """The smallest of int16 / int32 / int64 holding codes 0..n-1."""
+    return np.int16 if n < 2**15 else np.int32 if n < 2**31 else np.int64
+
+
 def code_groups(code: np.ndarray, n: int) -> list[tuple[int, np.ndarray]]:
     """(code, row indices ascending) of each code 0..n-1 that occurs: one stable sort."""
-    small = code.astype(np.int16) if n < 2**15 else code  # int16: numpy's radix sort
+    small = code.astype(_code_dtype(n), copy=False)  # int16: numpy's radix sort
     order = np.argsort(small, kind="stable")
     bounds = np.concatenate(([0], np.cumsum(np.bincount(code, minlength=n))))
     return [(i, order[bounds[i] : bounds[i + 1]]) for i in range(n) if bounds[i + 1] > bounds[i]]
