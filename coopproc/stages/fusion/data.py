@@ -21,6 +21,7 @@ __all__ = [
     "clean_range_rows",
     "clean_ranges",
     "epoch_groups",
+    "id_column",
     "nav_at_epochs",
     "nav_points",
     "pair_names",
@@ -32,6 +33,7 @@ __all__ = [
 _REQUIRED = ("time", "from", "to", "range")
 
 IntArray = NDArray[np.int64]
+CodeArray = NDArray[np.int32]
 
 #: The last navigation at the epochs inside :func:`shared_nav` (None: outside any).
 _SHARED_NAV: contextvars.ContextVar[
@@ -74,8 +76,8 @@ class RangeRows:
     time: FloatArray
     range: FloatArray
     var: FloatArray  # m^2
-    from_code: IntArray
-    to_code: IntArray
+    from_code: CodeArray
+    to_code: CodeArray
     ids: tuple[str, ...]
 
     def __len__(self) -> int:
@@ -88,9 +90,9 @@ class RangeRows:
             self.to_code[index], self.ids,
         )  # fmt: skip
 
-    def id_column(self, codes: IntArray) -> pd.api.extensions.ExtensionArray:
+    def id_column(self, codes: CodeArray) -> pd.api.extensions.ExtensionArray:
         """The platform ids of ``codes`` as a string column (one take, no per-row str)."""
-        return pd.array(list(self.ids), dtype="str").take(codes)
+        return id_column(self.ids, codes)
 
     def frame(self) -> pd.DataFrame:
         """Columns time, from, to, range, var (what :func:`clean_ranges` returns)."""
@@ -103,6 +105,11 @@ class RangeRows:
                 "var": self.var,
             }
         )
+
+
+def id_column(ids: tuple[str, ...], codes: CodeArray) -> pd.api.extensions.ExtensionArray:
+    """The ids ``ids[codes]`` as a string column (one take, no per-row str)."""
+    return pd.array(list(ids), dtype="str").take(codes)
 
 
 def clean_ranges(session: Session, ranges: pd.DataFrame, default_sigma_m: float) -> pd.DataFrame:
@@ -152,22 +159,26 @@ def clean_range_rows(session: Session, ranges: pd.DataFrame, default_sigma_m: fl
         )
     is_anchor = np.array([session.platforms[p].role == "anchor" for p in ids], dtype=bool)
     pick = ~(is_anchor[codes["from"]] & is_anchor[codes["to"]])
-    rows = RangeRows(
-        time[keep], value[keep], sigma[keep] * sigma[keep], codes["from"], codes["to"], tuple(ids)
-    ).take(np.flatnonzero(pick))
+    if keep.shape[0] < time.shape[0]:  # (copies only when rows are dropped)
+        time, value, sigma = time[keep], value[keep], sigma[keep]
+    del keep
+    rows = RangeRows(time, value, sigma * sigma, codes["from"], codes["to"], tuple(ids))
+    del time, value, sigma
+    if not pick.all():
+        rows = rows.take(np.flatnonzero(pick))
     if rows.time.shape[0] > 1 and not bool(np.all(rows.time[1:] >= rows.time[:-1])):
         rows = rows.take(np.argsort(rows.time, kind="stable"))
     return rows
 
 
-def _id_codes(values: pd.Series, order: list[str]) -> tuple[IntArray, IntArray, list[str]]:
+def _id_codes(values: pd.Series, order: list[str]) -> tuple[CodeArray, IntArray, list[str]]:
     """Position in ``order`` of each value's ``str`` (-1 where absent), each row's code into
     the distinct strings, and those strings: one factorization, one ``str`` per distinct
     value (not per row)."""
     raw, uniques = pd.factorize(values, use_na_sentinel=False)
     names = [str(u) for u in uniques]
     lut = pd.Index(order).get_indexer(pd.Index(names, dtype=object))
-    return lut[raw].astype(np.int64), raw, names
+    return lut.astype(np.int32)[raw], raw, names
 
 
 def epoch_groups(time_s: FloatArray, merge_s: float) -> tuple[FloatArray, np.ndarray]:

@@ -44,6 +44,7 @@ from coopproc.stages.fusion.data import (
     anchor_positions,
     clean_range_rows,
     epoch_groups,
+    id_column,
     nav_at_epochs,
 )
 from coopproc.stages.fusion.data import range_sigma_default as _range_sigma_default
@@ -221,7 +222,10 @@ def fuse(
     rows = clean_range_rows(session, ranges, _range_sigma_default(session, params.range_sigma_m))
     start = max(session.nav[p].time_s[0] for p in moving)
     stop = min(session.nav[p].time_s[-1] for p in moving)
-    rows = rows.take(np.flatnonzero((rows.time >= start) & (rows.time <= stop)))
+    inside = (rows.time >= start) & (rows.time <= stop)
+    if not inside.all():  # (a copy of every row only when some are outside)
+        rows = rows.take(np.flatnonzero(inside))
+    del inside
     epochs, ep_idx = epoch_groups(rows.time, params.epoch_merge_s)
     if epochs.shape[0] == 0:
         raise StageError(
@@ -240,6 +244,9 @@ def fuse(
     q_squared = params.drift_correlation_s <= 0
     x0, c0 = _initial_state(session, rows, ep_idx, epochs, nav, moving, params)
     obs = build_observations(session, rows, ep_idx, epochs, nav, moving, anchors, params)
+    # memory (issue 11): of the range rows, the table needs only the platform codes
+    from_code, to_code, ids = rows.from_code, rows.to_code, rows.ids
+    del rows
     record_all = output == "nav" or params.epoch_merge_s > 0
     rec_ptr, rec_plat = recorded_slots(session, ranges, moving, epochs, record_all)
     smooth = params.smoother and n_ep > 1
@@ -257,8 +264,8 @@ def fuse(
     table = pd.DataFrame(
         {
             "time": epochs[ep_idx],
-            "from": rows.id_column(rows.from_code),
-            "to": rows.id_column(rows.to_code),
+            "from": id_column(ids, from_code),
+            "to": id_column(ids, to_code),
             "range": obs["z"][at],
             "innovation": innov[at],
             "innovation_var": innov_var[at],
@@ -277,7 +284,7 @@ def fuse(
         xs_s, var_s = xs_f, var_f
     # memory (issue 11): the observations and the range rows are spent; free them before
     # the trajectories are built (the outputs the caller keeps)
-    del cp_x, cp_c, obs, kernel_obs, gamma, rows, ep_idx, noise
+    del cp_x, cp_c, obs, kernel_obs, gamma, from_code, to_code, ep_idx, noise
     slots = (session, moving, epochs, nav, rec_ptr, rec_plat, dim, output)
     forward = trajectories_from_slots(*slots, xs_f, var_f, hold=True)
     smoothed = trajectories_from_slots(*slots, xs_s, var_s if smoothed_sigma else None, hold=False)

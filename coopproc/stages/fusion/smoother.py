@@ -75,15 +75,15 @@ def mbf_backward(
     """Smoothed states and variances (R, dim) at the recorded slots (see the module doc).
 
     ``cp_x``, ``cp_c``, ``gamma`` come from :func:`~coopproc.stages.fusion.ekf.ekf_forward`
-    run with the same inputs and ``block``. ``with_var=False`` leaves the variances NaN
-    (they cost n^2 per recorded value, more than the states; the run's tables do not use
-    them).
+    run with the same inputs and ``block``. ``with_var=False`` gives no variances, an empty
+    (0, dim) array (they cost n^2 per recorded value, more than the states; the run's
+    tables do not use them).
     """
     n_epochs = dt.shape[0]
     n = cp_x.shape[1]
     n_rec = rec_plat.shape[0]
     xs = np.empty((n_rec, dim))
-    var = np.empty((n_rec, dim))
+    var = np.empty((n_rec if with_var else 0, dim))
     lam = np.zeros(n)
     # Lambda stored transposed (lam_t[j, i] = Lambda[i, j]): Lambda g is then a sum of
     # contiguous rows, vectorized, in the same order of additions per entry as the row
@@ -158,7 +158,6 @@ def mbf_backward(
                         acc -= c_row[jj] * lam[jj]
                     xs[r, ax] = acc
                     if not with_var:
-                        var[r, ax] = np.nan
                         continue
                     cf = bc[k - first]
                     for jj in range(n):
