@@ -232,7 +232,7 @@ def calibrated_fuse(
     )
     # 2. per-pair ranging sigma from the post-fit residuals
     pairs = pair_codes(ranges["from"], ranges["to"])
-    resid = residuals_by_row(session, first, ranges, pairs)
+    resid = residuals_by_row(session, first, ranges)
     rms, bias, count = _pair_figures(resid, pairs)
     given = pd.to_numeric(ranges["sigma"], errors="coerce").to_numpy(dtype=np.float64)
     default = session.config.uwb_sigma_m or params.range_sigma_m

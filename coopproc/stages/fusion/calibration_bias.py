@@ -62,43 +62,43 @@ BIAS_EFFECT = 0.5
 
 
 def _positions(
-    session: Session,
-    fused: FusionOutput,
-    anchors: Mapping[str, FloatArray],
-    pid: str,
-    t: FloatArray,
-) -> FloatArray:
+    fused: FusionOutput, anchors: Mapping[str, FloatArray], pid: str, t: FloatArray
+) -> FloatArray | None:
+    """Positions (n, 3) of ``pid`` at ``t``: an anchor's fixed one, a moving platform's
+    fused one; None for a platform with neither."""
     if pid in anchors:
         return np.tile(anchors[pid], (t.shape[0], 1))
-    return fused.smoothed[pid].interpolate(t)
+    if pid in fused.smoothed:
+        return fused.smoothed[pid].interpolate(t)
+    return None
 
 
-def residuals_by_row(
-    session: Session, fused: FusionOutput, ranges: pd.DataFrame, pairs: PairCodes | None = None
-) -> FloatArray:
+def residuals_by_row(session: Session, fused: FusionOutput, ranges: pd.DataFrame) -> FloatArray:
     """Each row of ``ranges`` minus the fused distance at its time (NaN where the range is
-    not finite or a platform has no position). ``pairs``: :func:`pair_codes` of ``ranges``
-    when the caller has them. Grouped by integer pair codes, not a name per row."""
+    not finite or a platform has no position).
+
+    Each platform's trajectory is interpolated once, at the times of every row it is the
+    ``from`` end of, then once at those it is the ``to`` end of (not once per pair: each
+    call copies the trajectory's strided columns); a distance does not depend on the
+    order of its ends, so the residuals are those of a pair-by-pair loop, bit for bit."""
     anchors = anchor_positions(session)
     value = ranges["range"].to_numpy(dtype=np.float64)
     t = ranges["time"].to_numpy(dtype=np.float64)
     resid = np.full(t.shape[0], np.nan)
-    if pairs is None:
-        pairs = pair_codes(ranges["from"], ranges["to"])
+    start = np.full((t.shape[0], 3), np.nan)  # the from end's position per row
     finite = np.isfinite(value)
-    from_ids, to_ids = ranges["from"].array, ranges["to"].array
-    for _, sel in code_groups(pairs.code, len(pairs.names)):
-        sel = sel[finite[sel]]
-        if not sel.shape[0]:
-            continue
-        a, b = from_ids[sel[0]], to_ids[sel[0]]
-        if (a not in anchors and a not in fused.smoothed) or (
-            b not in anchors and b not in fused.smoothed
-        ):
-            continue
-        xa = _positions(session, fused, anchors, str(a), t[sel])
-        xb = _positions(session, fused, anchors, str(b), t[sel])
-        resid[sel] = value[sel] - np.linalg.norm(xa - xb, axis=1)
+    for end in ("from", "to"):
+        code, uniques = pd.factorize(ranges[end])  # a missing id: -1, no position
+        usable = np.flatnonzero(finite & (code >= 0))
+        for k, sel in code_groups(code[usable], len(uniques)):
+            rows = usable[sel]
+            x = _positions(fused, anchors, str(uniques[k]), t[rows])
+            if x is None:
+                continue
+            if end == "from":
+                start[rows] = x
+            else:
+                resid[rows] = value[rows] - np.linalg.norm(start[rows] - x, axis=1)
     return resid
 
 
@@ -106,7 +106,7 @@ def postfit_residuals(session: Session, fused: FusionOutput, ranges: pd.DataFram
     """Columns time, pair (categorical), residual: each range with a finite value minus
     the fused distance at its time."""
     pairs = pair_codes(ranges["from"], ranges["to"])
-    resid = residuals_by_row(session, fused, ranges, pairs)
+    resid = residuals_by_row(session, fused, ranges)
     keep = np.isfinite(ranges["range"].to_numpy(dtype=np.float64))
     return pd.DataFrame(
         {
@@ -248,14 +248,13 @@ def _iterate(
     """:func:`platform_bias` on ``ranges``; the bias is kept only if it cuts the RMS of
     the platform's residuals to :data:`BIAS_GAIN` of what it was."""
     base = ranges["range"].to_numpy(dtype=np.float64)
-    pairs = pair_codes(ranges["from"], ranges["to"])  # the same rows every fusion
     involved = {p: platform_rows(ranges, p) for p in platforms}
     bias = dict.fromkeys(platforms, 0.0)
     current = ranges
     rms_first = float("nan")
     for _ in range(BIAS_ITERATIONS):
         fused = fuse(session, current, params, output="ranges", smoothed_sigma=False)
-        resid = residuals_by_row(session, fused, current, pairs)
+        resid = residuals_by_row(session, fused, current)
         if np.isnan(rms_first):
             rms_first = _rms(resid, involved)
         step = {}
@@ -271,7 +270,7 @@ def _iterate(
         if max(abs(v) for v in step.values()) < BIAS_TOL_M:
             break
     fused = fuse(session, current, params, output="ranges", smoothed_sigma=False)
-    rms_last = _rms(residuals_by_row(session, fused, current, pairs), involved)
+    rms_last = _rms(residuals_by_row(session, fused, current), involved)
     if not rms_last < BIAS_GAIN * rms_first:
         return ranges, {}  # the bias does not explain the disagreement: leave the ranges
     return current, bias
