@@ -115,10 +115,10 @@ def build_observations(
     anchor_code = to_anchor_code[np.where(from_moving, rows.to_code, rows.from_code)]
     del a_from, a_to, from_moving, to_moving
     anchor_code = np.where(anchor_code >= 0, anchor_code, len(anchor_ids)).astype(np.int32)
-    anchor = anchor_table[anchor_code]
     row_t = rows.time
     late = np.flatnonzero(row_t != epochs[ep_idx])
     if late.size:  # ranges after their (merged) epoch time: carry the DR motion to them
+        anchor = anchor_table[anchor_code]
         motion = np.zeros((len(rows), 2, 3))
         for p, pid in enumerate(moving):
             for end, ids in ((0, a), (1, b)):
@@ -134,9 +134,12 @@ def build_observations(
         # each range row its own point (a table row), the last row zeros
         anchor_table = np.concatenate((anchor, np.zeros((1, 3))))
         anchor_code = np.arange(len(rows), dtype=np.int32)
+        del anchor, motion
     if dim == 2:  # the heights from the navigation (``nav`` holds east/north only)
         up_a = _row_heights(session, moving, a, epochs, ep_idx)
-        up_b = np.where(both, _row_heights(session, moving, b, epochs, ep_idx), anchor[:, 2])
+        up_b = np.where(
+            both, _row_heights(session, moving, b, epochs, ep_idx), anchor_table[anchor_code, 2]
+        )
         dz2 = (up_a - up_b) ** 2
         del up_a, up_b
     else:
@@ -170,6 +173,7 @@ def build_observations(
     obs["z"][at] = rows.range
     obs["var"][at] = rows.var
     obs["at"] = at  # where each range row is, in row order
+    del a, b, both, anchor_code, dz2, first_row, counts  # memory (issue 11): spent
     earlier = np.cumsum(fixes, axis=0) - fixes  # fixing leaders before this one, per epoch
     for j, pid in enumerate(leaders):
         ks = np.flatnonzero(fixes[j])
