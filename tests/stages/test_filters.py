@@ -137,7 +137,8 @@ def test_compiled_epoch_update_equals_batch_ekf_update() -> None:
     z = np.array([10.6, 9.5, 0.3])
     r = np.array([0.02, 0.05, 0.01])
     xs, var, gamma, innov, _, cp_x, cp_c = ekf_forward(
-        x0, c0, np.zeros((2, 1, 3)), np.zeros(2), False, np.zeros(1),
+        x0, c0, np.zeros(1), np.zeros(2), np.zeros((2, 2)), np.array([0, 1, 2]), np.zeros(2),
+        False, np.zeros(1),
         np.array([0, 3], dtype=np.int64), kind, a, b, np.arange(3, dtype=np.int32), anchor,
         np.zeros(3), z, r, 2, False,
         3.0, 4.0, 1.0, 0, np.array([0, 2], dtype=np.int64), np.array([0, 1]), 16,

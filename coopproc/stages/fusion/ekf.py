@@ -9,7 +9,9 @@ are corrected for the state change of the earlier ones (exactly the batch update
 diagonal R), so no matrix is inverted and the cost is O(m n^2) per epoch.
 
 Memory is bounded by design (issue 11): the dead-reckoning increments and process noise
-are formed inside the loop from the navigation at the epochs (no (K, n) arrays), the
+are formed inside the loop from each platform's own navigation samples, interpolated at
+the epochs as the loop reaches them (:func:`nav_at`, ``np.interp`` bit for bit: no (P, K)
+navigation, no (K, n) arrays), the
 states are written only at the *recorded* (epoch, platform) slots the caller asks for
 (``rec_ptr``/``rec_plat``, CSR by epoch), and for the smoother only a checkpoint (x, C)
 every ``block`` epochs is kept; :mod:`coopproc.stages.fusion.smoother` re-runs each block
@@ -50,6 +52,7 @@ __all__ = [
     "epoch_buffers",
     "epoch_innovations",
     "epoch_update",
+    "nav_at",
     "time_update",
 ]
 
@@ -111,10 +114,52 @@ def block_size(n_epochs: int) -> int:
 
 
 @numba.njit(cache=True)
+def nav_at(
+    nav_t: FloatArray,
+    nav_v: FloatArray,
+    nav_ptr: IntArray,
+    x: float,
+    cursor: IntArray,
+    out: FloatArray,
+) -> None:
+    """Each platform's navigation at time ``x`` into ``out`` (P, dim), in place.
+
+    Platform p's samples are ``nav_t[nav_ptr[p]:nav_ptr[p + 1]]`` (ascending) and the same
+    rows of ``nav_v`` (east/north[/up]); the value is ``np.interp``'s, bit for bit (its
+    formula, its end values, its NaN fallback). ``cursor[p]``: the last sample at or before
+    the previous time (start with -1), advanced as times grow, searched again when a time
+    goes back (the smoother's blocks).
+    """
+    for p in range(nav_ptr.shape[0] - 1):
+        lo = nav_ptr[p]
+        hi = nav_ptr[p + 1]
+        j = cursor[p]
+        if j < lo - 1 or j >= hi or (j >= lo and nav_t[j] > x):
+            j = lo - 1 + np.searchsorted(nav_t[lo:hi], x, side="right")
+        while j + 1 < hi and nav_t[j + 1] <= x:
+            j += 1
+        cursor[p] = j
+        for ax in range(out.shape[1]):
+            if j < lo:
+                out[p, ax] = nav_v[lo, ax]
+            elif j == hi - 1 or nav_t[j] == x:
+                out[p, ax] = nav_v[j, ax]
+            else:
+                slope = (nav_v[j + 1, ax] - nav_v[j, ax]) / (nav_t[j + 1] - nav_t[j])
+                value = slope * (x - nav_t[j]) + nav_v[j, ax]
+                if np.isnan(value):  # numpy's fallback: from the other end
+                    value = slope * (x - nav_t[j + 1]) + nav_v[j + 1, ax]
+                    if np.isnan(value) and nav_v[j, ax] == nav_v[j + 1, ax]:
+                        value = nav_v[j, ax]
+                out[p, ax] = value
+
+
+@numba.njit(cache=True)
 def time_update(
     x: FloatArray,
     c: FloatArray,
-    nav: FloatArray,
+    nav_now: FloatArray,
+    nav_prev: FloatArray,
     k: int,
     dim: int,
     q_coef: FloatArray,
@@ -123,10 +168,11 @@ def time_update(
 ) -> None:
     """Paper 002 eq. (12)-(13) with F = I: X += u_k, C += Q_k (diagonal), in place.
 
-    u_k is each platform's dead-reckoning increment nav[p, k] - nav[p, k - 1]; the process
-    noise per axis is ``q_coef[p] * dt[k]`` (``q_squared``: ``(q_coef[p] * dt[k]) ** 2``).
+    u_k is each platform's dead-reckoning increment ``nav_now[p] - nav_prev[p]`` (its
+    navigation at epochs k and k - 1, :func:`nav_at`); the process noise per axis is
+    ``q_coef[p] * dt[k]`` (``q_squared``: ``(q_coef[p] * dt[k]) ** 2``).
     """
-    for p in range(nav.shape[0]):
+    for p in range(nav_now.shape[0]):
         if q_squared:
             t = q_coef[p] * dt[k]
             qp = t * t
@@ -134,7 +180,7 @@ def time_update(
             qp = q_coef[p] * dt[k]
         for ax in range(dim):
             i = p * dim + ax
-            x[i] += nav[p, k, ax] - nav[p, k - 1, ax]
+            x[i] += nav_now[p, ax] - nav_prev[p, ax]
             c[i, i] += qp
 
 
@@ -265,7 +311,10 @@ def epoch_buffers(
 def ekf_forward(
     x0: FloatArray,
     c0: FloatArray,
-    nav: FloatArray,
+    epochs: FloatArray,
+    nav_t: FloatArray,
+    nav_v: FloatArray,
+    nav_ptr: IntArray,
     q_coef: FloatArray,
     q_squared: bool,
     dt: FloatArray,
@@ -288,7 +337,8 @@ def ekf_forward(
     rec_plat: IntArray,
     block: int,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Forward EKF over K epochs (K = ``dt.shape[0]``, ``nav`` (P, K, >= dim)).
+    """Forward EKF over K epochs (K = ``dt.shape[0]``; each platform's navigation samples
+    ``nav_t``/``nav_v``/``nav_ptr`` as :func:`nav_at` reads them, ``nav_v`` (S, dim)).
 
     ``mad_window``: the MAD unit-weight sigma of eq. (20) of an epoch with fewer than
     :data:`MAD_EPOCH_MIN` observations is taken over its innovations together with the last
@@ -326,12 +376,20 @@ def ekf_forward(
     ring_at = 0
     pool = np.zeros(max(mad_window, 1) + max_m)
     ones = np.ones(max(mad_window, 1) + max_m)
+    n_plat = nav_ptr.shape[0] - 1
+    cursor = np.full(n_plat, -1, dtype=np.int64)
+    nav_prev = np.zeros((n_plat, dim))
+    nav_now = np.zeros((n_plat, dim))
+    if n_epochs > 0:
+        nav_at(nav_t, nav_v, nav_ptr, epochs[0], cursor, nav_prev)
     for k in range(n_epochs):
         if block > 0 and k % block == 0:
             cp_x[k // block] = x
             cp_c[k // block] = c
         if k > 0:
-            time_update(x, c, nav, k, dim, q_coef, q_squared, dt)
+            nav_at(nav_t, nav_v, nav_ptr, epochs[k], cursor, nav_now)
+            time_update(x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt)
+            nav_prev[:] = nav_now
         lo = obs_ptr[k]
         m = obs_ptr[k + 1] - lo
         epoch_innovations(

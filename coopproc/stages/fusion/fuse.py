@@ -46,6 +46,7 @@ from coopproc.stages.fusion.data import (
     epoch_groups,
     id_column,
     nav_at_epochs,
+    nav_samples,
 )
 from coopproc.stages.fusion.data import range_sigma_default as _range_sigma_default
 from coopproc.stages.fusion.ekf import (
@@ -232,7 +233,10 @@ def fuse(
             f"fusion: no range epoch inside the span every platform has navigation "
             f"({start:.3f} .. {stop:.3f} s)"
         )
-    nav = nav_at_epochs(session, moving, epochs, dim)  # (P, K, dim): no height (dz2 has it)
+    # memory (issue 11): the kernels interpolate each platform's navigation at the epochs
+    # as they reach them; no (P, K) navigation is held (only its first epoch here)
+    nav0 = nav_at_epochs(session, moving, epochs[:1], dim)
+    nav_t, nav_v, nav_ptr = nav_samples(session, moving, dim)
     n_ep = epochs.shape[0]
     dt = np.diff(epochs, prepend=epochs[0])
     scale = drift_scale or {}
@@ -242,8 +246,8 @@ def fuse(
     else:  # (sigma dt)^2
         q_coef = drift.astype(np.float64)
     q_squared = params.drift_correlation_s <= 0
-    x0, c0 = _initial_state(session, rows, ep_idx, epochs, nav, moving, params)
-    obs = build_observations(session, rows, ep_idx, epochs, nav, moving, anchors, params)
+    x0, c0 = _initial_state(session, rows, ep_idx, epochs, nav0, moving, params)
+    obs = build_observations(session, rows, ep_idx, epochs, moving, anchors, params)
     # memory (issue 11): of the range rows, the table needs only the platform codes
     from_code, to_code, ids = rows.from_code, rows.to_code, rows.ids
     del rows
@@ -255,7 +259,7 @@ def fuse(
         obs["ptr"], obs["kind"], obs["a"], obs["b"], obs["anchor"], obs["anchor_table"],
         obs["dz2"], obs["z"], obs["var"],
     )  # fmt: skip
-    noise = (nav, q_coef, q_squared, dt)
+    noise = (epochs, nav_t, nav_v, nav_ptr, q_coef, q_squared, dt)
     xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c = ekf_forward(
         x0, c0, *noise, *kernel_obs, params.dims, params.robust, params.k0, params.k1,
         params.mad_floor, params.mad_window, rec_ptr, rec_plat, block,
@@ -285,7 +289,8 @@ def fuse(
     # memory (issue 11): the observations and the range rows are spent; free them before
     # the trajectories are built (the outputs the caller keeps)
     del cp_x, cp_c, obs, kernel_obs, gamma, from_code, to_code, ep_idx, noise
-    slots = (session, moving, epochs, nav, rec_ptr, rec_plat, dim, output)
+    del nav_t, nav_v, nav_ptr
+    slots = (session, moving, epochs, rec_ptr, rec_plat, dim, output)
     forward = trajectories_from_slots(*slots, xs_f, var_f, hold=True)
     smoothed = trajectories_from_slots(*slots, xs_s, var_s if smoothed_sigma else None, hold=False)
     return FusionOutput(smoothed=smoothed, forward=forward, epochs_s=epochs, observations=table)
@@ -305,7 +310,10 @@ def _initial_state(
     moving: list[str],
     params: FusionParams,
 ) -> tuple[FloatArray, FloatArray]:
-    """First nav position of each platform; a robust LSQ fix where anchors give one."""
+    """First nav position of each platform; a robust LSQ fix where anchors give one.
+
+    ``nav``: (P, >= 1, dim) the navigation at the first epoch.
+    """
     dim = params.dims
     x0 = nav[:, 0, :dim].reshape(-1).copy()
     sig = np.full(x0.shape[0], params.initial_sigma_m)

@@ -88,14 +88,13 @@ def build_observations(
     rows: RangeRows,
     ep_idx: np.ndarray,
     epochs: FloatArray,
-    nav: FloatArray,
     moving: list[str],
     anchors: Mapping[str, FloatArray],
     params: FusionParams,
 ) -> dict[str, np.ndarray]:
     """Flat observation arrays in epoch order and the epoch pointers ``ptr`` (K + 1).
 
-    ``nav``: (P, K, >= dims) the navigation at the epochs (east/north[/up]). Codes are
+    A leader's fix is its navigation at the epoch (:func:`nav_points`). Codes are
     int8/int32; ``anchor`` is a row of ``anchor_table`` (T, 3), the fixed point or offset
     of the range (module :mod:`~coopproc.stages.fusion.ekf`), the last row zeros.
     """
@@ -145,7 +144,7 @@ def build_observations(
     else:
         dz2 = np.zeros(len(rows))
     # layout in epoch order: each epoch's leader fixes, then its ranges (rows are sorted)
-    n_ep = nav.shape[1]
+    n_ep = epochs.shape[0]
     leaders = [pid for pid in moving if session.platforms[pid].role == "leader"]
     fixes = leader_fix_epochs(session, leaders, epochs, params.leader_fix == "epoch")
     n_fix = fixes.sum(axis=0).astype(np.int64) * dim  # leader fix values per epoch
@@ -178,11 +177,12 @@ def build_observations(
     for j, pid in enumerate(leaders):
         ks = np.flatnonzero(fixes[j])
         sig = nav_sigma(session, pid, epochs[ks], params.leader_sigma_m)
+        own = nav_points(session, pid, epochs[ks], range(dim))
         for axis in range(dim):
             slot = ptr[ks] + earlier[j, ks] * dim + axis
             obs["a"][slot] = index[pid]
             obs["b"][slot] = axis
-            obs["z"][slot] = nav[index[pid], ks, axis]
+            obs["z"][slot] = own[:, axis]
             obs["var"][slot] = sig[:, axis] ** 2
     obs["ptr"] = ptr
     return obs

@@ -64,7 +64,6 @@ def trajectories_from_slots(
     session: Session,
     moving: list[str],
     epochs: FloatArray,
-    nav: FloatArray,
     rec_ptr: np.ndarray,
     rec_plat: np.ndarray,
     dim: int,
@@ -86,7 +85,7 @@ def trajectories_from_slots(
         assert var is not None
         full = (n_ep, n_plat * dim)
         return trajectories_from_states(
-            session, moving, epochs, nav, xs.reshape(full), var.reshape(full), dim, output,
+            session, moving, epochs, xs.reshape(full), var.reshape(full), dim, output,
             hold=hold,
         )  # fmt: skip
     epoch_of = np.repeat(np.arange(n_ep), np.diff(rec_ptr))
@@ -112,7 +111,6 @@ def trajectories_from_states(
     session: Session,
     moving: list[str],
     epochs: FloatArray,
-    nav: FloatArray,
     xs: FloatArray,
     var: FloatArray,
     dim: int,
@@ -141,7 +139,7 @@ def trajectories_from_states(
         sel = (traj.time_s >= epochs[0]) & (traj.time_s <= epochs[-1])
         times = traj.time_s[sel]
         enu = traj.enu_m[sel].copy()
-        corr = est - nav[p, :, :dim]
+        corr = est - nav_points(session, pid, epochs, range(dim))
         if hold:
             k = np.clip(np.searchsorted(epochs, times, side="right") - 1, 0, None)
             enu[:, :dim] += corr[k]

@@ -42,6 +42,7 @@ from coopproc.stages.fusion.ekf import (
     epoch_innovations,
     epoch_update,
     max_epoch_obs,
+    nav_at,
     time_update,
 )
 
@@ -52,7 +53,10 @@ __all__ = ["mbf_backward"]
 def mbf_backward(
     cp_x: FloatArray,
     cp_c: FloatArray,
-    nav: FloatArray,
+    epochs: FloatArray,
+    nav_t: FloatArray,
+    nav_v: FloatArray,
+    nav_ptr: IntArray,
     q_coef: FloatArray,
     q_squared: bool,
     dt: FloatArray,
@@ -113,6 +117,10 @@ def mbf_backward(
     b_s = np.zeros(max(most, 1))
     lam_g = np.zeros(n)
     col = np.zeros(n)
+    n_plat = nav_ptr.shape[0] - 1
+    cursor = np.full(n_plat, -1, dtype=np.int64)
+    nav_prev = np.zeros((n_plat, dim))
+    nav_now = np.zeros((n_plat, dim))
     for b in range(cp_x.shape[0] - 1, -1, -1):
         first = b * block
         last = min(first + block, n_epochs)
@@ -120,9 +128,13 @@ def mbf_backward(
         rec_base = rec_ptr[first]
         x = cp_x[b].copy()
         c = cp_c[b].copy()
+        # the navigation at the epoch before the block (the cursor searches back)
+        nav_at(nav_t, nav_v, nav_ptr, epochs[max(first - 1, 0)], cursor, nav_prev)
         for k in range(first, last):  # re-run the forward filter over the block
             if k > 0:
-                time_update(x, c, nav, k, dim, q_coef, q_squared, dt)
+                nav_at(nav_t, nav_v, nav_ptr, epochs[k], cursor, nav_now)
+                time_update(x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt)
+                nav_prev[:] = nav_now
             lo = obs_ptr[k]
             m = obs_ptr[k + 1] - lo
             epoch_innovations(

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from coopproc.stages.filters import rts_step
-from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_POSITION, OBS_RANGE, ekf_forward
+from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_POSITION, OBS_RANGE, ekf_forward, nav_at
 from coopproc.stages.fusion.smoother import mbf_backward
 
 DIM = 2
@@ -58,6 +58,11 @@ def _problem(seed: int, n_plat: int = 3, n_ep: int = 60) -> dict[str, np.ndarray
         "x0": nav[:, 0, :DIM].reshape(-1).copy(),
         "c0": np.eye(n_plat * DIM) * 0.5,
         "nav": np.ascontiguousarray(nav),
+        # the kernels' navigation: each platform's samples (here at the epochs themselves)
+        "epochs": np.arange(n_ep) * 0.5,
+        "nav_t": np.tile(np.arange(n_ep) * 0.5, n_plat),
+        "nav_v": np.ascontiguousarray(nav[:, :, :DIM].reshape(-1, DIM)),
+        "nav_ptr": np.arange(n_plat + 1, dtype=np.int64) * n_ep,
         "q_coef": np.full(n_plat, 0.02),
         "dt": np.full(n_ep, 0.5),
         "ptr": np.concatenate(([0], np.cumsum(counts))).astype(np.int64),
@@ -74,10 +79,14 @@ def _problem(seed: int, n_plat: int = 3, n_ep: int = 60) -> dict[str, np.ndarray
 
 def _forward(pb: dict[str, np.ndarray], rec_ptr: np.ndarray, rec_plat: np.ndarray, block: int):
     return ekf_forward(
-        pb["x0"], pb["c0"], pb["nav"], pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"],
+        pb["x0"], pb["c0"], *_nav(pb), pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"],
         pb["a"], pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"], pb["z"], pb["var"], DIM,
         True, 3.0, 4.0, 1.0, 20, rec_ptr, rec_plat, block,
     )  # fmt: skip
+
+
+def _nav(pb: dict[str, np.ndarray]) -> tuple[np.ndarray, ...]:
+    return pb["epochs"], pb["nav_t"], pb["nav_v"], pb["nav_ptr"]
 
 
 def _all_slots(n_ep: int, n_plat: int) -> tuple[np.ndarray, np.ndarray]:
@@ -117,7 +126,7 @@ def test_mbf_smoother_equals_dense_rts(seed: int, block: int) -> None:
     _, _, gamma, _, _, cp_x, cp_c = _forward(pb, *rec, block)
     assert (gamma < 1e-6).sum() >= 1  # the outlier was rejected, and the smoother knows it
     xs, var = mbf_backward(
-        cp_x, cp_c, pb["nav"], pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"], pb["a"],
+        cp_x, cp_c, *_nav(pb), pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"], pb["a"],
         pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"], pb["z"], pb["var"], gamma, DIM,
         *rec, block,
     )  # fmt: skip
@@ -146,10 +155,33 @@ def test_recorded_subset_gives_the_same_slots() -> None:
     for rec in (full, sub):
         xs_f, var_f, gamma, _, _, cp_x, cp_c = _forward(pb, *rec, 8)
         xs, var = mbf_backward(
-            cp_x, cp_c, pb["nav"], pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"],
+            cp_x, cp_c, *_nav(pb), pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"],
             pb["a"], pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"], pb["z"], pb["var"],
             gamma, DIM, *rec, 8,
         )  # fmt: skip
         outs.append((xs_f, var_f, xs, var))
     for whole, part in zip(outs[0], outs[1], strict=True):
         np.testing.assert_array_equal(whole[keep], part)
+
+
+def test_nav_at_is_np_interp_bit_for_bit() -> None:
+    """The kernels' navigation at a time is np.interp's value, bit for bit, for times
+    between, on and beyond the samples, going forward and (a smoother block) back."""
+    rng = np.random.default_rng(4)
+    sizes = (7, 1, 40)
+    times = [np.sort(rng.uniform(0, 10, n)) for n in sizes]
+    times[2][5] = times[2][6]  # a repeated sample time
+    values = [rng.normal(0, 100, (n, 2)) for n in sizes]
+    values[0][3, 1] = np.inf  # numpy's NaN fallback
+    nav_t = np.concatenate(times)
+    nav_v = np.concatenate(values)
+    ptr = np.concatenate(([0], np.cumsum(sizes))).astype(np.int64)
+    query = np.concatenate((np.sort(rng.uniform(-1, 11, 300)), times[0], times[2]))
+    query = np.concatenate((np.sort(query), rng.uniform(-1, 11, 50)))  # then jumping about
+    cursor = np.full(len(sizes), -1, dtype=np.int64)
+    out = np.zeros((len(sizes), 2))
+    for x in query:
+        nav_at(nav_t, nav_v, ptr, x, cursor, out)
+        for p in range(len(sizes)):
+            want = [np.interp(x, times[p], values[p][:, ax]) for ax in range(2)]
+            np.testing.assert_array_equal(out[p], want)
