@@ -192,6 +192,8 @@ def _drift_scales(
         for platform, value in high.items():
             scale[platform] = scale.get(platform, 1.0) * float(np.sqrt(value))
         fits = done + 1
+        del fused  # the refit's arrays take its place, not beside it
+        last.clear()
         fused = fuse(
             session, ranges, params, output="ranges", drift_scale=scale,
             smoothed_sigma=smoothed_sigma, discard=refitted,
@@ -276,13 +278,14 @@ def calibrated_fuse(
             )  # fmt: skip
     unchanged = np.array_equal(new_sigma, given) and not platform_factor
     if unchanged and output == "ranges":
-        result = first  # the sigmas, biases and drifts of the first fusion stand
+        result, nis = first, first_nis  # the sigmas, biases and drifts of the first fusion stand
     else:
+        del first, resid  # freed before the final fusion, not held beside it
         result = fuse(
             session, calibrated, params, output=output, drift_scale=scale,
             smoothed_sigma=smoothed_sigma,
         )  # fmt: skip
-    nis = first_nis if result is first else _platform_nis(result.observations)
+        nis = _platform_nis(result.observations)
     for platform, factor in sorted(scale.items()):
         notes.append(
             f"fusion ({label}): {platform}'s dead reckoning drifts more than declared (its "
