@@ -8,6 +8,7 @@ sin(el) multipath + 30 % of the Klobuchar delay per satellite (the simulator's d
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,9 @@ from coopproc.sim import simulate, write_simulation
 from coopproc.sim.gnss_obs import default_nav_path
 from coopproc.stages.fusion.tight_filter import TrackOutput
 from coopproc.stages.fusion.tight_stage import GnssParams, GrossError, MaskWindow, solve
+
+sys.path.insert(0, str(Path(__file__).parent))
+from tight_kit import track_errors
 
 pytestmark = pytest.mark.skipif(
     not default_nav_path().exists(), reason="shared/data/gnss is not present"
@@ -44,17 +48,6 @@ def runs(session: Session) -> dict[str, TrackOutput]:
     return {"gnss": gnss["tag"], "tight": tight["tag"]}
 
 
-def _errors(session: Session, out: TrackOutput) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Seconds from the start, horizontal error, horizontal sigma (reference epochs only)."""
-    t = np.asarray(out.time_s)
-    x = np.asarray(out.state)
-    ref = session.reference["tag"].interpolate_within(t)
-    ok = np.isfinite(ref[:, 0])
-    err = np.hypot(x[ok, 0] - ref[ok, 0], x[ok, 1] - ref[ok, 1])
-    sig = np.hypot(*np.asarray(out.sigma)[ok, :2].T)
-    return t[ok] - t[0], err, sig
-
-
 def _window(t: np.ndarray, i: int) -> np.ndarray:
     return (t >= CANYON[i][0] + 1.0) & (t <= CANYON[i][1])
 
@@ -71,8 +64,8 @@ def test_session_reads_the_receivers(session: Session) -> None:
 def test_tight_at_least_as_good_as_gnss_with_enough_satellites(
     session: Session, runs: dict[str, TrackOutput]
 ) -> None:
-    tg, eg, _ = _errors(session, runs["gnss"])
-    tt, et, _ = _errors(session, runs["tight"])
+    tg, eg, _ = track_errors(session, runs["gnss"])
+    tt, et, _ = track_errors(session, runs["tight"])
     open_g = (tg > 2.0) & (tg < CANYON[0][0])  # 10 satellites
     open_t = (tt > 2.0) & (tt < CANYON[0][0])
     rms_g = float(np.sqrt(np.mean(eg[open_g] ** 2)))
@@ -84,8 +77,8 @@ def test_tight_at_least_as_good_as_gnss_with_enough_satellites(
 def test_two_or_three_satellites_with_uwb_stay_bounded(
     session: Session, runs: dict[str, TrackOutput]
 ) -> None:
-    tg, eg, sg = _errors(session, runs["gnss"])
-    tt, et, st = _errors(session, runs["tight"])
+    tg, eg, sg = track_errors(session, runs["gnss"])
+    tt, et, st = track_errors(session, runs["tight"])
     for i in (0, 1):  # 3, then 2 satellites
         w = _window(tt, i)
         # bound: 3 x the 0.5 m typical horizontal sigma the filter reports there (UWB 0.15 m
@@ -151,7 +144,7 @@ def test_pdop_known_geometry() -> None:
     assert pdop(los[:3], np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])) < 10.0
 
 
-def test_params_and_file_errors(tmp_path: Path, session: Session) -> None:
+def test_params_and_filetrack_errors(tmp_path: Path, session: Session) -> None:
     with pytest.raises(ValueError, match="unknown method"):
         GnssParams(methods=("tight", "ppp"))
     with pytest.raises(ValueError, match="k0 < k1"):

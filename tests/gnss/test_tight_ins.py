@@ -10,6 +10,7 @@ defaults); GPS alone with 10 satellites is about 0.9 m horizontal RMS here.
 from __future__ import annotations
 
 import dataclasses
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +28,9 @@ from coopproc.sim.gnss_obs import default_nav_path
 from coopproc.stages.fusion.tight_filter import TightOptions, TrackOutput
 from coopproc.stages.fusion.tight_ins import InsTrack, track_factory
 from coopproc.stages.fusion.tight_stage import GnssParams, GrossError, solve
+
+sys.path.insert(0, str(Path(__file__).parent))
+from tight_kit import track_errors
 
 pytestmark = pytest.mark.skipif(
     not default_nav_path().exists(), reason="shared/data/gnss is not present"
@@ -63,17 +67,6 @@ def runs(session: Session) -> dict[tuple[bool, bool], tuple[TrackOutput, list[st
     return out
 
 
-def _errors(session: Session, out: TrackOutput) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Seconds from the start, horizontal error, horizontal sigma (reference epochs)."""
-    t = np.asarray(out.time_s)
-    x = np.asarray(out.state)
-    ref = session.reference["tag"].interpolate_within(t)
-    ok = np.isfinite(ref[:, 0])
-    err = np.hypot(x[ok, 0] - ref[ok, 0], x[ok, 1] - ref[ok, 1])
-    sig = np.hypot(*np.asarray(out.sigma)[ok, :2].T)
-    return t[ok] - t[0], err, sig
-
-
 def _rms(e: np.ndarray) -> float:
     return float(np.sqrt(np.mean(e**2)))
 
@@ -86,8 +79,8 @@ def test_the_ins_runs_and_says_so(runs: dict) -> None:
 
 
 def test_ins_tight_at_least_as_good_as_constant_velocity(session: Session, runs: dict) -> None:
-    tc, ec, _ = _errors(session, runs[True, False][0])
-    ti, ei, _ = _errors(session, runs[True, True][0])
+    tc, ec, _ = track_errors(session, runs[True, False][0])
+    ti, ei, _ = track_errors(session, runs[True, True][0])
     open_c, open_i = (tc > 2.0) & (tc < CANYON[0][0]), (ti > 2.0) & (ti < CANYON[0][0])
     assert _rms(ei[open_i]) <= _rms(ec[open_c])
     # UWB 0.15 m from four anchors around the tag (HDOP about 0.7): about 0.1 m a fix,
@@ -100,8 +93,8 @@ def test_ins_tight_at_least_as_good_as_constant_velocity(session: Session, runs:
 def test_one_or_two_satellites_without_uwb_stay_bounded_with_the_ins(
     session: Session, runs: dict
 ) -> None:
-    tc, ec, sc = _errors(session, runs[False, False][0])
-    ti, ei, si = _errors(session, runs[False, True][0])
+    tc, ec, sc = track_errors(session, runs[False, False][0])
+    ti, ei, si = track_errors(session, runs[False, True][0])
     for i in (1, 2):  # 2, then 1 satellite, GPS only
         wc = (tc >= CANYON[i][0] + 1.0) & (tc <= CANYON[i][1])
         wi = (ti >= CANYON[i][0] + 1.0) & (ti <= CANYON[i][1])
@@ -220,7 +213,7 @@ def test_imu_ending_before_the_gps_coasts_like_the_cv_filter(session: Session) -
     cut = dataclasses.replace(session, imu={"tag": short})
     for uwb in (False, True):
         got, _ = solve(cut, cut.ranges.frame, GnssParams(), uwb, True)
-        t, e, s = _errors(session, got["tag"])
+        t, e, s = track_errors(session, got["tag"])
         after = t > 31.0
         assert after.sum() > 20
         assert e[after].max() < 2.0  # a drifting nav: tens of metres
