@@ -21,6 +21,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -125,6 +126,69 @@ class CliRun:
     peak_rss_bytes: int
     returncode: int
     stderr: str
+    #: the largest sum of PSS over the child and its own children (forked page or
+    #: fusion workers), sampled every :data:`TREE_SAMPLE_S`; 0 where /proc has no
+    #: smaps_rollup (not Linux)
+    peak_tree_bytes: int = 0
+
+    @property
+    def peak_bytes(self) -> int:
+        """The memory figure the targets use: the larger of the child's own peak RSS
+        and the process tree's peak PSS (pages shared copy-on-write by forked workers
+        counted once, split between them)."""
+        return max(self.peak_rss_bytes, self.peak_tree_bytes)
+
+
+#: Seconds between two samples of the process tree's memory.
+TREE_SAMPLE_S = 0.2
+
+
+def _pss_bytes(pid: int) -> int:
+    """Proportional set size of one process (its share of pages it shares), 0 if gone."""
+    try:
+        with open(f"/proc/{pid}/smaps_rollup") as handle:
+            for line in handle:
+                if line.startswith("Pss:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        return 0
+    return 0
+
+
+def _descendants(pid: int) -> list[int]:
+    """pid and every process below it (from /proc/*/task/*/children)."""
+    out, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        out.append(p)
+        try:
+            for task in os.listdir(f"/proc/{p}/task"):
+                with open(f"/proc/{p}/task/{task}/children") as handle:
+                    todo += [int(c) for c in handle.read().split()]
+        except OSError:
+            continue
+    return out
+
+
+class _TreeSampler:
+    """Samples the PSS sum of a process tree in a thread until stopped."""
+
+    def __init__(self, pid: int) -> None:
+        self.pid = pid
+        self.peak = 0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            self.peak = max(self.peak, sum(_pss_bytes(p) for p in _descendants(self.pid)))
+            self._stop.wait(TREE_SAMPLE_S)
+
+    def stop(self) -> int:
+        self._stop.set()
+        self._thread.join()
+        return self.peak
 
 
 def run_cli(args: Sequence[str], env: dict[str, str] | None = None) -> CliRun:
@@ -132,7 +196,9 @@ def run_cli(args: Sequence[str], env: dict[str, str] | None = None) -> CliRun:
     ``-P`` the working directory is not put first on sys.path, so PYTHONPATH or the
     installed package chooses the code. Wall seconds from before the fork to its exit,
     peak RSS of that child alone (``os.wait4`` gives its own rusage; ru_maxrss is in KiB
-    on Linux)."""
+    on Linux; for waited-for grandchildren the largest of them, never their sum) and the
+    peak PSS sum over the child and its children (:class:`_TreeSampler`: a forked worker
+    shares the parent's pages, so the RSS sum would count them twice)."""
     start = time.perf_counter()
     proc = subprocess.Popen(
         [sys.executable, "-P", "-m", "coopproc", *args],
@@ -142,12 +208,14 @@ def run_cli(args: Sequence[str], env: dict[str, str] | None = None) -> CliRun:
         text=True,
     )
     assert proc.stderr is not None
+    sampler = _TreeSampler(proc.pid) if os.path.exists("/proc/self/smaps_rollup") else None
     err = proc.stderr.read()  # until the child closes it (it exits)
+    tree = sampler.stop() if sampler is not None else 0
     _, status, usage = os.wait4(proc.pid, 0)
     seconds = time.perf_counter() - start
     proc.returncode = os.waitstatus_to_exitcode(status)
     proc.stderr.close()
-    return CliRun(seconds, int(usage.ru_maxrss) * 1024, proc.returncode, err)
+    return CliRun(seconds, int(usage.ru_maxrss) * 1024, proc.returncode, err, tree)
 
 
 def count_lines(path: Path) -> int:

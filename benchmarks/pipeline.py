@@ -117,7 +117,7 @@ def main() -> None:
                 if r.returncode != 0:
                     raise SystemExit(f"coopproc run failed:\n{r.stderr[-2000:]}")
             wall, how = sorted(r.seconds for r in runs)[len(runs) // 2], "CLI"
-            peak = max(r.peak_rss_bytes for r in runs) / 1e9
+            peak = max(r.peak_bytes for r in runs) / 1e9
             info = json.loads((Path(tmp) / "cli" / "run.json").read_text())
             timed = sum(info.get("timings_s", {}).values())
             print(f"coopproc run as a new process ({load()}):")
