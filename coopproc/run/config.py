@@ -72,6 +72,16 @@ class RunParams:
             "--max-pages overrides it"
         },
     )
+    parallel_fusion: bool | Literal["auto"] = field(
+        default="auto",
+        metadata={
+            "help": "run the fusions of the processed range sets (and any other position "
+            "steps that do not need each other) two at a time, one in a forked process: "
+            "'auto' = when the machine has 2+ CPUs and the session 200000+ range rows; "
+            "true = whenever the process can fork; false = one after the other (same "
+            "results either way)"
+        },
+    )
     outages: tuple[tuple[float, float], ...] = field(
         default=(),
         metadata={

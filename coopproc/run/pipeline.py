@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -40,6 +41,7 @@ from coopproc.model import (
 from coopproc.report.metrics import distance_metrics, nlos_scores, position_metrics
 from coopproc.report.scores import nlos_event_scores
 from coopproc.run.chain import Step, resolve
+from coopproc.run.concurrent_steps import group_label, group_steps, run_concurrently, workers
 from coopproc.run.config import RunConfig
 from coopproc.run.gnss_methods import gnss_pipeline
 from coopproc.run.ins import states_table, with_ins
@@ -122,8 +124,12 @@ def run_pipeline(
     range_products: list[RangeProduct] = []
     products: dict[str, PositionProduct] = {}
     cp_product: PositionProduct | None = None
-    for index, step in enumerate(steps):
-        with timed(step.label):
+    # independent position steps (fusion (rn), fusion (di)) two at a time (concurrent_steps)
+    done = 0
+    for group in group_steps(steps, workers(config.run.parallel_fusion, len(base))):
+        done += len(group)
+        with timed(group_label(group)):
+            step = group[0]
             if step.kind == "ranges":
                 product = _run_range_step(step, dr_session, dr_base, config, cp_product)
                 if dr_rows is not None:
@@ -132,28 +138,23 @@ def run_pipeline(
                 for method in step.methods:
                     columns[method] = product.values[method]
                     range_sets[method] = ranges_for(base, columns[method], sigma_by_row)
-                cp_product = _drop_spent(steps[index + 1 :], range_sets, products, cp_product)
+                cp_product = _drop_spent(steps[done:], range_sets, products, cp_product)
                 continue
-            stage = POSITION_STAGES[step.stage]
-            assert step.range_set is not None
-            observed = None
-            if stage.needs_observed and step.range_set != "observed":
-                observed = products[stage.method("observed")]
-            own = session if stage.uwb_only else dr_session
-            position_input = PositionInput(
-                own,
-                step.range_set,
-                own.ranges.frame[list(range_sets["observed"].columns)]
-                if step.range_set == "observed" and own is not session
-                else range_sets[step.range_set],
-                output,
-                observed=observed,
-                want_cp="cp" in step.outputs,
+            results = run_concurrently(
+                [
+                    functools.partial(
+                        _run_position_step, s, session, dr_session, range_sets, products, config
+                    )
+                    for s in group
+                ],
+                [s.label for s in group],
             )
-            products[step.methods[0]] = stage.run(position_input, config.params_for(stage.section))
-            if "cp" in step.outputs:
-                cp_product = products[step.methods[0]]
-            cp_product = _drop_spent(steps[index + 1 :], range_sets, products, cp_product)
+            for step, position_product in zip(group, results, strict=True):
+                products[step.methods[0]] = position_product
+                if "cp" in step.outputs:
+                    cp_product = position_product
+            del results, position_product
+            cp_product = _drop_spent(steps[done:], range_sets, products, cp_product)
 
     # ranges.csv keeps the config's column order whatever order the steps ran in
     columns = {m: columns[m] for m in pipeline.ranges}
@@ -225,6 +226,33 @@ def _drop_spent(
         if product is cp_product:
             products[method] = spent
     return spent
+
+
+def _run_position_step(
+    step: Step,
+    session: Session,
+    dr_session: Session,
+    range_sets: Mapping[str, pd.DataFrame],
+    products: Mapping[str, PositionProduct],
+    config: RunConfig,
+) -> PositionProduct:
+    stage = POSITION_STAGES[step.stage]
+    assert step.range_set is not None
+    observed = None
+    if stage.needs_observed and step.range_set != "observed":
+        observed = products[stage.method("observed")]
+    own = session if stage.uwb_only else dr_session
+    position_input = PositionInput(
+        own,
+        step.range_set,
+        own.ranges.frame[list(range_sets["observed"].columns)]
+        if step.range_set == "observed" and own is not session
+        else range_sets[step.range_set],
+        config.run.positions_at,
+        observed=observed,
+        want_cp="cp" in step.outputs,
+    )
+    return stage.run(position_input, config.params_for(stage.section))
 
 
 def _run_range_step(
