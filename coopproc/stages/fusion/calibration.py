@@ -61,6 +61,7 @@ from coopproc.stages.fusion.calibration_bias import (
 )
 from coopproc.stages.fusion.calibration_subset import CALIBRATION_EPOCHS, calibration_rows
 from coopproc.stages.fusion.fuse import FusionOutput, FusionParams, fuse
+from coopproc.stages.fusion.inputs import FusionInputs, fusion_inputs
 from coopproc.stages.ranging.calibration import MAD_SCALE, posterior_sigma
 
 __all__ = ["FusionCalibration", "calibrated_fuse", "postfit_residuals"]
@@ -153,12 +154,17 @@ def _drift_scales(
     only: set[str] | None = None,
     smoothed_sigma: bool = True,
     smoothed: bool = True,
+    inputs: FusionInputs | None = None,
 ) -> tuple[FusionOutput, dict[str, float], dict[str, float]]:
     """Inflate the drift of platforms whose range innovations are inconsistent (NIS above
     :data:`NIS_LIMIT`) by sqrt(NIS), refusing until none is (at most
     :data:`NIS_ROUNDS` rounds). ``only``: the platforms that may be inflated.
     Returns the last fusion (at the range epochs), the scales and the last NIS.
-    ``smoothed=False``: the caller reads only the scales (every fusion forward only)."""
+    ``smoothed=False``: the caller reads only the scales (every fusion forward only).
+    ``inputs``: :func:`fusion_inputs` of ``ranges`` at the range epochs (None: prepared
+    here), shared by every round (they differ only in the drift scales)."""
+    if inputs is None:
+        inputs = fusion_inputs(session, ranges, params, "ranges")
     moving = set(session.moving_platforms()) if only is None else only
     scale = dict(scale)
     last: list[tuple[pd.DataFrame, dict[str, float]]] = []
@@ -182,7 +188,7 @@ def _drift_scales(
     fits = 0
     fused = fuse(
         session, ranges, params, output="ranges", drift_scale=scale,
-        smoothed_sigma=smoothed_sigma, discard=refitted,
+        smoothed_sigma=smoothed_sigma, discard=refitted, inputs=inputs,
     )  # fmt: skip
     nis = platform_nis(fused.observations)
     for done in range(NIS_ROUNDS):
@@ -196,7 +202,7 @@ def _drift_scales(
         last.clear()
         fused = fuse(
             session, ranges, params, output="ranges", drift_scale=scale,
-            smoothed_sigma=smoothed_sigma, discard=refitted,
+            smoothed_sigma=smoothed_sigma, discard=refitted, inputs=inputs,
         )  # fmt: skip
         nis = platform_nis(fused.observations)
     return fused, scale, nis
@@ -228,9 +234,11 @@ def calibrated_fuse(
     if not params.self_calibrate:
         plain = fuse(session, ranges, params, output=output, smoothed_sigma=smoothed_sigma)
         return plain, FusionCalibration({}, {}, {}, {}, {})
-    # 1. dead reckoning that the ranges contradict, with the given range sigmas
+    # 1. dead reckoning that the ranges contradict, with the given range sigmas; what the
+    # fusions of this range set share is prepared once (fusion_inputs)
+    inputs = fusion_inputs(session, ranges, params, "ranges")
     first, scale, first_nis = _drift_scales(
-        session, ranges, params, {}, smoothed_sigma=smoothed_sigma
+        session, ranges, params, {}, smoothed_sigma=smoothed_sigma, inputs=inputs
     )
     # 2. per-pair ranging sigma from the post-fit residuals
     pairs = pair_codes(ranges["from"], ranges["to"])
@@ -272,19 +280,24 @@ def calibrated_fuse(
                 "antenna delay): corrected by that in the fusion"
             )
         if platform_factor:
+            inputs = inputs.with_ranges(calibrated)  # the corrected ranges and new sigmas
             _, scale, _ = _drift_scales(
                 session, calibrated, params, unscaled, only=set(platform_factor),
-                smoothed_sigma=False, smoothed=False,
+                smoothed_sigma=False, smoothed=False, inputs=inputs,
             )  # fmt: skip
     unchanged = np.array_equal(new_sigma, given) and not platform_factor
     if unchanged and output == "ranges":
         result, nis = first, first_nis  # the sigmas, biases and drifts of the first fusion stand
     else:
         del first, resid  # freed before the final fusion, not held beside it
+        # the same rows, epochs and observation structure: new sigmas (and range values)
+        final = inputs.with_ranges(calibrated, output)
+        del inputs  # the first inputs' var and z arrays, not held beside the final ones
         result = fuse(
             session, calibrated, params, output=output, drift_scale=scale,
-            smoothed_sigma=smoothed_sigma,
+            smoothed_sigma=smoothed_sigma, inputs=final,
         )  # fmt: skip
+        del final
         nis = _platform_nis(result.observations)
     for platform, factor in sorted(scale.items()):
         notes.append(

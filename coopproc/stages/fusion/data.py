@@ -19,6 +19,7 @@ __all__ = [
     "RangeRows",
     "anchor_positions",
     "clean_range_rows",
+    "clean_range_rows_indexed",
     "clean_ranges",
     "epoch_groups",
     "id_column",
@@ -28,6 +29,7 @@ __all__ = [
     "pair_names",
     "platform_codes",
     "range_sigma_default",
+    "row_sigmas",
     "shared_nav",
 ]
 
@@ -125,6 +127,24 @@ def clean_ranges(session: Session, ranges: pd.DataFrame, default_sigma_m: float)
 
 def clean_range_rows(session: Session, ranges: pd.DataFrame, default_sigma_m: float) -> RangeRows:
     """:func:`clean_ranges` as arrays with platform codes (:class:`RangeRows`)."""
+    return clean_range_rows_indexed(session, ranges, default_sigma_m)[0]
+
+
+def row_sigmas(ranges: pd.DataFrame, default_sigma_m: float) -> FloatArray:
+    """Each row's ranging 1-sigma: its ``sigma``, else (missing, non-positive, no column)
+    ``default_sigma_m``."""
+    if "sigma" in ranges.columns:
+        sigma = pd.to_numeric(ranges["sigma"], errors="coerce").to_numpy(np.float64)
+    else:
+        sigma = np.full(len(ranges), np.nan)
+    return np.where(np.isfinite(sigma) & (sigma > 0), sigma, default_sigma_m)
+
+
+def clean_range_rows_indexed(
+    session: Session, ranges: pd.DataFrame, default_sigma_m: float
+) -> tuple[RangeRows, IntArray]:
+    """:func:`clean_range_rows` and each clean row's position in ``ranges`` (so that a
+    range set differing only in its sigma or range values maps onto the same rows)."""
     missing = [c for c in _REQUIRED if c not in ranges.columns]
     if missing:
         raise StageError(
@@ -134,11 +154,7 @@ def clean_range_rows(session: Session, ranges: pd.DataFrame, default_sigma_m: fl
         )
     time = pd.to_numeric(ranges["time"], errors="coerce").to_numpy(np.float64)
     value = pd.to_numeric(ranges["range"], errors="coerce").to_numpy(np.float64)
-    if "sigma" in ranges.columns:
-        sigma = pd.to_numeric(ranges["sigma"], errors="coerce").to_numpy(np.float64)
-    else:
-        sigma = np.full(time.shape[0], np.nan)
-    sigma = np.where(np.isfinite(sigma) & (sigma > 0), sigma, default_sigma_m)
+    sigma = row_sigmas(ranges, default_sigma_m)
     keep = np.flatnonzero(np.isfinite(time) & np.isfinite(value))
     ids = sorted(session.platforms)
     codes = {}
@@ -162,14 +178,17 @@ def clean_range_rows(session: Session, ranges: pd.DataFrame, default_sigma_m: fl
     pick = ~(is_anchor[codes["from"]] & is_anchor[codes["to"]])
     if keep.shape[0] < time.shape[0]:  # (copies only when rows are dropped)
         time, value, sigma = time[keep], value[keep], sigma[keep]
+    source = keep.astype(np.int64, copy=False)
     del keep
     rows = RangeRows(time, value, sigma * sigma, codes["from"], codes["to"], tuple(ids))
     del time, value, sigma
     if not pick.all():
-        rows = rows.take(np.flatnonzero(pick))
+        at = np.flatnonzero(pick)
+        rows, source = rows.take(at), source[at]
     if rows.time.shape[0] > 1 and not bool(np.all(rows.time[1:] >= rows.time[:-1])):
-        rows = rows.take(np.argsort(rows.time, kind="stable"))
-    return rows
+        order = np.argsort(rows.time, kind="stable")
+        rows, source = rows.take(order), source[order]
+    return rows, source
 
 
 def _id_codes(values: pd.Series, order: list[str]) -> tuple[CodeArray, IntArray, list[str]]:

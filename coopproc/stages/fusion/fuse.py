@@ -28,7 +28,6 @@ span where every moving platform has navigation.
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -37,25 +36,14 @@ import numpy as np
 import pandas as pd
 
 from coopproc.configtools import from_table
-from coopproc.errors import StageError
 from coopproc.model import FloatArray, Session, Trajectory
-from coopproc.stages.fusion.data import (
-    RangeRows,
-    anchor_positions,
-    clean_range_rows,
-    epoch_groups,
-    id_column,
-    nav_at_epochs,
-    nav_samples,
-)
-from coopproc.stages.fusion.data import range_sigma_default as _range_sigma_default
 from coopproc.stages.fusion.ekf import (
     block_size,
     ekf_forward,
 )
-from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
-from coopproc.stages.fusion.observations import build_observations, nav_sigma
-from coopproc.stages.fusion.output import recorded_slots, trajectories_from_slots
+from coopproc.stages.fusion.inputs import FusionInputs, fusion_inputs
+from coopproc.stages.fusion.lsq import LsqParams
+from coopproc.stages.fusion.output import trajectories_from_slots
 from coopproc.stages.fusion.smoother import mbf_backward
 
 __all__ = ["FusionOutput", "FusionParams", "fuse", "fusion_params_from_toml"]
@@ -193,6 +181,7 @@ def fuse(
     drift_scale: Mapping[str, float] | None = None,
     smoothed_sigma: bool = True,
     discard: Callable[[pd.DataFrame], bool] | None = None,
+    inputs: FusionInputs | None = None,
 ) -> FusionOutput:
     """Fuse every moving platform's navigation with the ranges.
 
@@ -211,32 +200,19 @@ def fuse(
         caller will only read that table (a self-calibration round to be refitted), so the
         smoother is skipped and ``smoothed`` is the forward solution. The forward pass is
         the same either way.
+    inputs : :func:`~coopproc.stages.fusion.inputs.fusion_inputs` of these session,
+        ranges, params and output, prepared earlier (another fusion of the same range set
+        with other drift scales); None: prepared here.
     """
+    if inputs is None:
+        inputs = fusion_inputs(session, ranges, params, output)
+    elif inputs.session is not session or inputs.params != params or inputs.output != output:
+        raise ValueError("fuse: inputs prepared for another session, params or output")
     dim = params.dims
-    moving = list(session.moving_platforms())
-    if not moving:
-        raise StageError("fusion: the session has no moving platform")
-    for pid in moving:
-        if pid not in session.nav or len(session.nav[pid]) < 2:
-            raise StageError(f"fusion: platform '{pid}' has no navigation (needs 2+ epochs)")
-    anchors = anchor_positions(session)
-    rows = clean_range_rows(session, ranges, _range_sigma_default(session, params.range_sigma_m))
-    start = max(session.nav[p].time_s[0] for p in moving)
-    stop = min(session.nav[p].time_s[-1] for p in moving)
-    inside = (rows.time >= start) & (rows.time <= stop)
-    if not inside.all():  # (a copy of every row only when some are outside)
-        rows = rows.take(np.flatnonzero(inside))
-    del inside
-    epochs, ep_idx = epoch_groups(rows.time, params.epoch_merge_s)
-    if epochs.shape[0] == 0:
-        raise StageError(
-            f"fusion: no range epoch inside the span every platform has navigation "
-            f"({start:.3f} .. {stop:.3f} s)"
-        )
-    # memory (issue 11): the kernels interpolate each platform's navigation at the epochs
-    # as they reach them; no (P, K) navigation is held (only its first epoch here)
-    nav0 = nav_at_epochs(session, moving, epochs[:1], dim)
-    nav_t, nav_v, nav_ptr = nav_samples(session, moving, dim)
+    moving, epochs, ep_idx = inputs.moving, inputs.epochs, inputs.ep_idx
+    obs, rec_ptr, rec_plat = inputs.obs, inputs.rec_ptr, inputs.rec_plat
+    nav_t, nav_v, nav_ptr = inputs.nav
+    from_id, to_id = inputs.from_id, inputs.to_id
     n_ep = epochs.shape[0]
     dt = np.diff(epochs, prepend=epochs[0])
     scale = drift_scale or {}
@@ -246,13 +222,8 @@ def fuse(
     else:  # (sigma dt)^2
         q_coef = drift.astype(np.float64)
     q_squared = params.drift_correlation_s <= 0
-    x0, c0 = _initial_state(session, rows, ep_idx, epochs, nav0, moving, params)
-    obs = build_observations(session, rows, ep_idx, epochs, moving, anchors, params)
-    # memory (issue 11): of the range rows, the table needs only the platform codes
-    from_code, to_code, ids = rows.from_code, rows.to_code, rows.ids
-    del rows
-    record_all = output == "nav" or params.epoch_merge_s > 0
-    rec_ptr, rec_plat = recorded_slots(session, ranges, moving, epochs, record_all)
+    x0, c0 = inputs.x0, inputs.c0
+    del inputs  # memory (issue 11): a caller that keeps none frees them as they are spent
     smooth = params.smoother and n_ep > 1
     block = block_size(n_ep) if smooth else 0
     kernel_obs = (
@@ -268,15 +239,15 @@ def fuse(
     table = pd.DataFrame(
         {
             "time": epochs[ep_idx],
-            "from": id_column(ids, from_code),
-            "to": id_column(ids, to_code),
+            "from": from_id,
+            "to": to_id,
             "range": obs["z"][at],
             "innovation": innov[at],
             "innovation_var": innov_var[at],
             "gamma": gamma[at],
         }
     )
-    del innov, innov_var, at  # memory (issue 11): what the table took is spent
+    del innov, innov_var, at, from_id, to_id  # memory (issue 11): what the table took is spent
     if smooth and discard is not None and discard(table):
         smooth = False
     if smooth:
@@ -286,9 +257,9 @@ def fuse(
         )  # fmt: skip
     else:
         xs_s, var_s = xs_f, var_f
-    # memory (issue 11): the observations and the range rows are spent; free them before
-    # the trajectories are built (the outputs the caller keeps)
-    del cp_x, cp_c, obs, kernel_obs, gamma, from_code, to_code, ep_idx, noise
+    # memory (issue 11): the observations and the range rows are spent (unless the caller
+    # keeps its inputs for another fusion); free them before the trajectories are built
+    del cp_x, cp_c, obs, kernel_obs, gamma, ep_idx, noise
     del nav_t, nav_v, nav_ptr
     slots = (session, moving, epochs, rec_ptr, rec_plat, dim, output)
     forward = trajectories_from_slots(*slots, xs_f, var_f, hold=True)
@@ -299,42 +270,3 @@ def fuse(
 def _drift(session: Session, pid: str, params: FusionParams) -> float:
     value = session.platforms[pid].drift_sigma_mps
     return float(value) if value is not None and value > 0 else params.drift_sigma_mps
-
-
-def _initial_state(
-    session: Session,
-    rows: RangeRows,
-    ep_idx: np.ndarray,
-    epochs: FloatArray,
-    nav: FloatArray,
-    moving: list[str],
-    params: FusionParams,
-) -> tuple[FloatArray, FloatArray]:
-    """First nav position of each platform; a robust LSQ fix where anchors give one.
-
-    ``nav``: (P, >= 1, dim) the navigation at the first epoch.
-    """
-    dim = params.dims
-    x0 = nav[:, 0, :dim].reshape(-1).copy()
-    sig = np.full(x0.shape[0], params.initial_sigma_m)
-    for p, pid in enumerate(moving):
-        default = params.leader_sigma_m if session.platforms[pid].role == "leader" else None
-        sig[p * dim : (p + 1) * dim] = nav_sigma(session, pid, epochs[:1], default or sig[p * dim])[
-            0, :dim
-        ]
-    has_anchor = any(pl.role == "anchor" for pl in session.platforms.values())
-    if params.init_from_anchors and has_anchor:
-        lsq = dataclasses.replace(params.lsq, dims=dim)
-        window = max(lsq.epoch_merge_s, 0.0)
-        first = rows.take(np.flatnonzero(rows.time <= epochs[0] + window)).frame()
-        fixes = robust_lsq_positions(session, first, lsq)
-        for p, pid in enumerate(moving):
-            fix = fixes.get(pid)
-            if fix is None or session.platforms[pid].role == "leader":
-                continue
-            # the first fix, carried back to the first epoch by the platform's own DR
-            back = session.nav[pid].interpolate(fix.time_s[:1])[0, :dim] - nav[p, 0, :dim]
-            x0[p * dim : (p + 1) * dim] = fix.enu_m[0, :dim] - back
-            assert fix.sigma_enu_m is not None
-            sig[p * dim : (p + 1) * dim] = np.maximum(fix.sigma_enu_m[0, :dim], 1e-3)
-    return x0, np.diag(sig * sig)

@@ -1,0 +1,68 @@
+"""A fusion's prepared inputs, shared by the self-calibration's fusions (issue 11): a
+fusion of other sigmas, range values or output from shared inputs is bit for bit a fresh
+one."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from coopproc.sim import simulate
+from coopproc.stages.fusion.fuse import FusionOutput, FusionParams, fuse
+from coopproc.stages.fusion.inputs import fusion_inputs
+
+
+def _same(a: FusionOutput, b: FusionOutput) -> None:
+    assert a.observations.equals(b.observations)
+    assert np.array_equal(a.epochs_s, b.epochs_s)
+    for pid in a.smoothed:
+        for x, y in ((a.smoothed[pid], b.smoothed[pid]), (a.forward[pid], b.forward[pid])):
+            assert np.array_equal(x.time_s, y.time_s)
+            assert np.array_equal(x.enu_m, y.enu_m)
+            assert np.array_equal(x.sigma_enu_m, y.sigma_enu_m, equal_nan=True)
+
+
+def _other(frame: pd.DataFrame, platform: str) -> pd.DataFrame:
+    """Other sigmas for every row, ``platform``'s ranges 0.2 m shorter."""
+    rows = ((frame["from"] == platform) | (frame["to"] == platform)).to_numpy()
+    value = frame["range"].to_numpy(dtype=np.float64) - np.where(rows, 0.2, 0.0)
+    sigma = np.where(rows, 0.4, 0.12)
+    sigma[::7] = np.nan  # the default sigma for some
+    return frame.assign(range=value, sigma=sigma)
+
+
+@pytest.mark.parametrize("scenario", ["dr-faults", "anchors"])
+def test_with_ranges_is_a_fresh_fusion(scenario: str) -> None:
+    session = simulate(scenario, seed=0, duration_s=40.0).session
+    frame = session.ranges.frame[["time", "from", "to", "range", "sigma"]]
+    params = FusionParams()
+    inputs = fusion_inputs(session, frame, params)
+    other = _other(frame, session.ranges.frame["to"].iloc[0])
+    shared = inputs.with_ranges(other)
+    assert shared.obs["kind"] is inputs.obs["kind"]  # the structure is shared, not rebuilt
+    assert not np.array_equal(shared.obs["var"], inputs.obs["var"])
+    scale = {next(iter(session.moving_platforms())): 2.0}
+    _same(fuse(session, other, params, drift_scale=scale, inputs=shared),
+          fuse(session, other, params, drift_scale=scale))  # fmt: skip
+    # the first inputs are untouched by the second's
+    _same(fuse(session, frame, params, inputs=inputs), fuse(session, frame, params))
+    nav = inputs.with_ranges(other, "nav")
+    _same(fuse(session, other, params, output="nav", inputs=nav),
+          fuse(session, other, params, output="nav"))  # fmt: skip
+
+
+def test_with_ranges_of_other_rows_prepares_afresh() -> None:
+    session = simulate("dr-faults", seed=0, duration_s=30.0).session
+    frame = session.ranges.frame[["time", "from", "to", "range", "sigma"]]
+    params = FusionParams()
+    inputs = fusion_inputs(session, frame, params)
+    value = frame["range"].to_numpy(dtype=np.float64).copy()
+    value[::5] = np.nan  # dropouts: other rows are kept
+    fewer = frame.assign(range=value)
+    again = inputs.with_ranges(fewer)
+    assert again.obs["kind"] is not inputs.obs["kind"]
+    assert again.epochs.shape[0] < inputs.epochs.shape[0]
+    _same(fuse(session, fewer, params, inputs=again), fuse(session, fewer, params))
+    with pytest.raises(ValueError, match="another session"):
+        fuse(session, frame, params, output="nav", inputs=inputs)
