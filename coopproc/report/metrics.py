@@ -27,6 +27,7 @@ from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd
+from numpy.typing import NDArray
 
 from coopproc.model import METRICS_COLUMNS, POSITION_METRICS_COLUMNS, FloatArray
 from coopproc.report.methods import method_order, position_methods_of, range_methods_of
@@ -118,26 +119,71 @@ def distance_metrics(ranges: pd.DataFrame, methods: Sequence[str] | None = None)
     return out
 
 
-def _axis_errors(own: pd.DataFrame, ref: pd.DataFrame | None) -> tuple[FloatArray, FloatArray]:
-    """East and north errors of ``own`` against reference rows interpolated to its times."""
-    if ref is None or len(ref) < 2:
-        nan = np.full(len(own), np.nan)
+def _axis_errors(
+    time_s: FloatArray, east: FloatArray, north: FloatArray, ref: _Rows | None
+) -> tuple[FloatArray, FloatArray]:
+    """East and north errors against reference rows (time-sorted) interpolated to ``time_s``."""
+    if ref is None or ref[0].shape[0] < 2:
+        nan = np.full(time_s.shape[0], np.nan)
         return nan, nan
-    ref = ref.sort_values("time", kind="stable")
-    t_ref = ref["time"].to_numpy(dtype=np.float64)
-    t = own["time"].to_numpy(dtype=np.float64)
-    outside = (t < t_ref[0]) | (t > t_ref[-1])
+    t_ref, ref_east, ref_north = ref
+    outside = (time_s < t_ref[0]) | (time_s > t_ref[-1])
     errors = []
-    for axis in ("east", "north"):
-        truth = np.interp(t, t_ref, ref[axis].to_numpy(dtype=np.float64))
+    for own, axis in ((east, ref_east), (north, ref_north)):
+        truth = np.interp(time_s, t_ref, axis)
         truth[outside] = np.nan
-        errors.append(own[axis].to_numpy(dtype=np.float64) - truth)
+        errors.append(own - truth)
     return errors[0], errors[1]
 
 
 def _rms(x: FloatArray) -> float:
     x = x[np.isfinite(x)]
     return float(np.sqrt(np.mean(x * x))) if x.size else float("nan")
+
+
+#: One group's rows: time, east, north (time-sorted, stable).
+_Rows = tuple[FloatArray, FloatArray, FloatArray]
+
+
+def _codes(column: pd.Series) -> tuple[NDArray[np.integer], list[str]]:
+    """Integer codes (-1: missing) and sorted names (categories' order when categorical,
+    as ``groupby`` orders them; a categorical's codes are taken as they are)."""
+    if isinstance(column.dtype, pd.CategoricalDtype):
+        return column.cat.codes.to_numpy(), [str(n) for n in column.cat.categories]
+    codes, names = pd.factorize(column, sort=True)
+    return np.asarray(codes), [str(n) for n in names]
+
+
+def _group_rows(
+    platform: NDArray[np.integer], method: NDArray[np.integer], time_s: FloatArray
+) -> dict[tuple[int, int], slice | NDArray[np.intp]]:
+    """Rows of each (platform, method) code pair, in time order (stable), original order
+    for ties: a slice when the group is one run already in time order (positions.csv as
+    built, platform-major), else row indices. No sorted copy of the table."""
+    n = platform.shape[0]
+    if n == 0:
+        return {}
+    change = np.flatnonzero((platform[1:] != platform[:-1]) | (method[1:] != method[:-1])) + 1
+    starts = np.concatenate(([0], change))
+    ends = np.concatenate((change, [n]))
+    keys = list(zip(platform[starts].tolist(), method[starts].tolist(), strict=True))
+    out: dict[tuple[int, int], slice | NDArray[np.intp]] = {}
+    if len(set(keys)) == len(keys):  # every group is one contiguous run
+        for key, lo, hi in zip(keys, starts.tolist(), ends.tolist(), strict=True):
+            out[key] = slice(lo, hi)
+    else:
+        order = np.argsort(
+            platform.astype(np.int64) * (int(method.max()) + 2) + method, kind="stable"
+        )
+        for key in sorted(set(keys)):
+            at = order[(platform[order] == key[0]) & (method[order] == key[1])]
+            out[key] = at
+    for key, rows in out.items():
+        t = time_s[rows]
+        if t.shape[0] > 1 and not bool(np.all(t[1:] >= t[:-1])):
+            at = np.arange(rows.start, rows.stop) if isinstance(rows, slice) else rows
+            out[key] = at[np.argsort(t, kind="stable")]
+    return out
 
 
 def position_metrics(positions: pd.DataFrame, methods: Sequence[str] | None = None) -> pd.DataFrame:
@@ -148,22 +194,36 @@ def position_metrics(positions: pd.DataFrame, methods: Sequence[str] | None = No
     method ``reference`` are not scored, they give the per-axis errors. Every method with
     rows is scored; sorted by platform, then ``nav``, ``methods`` (the run's position
     methods; by default :func:`~coopproc.report.methods.position_methods_of`), then any
-    other method alphabetically.
+    other method alphabetically. Groups are found from integer codes of ``platform`` and
+    ``method`` (no per-group copies of the table, no string comparison per row).
     """
     columns = [*POSITION_METRICS_COLUMNS, *POSITION_METRICS_EXTRA_COLUMNS]
     rows: list[dict[str, object]] = []
     order = ("nav", *(position_methods_of(positions) if methods is None else methods))
-    for platform, group in positions.groupby("platform", sort=True):
-        refs = group[group["method"] == REFERENCE_METHOD]
-        ref = refs if len(refs) else None
-        present = sorted(str(m) for m in group["method"].unique() if m != REFERENCE_METHOD)
-        for method in method_order(present, order):
-            own = group[group["method"] == method].sort_values("time", kind="stable")
-            h = own["error_h"].to_numpy(dtype=np.float64, na_value=np.nan)
+    platform, platform_names = _codes(positions["platform"])
+    method, method_names = _codes(positions["method"])
+    values = {
+        c: positions[c].to_numpy(dtype=np.float64, na_value=np.nan)
+        for c in ("time", "east", "north", "error_h")
+    }
+    groups = _group_rows(platform, method, values["time"])
+    ref_code = method_names.index(REFERENCE_METHOD) if REFERENCE_METHOD in method_names else -2
+    for p, name in enumerate(platform_names):
+        mine = {method_names[m]: rows_ for (q, m), rows_ in groups.items() if q == p and m >= 0}
+        if not mine:
+            continue
+        at = groups.get((p, ref_code))
+        ref = None if at is None else (values["time"][at], values["east"][at], values["north"][at])
+        present = sorted(m for m in mine if m != REFERENCE_METHOD)
+        for method_name in method_order(present, order):
+            own = mine[method_name]
+            h = values["error_h"][own]
             h = h[np.isfinite(h)]
-            de, dn = _axis_errors(own, ref)
+            de, dn = _axis_errors(
+                values["time"][own], values["east"][own], values["north"][own], ref
+            )
             n = int(h.size)
-            stats: dict[str, object] = {"platform": str(platform), "method": method, "n": n}
+            stats: dict[str, object] = {"platform": name, "method": method_name, "n": n}
             if n:
                 stats.update(
                     max=float(np.max(h)),
