@@ -35,9 +35,10 @@ from collections.abc import Iterator, Sequence
 import numpy as np
 import pandas as pd
 
-from coopproc.model import FloatArray, gap_limit_s
+from coopproc.model import FloatArray
 from coopproc.report.alignment import ALIGNMENTS, AlignmentError, Transform, fit_alignment
-from coopproc.report.methods import method_order, position_methods_of
+from coopproc.report.track_kernels import error_norms
+from coopproc.report.tracks import REFERENCE_METHOD, Track, matched_tracks
 
 __all__ = [
     "AXES",
@@ -48,10 +49,11 @@ __all__ = [
     "check_alignments",
     "error_stats",
     "evaluation",
+    "evaluation_frame",
+    "evaluation_row",
     "matched_tracks",
 ]
 
-REFERENCE_METHOD = "reference"
 AXES: tuple[str, ...] = ("east", "north", "up")
 EVALUATION_KEYS: tuple[str, ...] = ("platform", "method", "alignment")
 _NORM_STATS = ("rmse", "mean", "median", "std", "min", "max")
@@ -84,55 +86,6 @@ def check_alignments(names: Sequence[str]) -> tuple[str, ...]:
     return tuple(dict.fromkeys(names))
 
 
-def _column(frame: pd.DataFrame, name: str) -> FloatArray:
-    return frame[name].to_numpy(dtype=np.float64, na_value=np.nan)
-
-
-def _reference_at(ref: pd.DataFrame, t: FloatArray) -> FloatArray:
-    """The reference rows (sorted by time) at times ``t``; NaN outside them or in a gap."""
-    t_ref = _column(ref, "time")
-    out = np.full((t.size, 3), np.nan)
-    if not t_ref.size:
-        return out
-    for k, axis in enumerate(AXES):
-        out[:, k] = np.interp(t, t_ref, _column(ref, axis), left=np.nan, right=np.nan)
-    right = np.searchsorted(t_ref, t)
-    exact = t_ref[np.minimum(right, t_ref.size - 1)] == t
-    if t_ref.size >= 2:
-        steps = np.diff(t_ref)
-        idx = np.clip(right, 1, t_ref.size - 1)
-        out[(steps[idx - 1] > gap_limit_s(t_ref)) & ~exact] = np.nan
-    return out
-
-
-def matched_tracks(
-    positions: pd.DataFrame, methods: Sequence[str] | None = None
-) -> Iterator[tuple[str, str, FloatArray, FloatArray, FloatArray]]:
-    """``(platform, method, time, est, ref)`` per platform and method with a reference.
-
-    ``est`` and ``ref`` are (n, 3) ENU positions at the evaluation epochs (module doc), in
-    time order. Platforms sorted; methods ``nav``, then ``methods`` (by default those of
-    the table: :func:`~coopproc.report.methods.position_methods_of`), then any other
-    alphabetically; ``reference`` is never a method. A platform without reference rows
-    yields nothing.
-    """
-    order = ("nav", *(position_methods_of(positions) if methods is None else methods))
-    for platform, group in positions.groupby("platform", sort=True):
-        ref = group[group["method"] == REFERENCE_METHOD].sort_values("time", kind="stable")
-        present = sorted(str(m) for m in group["method"].unique() if m != REFERENCE_METHOD)
-        for method in method_order(present, order):
-            own = group[group["method"] == method].sort_values("time", kind="stable")
-            t = _column(own, "time")
-            est = np.column_stack([_column(own, a) for a in AXES])
-            truth = _reference_at(ref, t)
-            keep = (
-                np.isfinite(_column(own, "error_h"))
-                & np.all(np.isfinite(est), axis=1)
-                & np.all(np.isfinite(truth), axis=1)
-            )
-            yield str(platform), method, t[keep], est[keep], truth[keep]
-
-
 def _norm_stats(x: FloatArray, suffix: str) -> dict[str, float]:
     return {
         f"rmse_{suffix}": float(np.sqrt(np.mean(x * x))),
@@ -146,23 +99,22 @@ def _norm_stats(x: FloatArray, suffix: str) -> dict[str, float]:
 
 def error_stats(error: FloatArray) -> dict[str, float]:
     """The statistics of (n, 3) east/north/up errors (module doc); NaN for n = 0."""
-    d = np.asarray(error, dtype=np.float64).reshape(-1, 3)
-    if not d.shape[0]:
+    d = np.ascontiguousarray(error, dtype=np.float64).reshape(-1, 3)
+    return _error_stats(d, np.zeros_like(d))
+
+
+def _error_stats(moved: FloatArray, ref: FloatArray) -> dict[str, float]:
+    """:func:`error_stats` of ``moved - ref`` without forming it (one compiled pass for the
+    norms and the per-axis statistics: :func:`~coopproc.report.track_kernels.error_norms`)."""
+    if not moved.shape[0]:
         names = [c for c in EVALUATION_COLUMNS[4:] if c not in _TRANSFORM]
         return dict.fromkeys(names, float("nan"))
-    out = _norm_stats(np.sqrt(np.sum(d * d, axis=1)), "3d")
-    out.update(_norm_stats(np.hypot(d[:, 0], d[:, 1]), "h"))
-    axis_stats = {
-        "rms": np.sqrt(np.mean(d * d, axis=0)),
-        "mean": np.mean(d, axis=0),
-        "std": np.std(d, axis=0),
-        "min": np.min(d, axis=0),
-        "max": np.max(d, axis=0),
-        "absmax": np.max(np.abs(d), axis=0),
-    }
-    for stat, values in axis_stats.items():
+    e3, h, axis_stats = error_norms(moved, ref)
+    out = _norm_stats(e3, "3d")
+    out.update(_norm_stats(h, "h"))
+    for row, stat in enumerate(_AXIS_STATS):
         for k, axis in enumerate(AXES):
-            out[f"{stat}_{axis}"] = float(values[k])
+            out[f"{stat}_{axis}"] = float(axis_stats[row, k])
     return out
 
 
@@ -183,20 +135,62 @@ def aligned_tracks(
 ) -> Iterator[tuple[str, str, str, FloatArray, FloatArray, FloatArray, Transform | None]]:
     """``(platform, method, align, time, aligned est, ref, transform)``, rows in the order
     of ``evaluation.csv``: platform, then alignment (as given), then method. The transform
-    is None (and ``aligned est`` all NaN) where the alignment is undetermined."""
+    is None (and ``aligned est`` all NaN) where the alignment is undetermined. One
+    platform's tracks are held at a time (none with a single alignment)."""
     align = check_alignments(align)
-    tracks: dict[str, list[tuple[str, FloatArray, FloatArray, FloatArray]]] = {}
-    for platform, method, t, est, ref in matched_tracks(positions, methods):
-        tracks.setdefault(platform, []).append((method, t, est, ref))
-    for platform, items in tracks.items():
-        for kind in align:
-            for method, t, est, ref in items:
-                try:
-                    transform: Transform | None = fit_alignment(kind, est, ref)
-                except AlignmentError:
-                    transform = None
-                moved = np.full_like(est, np.nan) if transform is None else transform.apply(est)
-                yield platform, method, kind, t, moved, ref, transform
+    held: list[Track] = []
+    for track in matched_tracks(positions, methods):
+        if len(align) == 1:
+            yield from _aligned(track, align[0])
+            continue
+        if held and held[0].platform != track.platform:
+            yield from (a for kind in align for item in held for a in _aligned(item, kind))
+            held = []
+        held.append(track)
+    yield from (a for kind in align for item in held for a in _aligned(item, kind))
+
+
+def _aligned(
+    track: Track, kind: str
+) -> Iterator[tuple[str, str, str, FloatArray, FloatArray, FloatArray, Transform | None]]:
+    platform, method, t, est, ref = track
+    try:
+        transform: Transform | None = fit_alignment(kind, est, ref)
+    except AlignmentError:
+        transform = None
+    if transform is None:
+        moved = np.full_like(est, np.nan)
+    elif kind == "none":  # the identity's s R p + t, bit for bit (-0.0 becomes 0.0)
+        moved = est + 0.0
+    else:
+        moved = transform.apply(est)
+    yield platform, method, kind, t, moved, ref, transform
+
+
+def evaluation_row(
+    platform: str,
+    method: str,
+    kind: str,
+    moved: FloatArray,
+    ref: FloatArray,
+    transform: Transform | None,
+) -> dict[str, object]:
+    """One row of ``evaluation.csv`` from an item of :func:`aligned_tracks`."""
+    row: dict[str, object] = {"platform": platform, "method": method, "alignment": kind}
+    row["n"] = int(ref.shape[0])
+    if transform is None:
+        row.update(error_stats(np.empty((0, 3))))
+    else:
+        row.update(_error_stats(moved, ref))
+    row.update(transform_columns(transform))
+    return row
+
+
+def evaluation_frame(rows: list[dict[str, object]]) -> pd.DataFrame:
+    """``evaluation.csv`` from its rows (:func:`evaluation_row`)."""
+    out = pd.DataFrame(rows, columns=list(EVALUATION_COLUMNS))
+    out["n"] = out["n"].astype(np.int64)
+    return out
 
 
 def evaluation(
@@ -208,17 +202,13 @@ def evaluation(
 
     ``align``: the alignments (:data:`~coopproc.report.alignment.ALIGNMENTS`), each a block
     of rows; ``methods``: the run's position methods (default: derived from the table).
+    With ``rpe.csv`` too, :func:`coopproc.report.rpe.evaluation_and_rpe` aligns once.
     """
-    rows: list[dict[str, object]] = []
-    for platform, method, kind, _t, moved, ref, transform in aligned_tracks(
-        positions, align, methods
-    ):
-        row: dict[str, object] = {"platform": platform, "method": method, "alignment": kind}
-        row["n"] = int(ref.shape[0])
-        ok = transform is not None
-        row.update(error_stats(moved - ref if ok else np.empty((0, 3))))
-        row.update(transform_columns(transform))
-        rows.append(row)
-    out = pd.DataFrame(rows, columns=list(EVALUATION_COLUMNS))
-    out["n"] = out["n"].astype(np.int64)
-    return out
+    return evaluation_frame(
+        [
+            evaluation_row(platform, method, kind, moved, ref, transform)
+            for platform, method, kind, _t, moved, ref, transform in aligned_tracks(
+                positions, align, methods
+            )
+        ]
+    )

@@ -30,11 +30,20 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from coopproc.model import FloatArray
-from coopproc.report.evaluation import aligned_tracks
+from coopproc.report.evaluation import aligned_tracks, evaluation_frame, evaluation_row
+from coopproc.report.track_kernels import path_length, segment_ends, segment_errors
 
 IntArray = NDArray[np.int64]
 
-__all__ = ["DEFAULT_SEGMENTS_M", "RPE_COLUMNS", "check_segments", "rpe", "rpe_errors", "segments"]
+__all__ = [
+    "DEFAULT_SEGMENTS_M",
+    "RPE_COLUMNS",
+    "check_segments",
+    "evaluation_and_rpe",
+    "rpe",
+    "rpe_errors",
+    "segments",
+]
 
 #: Segment lengths of ``rpe.csv`` written by ``coopproc run``, m.
 DEFAULT_SEGMENTS_M: tuple[float, ...] = (10.0, 50.0, 100.0)
@@ -57,28 +66,49 @@ def check_segments(lengths: Sequence[float]) -> tuple[float, ...]:
 def segments(ref: FloatArray, length_m: float) -> tuple[IntArray, IntArray]:
     """Start and end epochs ``(i, j)`` of every segment of ``length_m`` along the (n, 3)
     reference (module doc): j the first epoch with ``s_j - s_i >= length_m``."""
-    q = np.asarray(ref, dtype=np.float64).reshape(-1, 3)
-    if q.shape[0] < 2:
-        empty = np.empty(0, dtype=np.int64)
-        return empty, empty
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])
-    j = np.searchsorted(s, s + length_m, side="left")
-    i = np.arange(s.size)
-    keep = j < s.size
-    return i[keep].astype(np.int64), j[keep].astype(np.int64)
+    q = np.ascontiguousarray(ref, dtype=np.float64).reshape(-1, 3)
+    j = _ends(path_length(q), length_m)
+    return np.arange(j.size, dtype=np.int64), j
+
+
+def _ends(s: FloatArray, length_m: float) -> IntArray:
+    if s.size < 2:
+        return np.empty(0, dtype=np.int64)
+    return np.asarray(segment_ends(s, float(length_m)), dtype=np.int64)
 
 
 def rpe_errors(est: FloatArray, ref: FloatArray, length_m: float) -> FloatArray:
     """Translation error (m) of every segment of ``length_m`` (module doc), in start order."""
-    p = np.asarray(est, dtype=np.float64).reshape(-1, 3)
-    q = np.asarray(ref, dtype=np.float64).reshape(-1, 3)
-    i, j = segments(q, length_m)
-    miss = (p[j] - p[i]) - (q[j] - q[i])
-    return np.sqrt(np.sum(miss * miss, axis=1))
+    p = np.ascontiguousarray(est, dtype=np.float64).reshape(-1, 3)
+    q = np.ascontiguousarray(ref, dtype=np.float64).reshape(-1, 3)
+    return segment_errors(p, q, segments(q, length_m)[1])
+
+
+class _Segments:
+    """The segment ends of the last reference track, per length: the methods of a
+    platform share their reference (often the same array), so they are cut once."""
+
+    def __init__(self) -> None:
+        self._ref: FloatArray | None = None
+        self._ends: dict[float, IntArray] = {}
+        self._s: FloatArray = np.empty(0)
+
+    def ends(self, ref: FloatArray, length_m: float) -> IntArray:
+        last = self._ref
+        same = last is not None and (
+            ref is last or (ref.shape == last.shape and bool(np.array_equal(ref, last)))
+        )
+        if not same:
+            self._ref, self._ends, self._s = ref, {}, path_length(ref)
+        if length_m not in self._ends:
+            self._ends[length_m] = _ends(self._s, length_m)
+        return self._ends[length_m]
 
 
 def _stats(err: FloatArray, length_m: float) -> dict[str, float]:
-    err = err[np.isfinite(err)]
+    finite = np.isfinite(err)
+    if not bool(np.all(finite)):
+        err = err[finite]
     if not err.size:
         return dict.fromkeys(_STATS, float("nan"))
     return {
@@ -93,6 +123,33 @@ def _stats(err: FloatArray, length_m: float) -> dict[str, float]:
     }
 
 
+def _rpe_rows(
+    item: tuple[str, str, str, FloatArray, FloatArray],
+    lengths: Sequence[float],
+    cache: _Segments,
+) -> list[dict[str, object]]:
+    platform, method, kind, moved, ref = item
+    rows: list[dict[str, object]] = []
+    for length in lengths:
+        err = segment_errors(moved, ref, cache.ends(ref, length))
+        row: dict[str, object] = {
+            "platform": platform,
+            "method": method,
+            "alignment": kind,
+            "segment_m": length,
+            "segments": int(np.count_nonzero(np.isfinite(err))),
+        }
+        row.update(_stats(err, length))
+        rows.append(row)
+    return rows
+
+
+def _rpe_frame(rows: list[dict[str, object]]) -> pd.DataFrame:
+    out = pd.DataFrame(rows, columns=list(RPE_COLUMNS))
+    out["segments"] = out["segments"].astype(np.int64)
+    return out
+
+
 def rpe(
     positions: pd.DataFrame,
     lengths_m: Sequence[float] = DEFAULT_SEGMENTS_M,
@@ -101,21 +158,31 @@ def rpe(
 ) -> pd.DataFrame:
     """``rpe.csv``: one row per platform, alignment, method and segment length (module doc)."""
     lengths = check_segments(lengths_m)
+    cache = _Segments()
     rows: list[dict[str, object]] = []
     for platform, method, kind, _t, moved, ref, _transform in aligned_tracks(
         positions, align, methods
     ):
-        for length in lengths:
-            err = rpe_errors(moved, ref, length)
-            row: dict[str, object] = {
-                "platform": platform,
-                "method": method,
-                "alignment": kind,
-                "segment_m": length,
-                "segments": int(np.count_nonzero(np.isfinite(err))),
-            }
-            row.update(_stats(err, length))
-            rows.append(row)
-    out = pd.DataFrame(rows, columns=list(RPE_COLUMNS))
-    out["segments"] = out["segments"].astype(np.int64)
-    return out
+        rows += _rpe_rows((platform, method, kind, moved, ref), lengths, cache)
+    return _rpe_frame(rows)
+
+
+def evaluation_and_rpe(
+    positions: pd.DataFrame,
+    lengths_m: Sequence[float] = DEFAULT_SEGMENTS_M,
+    align: Sequence[str] = ("none",),
+    methods: Sequence[str] | None = None,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """``evaluation.csv`` and ``rpe.csv`` (:func:`coopproc.report.evaluation.evaluation`,
+    :func:`rpe`) from one pass over the aligned tracks: what a run writes, in a few seconds
+    for a day of positions."""
+    lengths = check_segments(lengths_m)
+    cache = _Segments()
+    ev_rows: list[dict[str, object]] = []
+    rpe_rows: list[dict[str, object]] = []
+    for platform, method, kind, _t, moved, ref, transform in aligned_tracks(
+        positions, align, methods
+    ):
+        ev_rows.append(evaluation_row(platform, method, kind, moved, ref, transform))
+        rpe_rows += _rpe_rows((platform, method, kind, moved, ref), lengths, cache)
+    return evaluation_frame(ev_rows), _rpe_frame(rpe_rows)

@@ -23,12 +23,11 @@ from coopproc.io.injected import session_injected
 from coopproc.io.outdir import atomic_output_dir, write_csv
 from coopproc.io.parquet import require_pyarrow, write_parquet
 from coopproc.model import Session
-from coopproc.report.evaluation import evaluation
 from coopproc.report.figures import FigurePage, figure_pages, write_figures
 from coopproc.report.html import write_html
 from coopproc.report.injected import injected_scores
 from coopproc.report.pages import FigureOptions
-from coopproc.report.rpe import rpe
+from coopproc.report.rpe import evaluation_and_rpe
 from coopproc.report.rundir import RUN_EXTENSION_FILES, RUN_FILES, RunTables, table_file_name
 from coopproc.run.calibration_summary import calibration_facts
 from coopproc.run.config import RunConfig
@@ -70,6 +69,8 @@ def run_tables(
     ``injected_scores.csv`` table of an injected session)."""
     r = output.result
     methods = (output.methods or {}).get("positions")  # evaluation.csv / rpe.csv row order
+    # both from one pass over the aligned tracks (a day of positions: seconds)
+    evaluated, relative = evaluation_and_rpe(r.positions, methods=methods)
     return RunTables(
         ranges=r.ranges,
         di=r.di,
@@ -82,8 +83,8 @@ def run_tables(
         nlos_event_scores=output.nlos_event_scores,
         info=dict(info),
         injected_scores=injected,
-        evaluation=evaluation(r.positions, methods=methods),
-        rpe=rpe(r.positions, methods=methods),
+        evaluation=evaluated,
+        rpe=relative,
         states=r.states,
         outages=outages.table if (outages := _outage_report(output)) is not None else None,
     )
