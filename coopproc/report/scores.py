@@ -92,13 +92,30 @@ def detection_methods(ranges: pd.DataFrame, nlos_events: pd.DataFrame) -> list[s
     return list(detection_methods_of(range_methods_of(ranges), nlos_events))
 
 
-def _in_events(time_s: FloatArray, events: pd.DataFrame) -> NDArray[np.bool_]:
-    inside = np.zeros(time_s.shape[0], dtype=bool)
-    for start, end in zip(
-        events["start"].to_numpy(float), events["end"].to_numpy(float), strict=True
-    ):
-        inside |= (time_s >= start) & (time_s <= end)
-    return inside
+def _in_events(time_s: FloatArray, starts: FloatArray, ends: FloatArray) -> NDArray[np.bool_]:
+    """Epochs of ``time_s`` (sorted ascending, NaN last) inside any ``[start, end]``: the
+    same as ``(t >= start) & (t <= end)`` per event, by two binary searches an event."""
+    n = time_s.shape[0]
+    ok = ~(np.isnan(starts) | np.isnan(ends))  # no epoch compares True with NaN
+    lo = np.searchsorted(time_s, starts[ok], side="left")
+    hi = np.searchsorted(time_s, ends[ok], side="right")
+    spans = lo < hi
+    depth = np.zeros(n + 1, dtype=np.int64)
+    np.add.at(depth, lo[spans], 1)
+    np.add.at(depth, hi[spans], -1)
+    return np.cumsum(depth[:n]) > 0
+
+
+def _pair_rows(ranges: pd.DataFrame) -> tuple[list[str], NDArray[np.intp], NDArray[np.intp]]:
+    """Pairs by name and the rows of each in time order (stable), as index arrays: pair k
+    is ``order[bounds[k]:bounds[k + 1]]`` (``sort_values(["pair", "time"])`` without a
+    sorted copy of the table or a string comparison per row)."""
+    codes, pairs = pd.factorize(ranges["pair"], sort=True)
+    time = ranges["time"].to_numpy(dtype=np.float64, na_value=np.nan)
+    order = np.lexsort((time, codes))
+    order = order[codes[order] >= 0]  # rows without a pair are in no group
+    bounds = np.searchsorted(codes[order], np.arange(len(pairs) + 1))
+    return [str(p) for p in pairs], order, bounds
 
 
 def event_bias(pair_ranges: pd.DataFrame, start_s: float, end_s: float) -> tuple[float, int]:
@@ -127,14 +144,23 @@ def nlos_event_scores(ranges: pd.DataFrame, nlos_events: pd.DataFrame) -> pd.Dat
     """Every NLOS event's estimate against the reference-derived bias (NLOS_EVENT_SCORE_COLUMNS)."""
     rows: list[dict[str, object]] = []
     events = nlos_events.sort_values(["pair", "method", "start"], kind="stable")
-    by_pair = {str(p): g.sort_values("time", kind="stable") for p, g in ranges.groupby("pair")}
+    pairs, order, bounds = _pair_rows(ranges)
+    at_pair = {pair: k for k, pair in enumerate(pairs)}
+    time = ranges["time"].to_numpy(dtype=np.float64, na_value=np.nan)
+    error = ranges["observed"].to_numpy(dtype=np.float64, na_value=np.nan) - ranges[
+        "reference"
+    ].to_numpy(dtype=np.float64, na_value=np.nan)
+    sorted_t: dict[int, tuple[FloatArray, FloatArray]] = {}
     starts, ends = events["start"].to_numpy(float), events["end"].to_numpy(float)
     estimates = events["estimate"].to_numpy(float)
     for i, (pair, method) in enumerate(zip(events["pair"], events["method"], strict=True)):
-        pair_ranges = by_pair.get(str(pair))
+        k = at_pair.get(str(pair))
         bias, n = (float("nan"), 0)
-        if pair_ranges is not None:
-            bias, n = event_bias(pair_ranges, float(starts[i]), float(ends[i]))
+        if k is not None:
+            if k not in sorted_t:
+                at = order[bounds[k] : bounds[k + 1]]
+                sorted_t[k] = (time[at], error[at])
+            bias, n = _bias_sorted(*sorted_t[k], float(starts[i]), float(ends[i]))
         estimate = float(estimates[i])
         rows.append(
             {
@@ -153,52 +179,76 @@ def nlos_event_scores(ranges: pd.DataFrame, nlos_events: pd.DataFrame) -> pd.Dat
     return out
 
 
+def _bias_sorted(
+    time_s: FloatArray, error_m: FloatArray, start_s: float, end_s: float
+) -> tuple[float, int]:
+    """:func:`event_bias` on a pair's rows in time order (NaN times last): the rows in
+    ``[start_s, end_s]`` are one slice, found by binary search."""
+    if np.isnan(start_s) or np.isnan(end_s):  # no epoch compares True with NaN
+        return float("nan"), 0
+    lo = int(np.searchsorted(time_s, start_s, side="left"))
+    hi = int(np.searchsorted(time_s, end_s, side="right"))
+    e = error_m[lo:hi] if lo < hi else error_m[:0]
+    e = e[np.isfinite(e)]
+    n = int(e.shape[0])
+    return (float(np.mean(e)) if n else float("nan")), n
+
+
 def nlos_scores(
     ranges: pd.DataFrame,
     nlos_events: pd.DataFrame,
     sigma: Mapping[str, float],
     methods: Sequence[str] | None = None,
+    event_scores: pd.DataFrame | None = None,
 ) -> pd.DataFrame:
     """Precision, recall and F1 of NLOS detection per pair and method (``nlos_scores.csv``).
 
     ``sigma``: ranging 1-sigma (m) per pair, the one the detector used; a pair missing
     from it (or with a non-positive value) gets 1.4826 MAD of observed - reference.
     Also the count of events and the mean absolute / maximum absolute error of their
-    estimates against the reference-derived bias (:func:`nlos_event_scores`).
-    ``methods``: the methods scored, in order (the run's
-    :func:`~coopproc.report.methods.nlos_methods`); by default :func:`detection_methods`.
-    Columns :data:`NLOS_SCORE_COLUMNS`; a pair with no reference has epochs = 0.
+    estimates against the reference-derived bias (:func:`nlos_event_scores`; pass
+    ``event_scores`` when already computed). ``methods``: the methods scored, in order
+    (the run's :func:`~coopproc.report.methods.nlos_methods`); by default
+    :func:`detection_methods`. Columns :data:`NLOS_SCORE_COLUMNS`; a pair with no
+    reference has epochs = 0.
     """
     missing = [c for c in NLOS_EVENT_COLUMNS if c not in nlos_events.columns]
     if missing:
         raise ValueError(f"nlos_events table lacks columns {missing}")
     if methods is None:
         methods = detection_methods(ranges, nlos_events)
-    event_scores = nlos_event_scores(ranges, nlos_events)
+    if event_scores is None:
+        event_scores = nlos_event_scores(ranges, nlos_events)
+    events_of = _rows_by_key(nlos_events)
+    errors_of = _rows_by_key(event_scores)
+    starts = nlos_events["start"].to_numpy(float)
+    ends = nlos_events["end"].to_numpy(float)
+    event_error = event_scores["error"].to_numpy(dtype=np.float64)
+    time = ranges["time"].to_numpy(dtype=np.float64, na_value=np.nan)
+    observed = ranges["observed"].to_numpy(dtype=np.float64, na_value=np.nan)
+    reference = ranges["reference"].to_numpy(dtype=np.float64, na_value=np.nan)
+    pairs, order, bounds = _pair_rows(ranges)
     rows: list[dict[str, object]] = []
-    for pair, group in ranges.sort_values(["pair", "time"], kind="stable").groupby("pair"):
-        t = group["time"].to_numpy(dtype=np.float64)
-        obs = group["observed"].to_numpy(dtype=np.float64, na_value=np.nan)
-        ref = group["reference"].to_numpy(dtype=np.float64, na_value=np.nan)
-        s = _pair_sigma(str(pair), sigma, obs - ref)
+    for k, pair in enumerate(pairs):
+        at = order[bounds[k] : bounds[k + 1]]
+        t, obs, ref = time[at], observed[at], reference[at]
+        s = _pair_sigma(pair, sigma, obs - ref)
         label = true_nlos(obs, ref, s)
         scored = np.isfinite(label)
         truth = np.asarray(label[scored] == 1.0, dtype=bool)
         for method in methods:
-            mine = nlos_events[(nlos_events["pair"] == pair) & (nlos_events["method"] == method)]
-            detected = np.asarray(_in_events(t, mine)[scored], dtype=bool)
+            mine = events_of.get((pair, str(method)), _NONE)
+            detected = np.asarray(_in_events(t, starts[mine], ends[mine])[scored], dtype=bool)
             tp = int(np.count_nonzero(truth & detected))
             fp = int(np.count_nonzero(~truth & detected))
             fn = int(np.count_nonzero(truth & ~detected))
             precision, recall = _ratio(tp, tp + fp), _ratio(tp, tp + fn)
             f1 = _ratio(2 * tp, 2 * tp + fp + fn)  # = 2 P R / (P + R); 0 when tp = 0
-            errs = event_scores[
-                (event_scores["pair"] == pair) & (event_scores["method"] == method)
-            ]["error"].to_numpy(dtype=np.float64)
+            errs = event_error[errors_of.get((pair, str(method)), _NONE)]
             errs = np.abs(errs[np.isfinite(errs)])
             rows.append(
                 {
-                    "pair": str(pair),
+                    "pair": pair,
                     "method": method,
                     "sigma": s,
                     "epochs": int(np.count_nonzero(scored)),
@@ -210,7 +260,7 @@ def nlos_scores(
                     "precision": precision,
                     "recall": recall,
                     "f1": f1,
-                    "events": len(mine),
+                    "events": int(mine.shape[0]),
                     "estimate_mae": float(np.mean(errs)) if errs.size else float("nan"),
                     "estimate_max_error": float(np.max(errs)) if errs.size else float("nan"),
                 }
@@ -219,3 +269,14 @@ def nlos_scores(
     for col in ("epochs", "nlos_true", "detected", "tp", "fp", "fn", "events"):
         out[col] = out[col].astype(np.int64)
     return out
+
+
+_NONE: NDArray[np.intp] = np.empty(0, dtype=np.intp)
+
+
+def _rows_by_key(frame: pd.DataFrame) -> dict[tuple[str, str], NDArray[np.intp]]:
+    """Row positions of each (pair, method) of an events table, in the table's order."""
+    groups: dict[tuple[str, str], list[int]] = {}
+    for i, key in enumerate(zip(frame["pair"], frame["method"], strict=True)):
+        groups.setdefault((str(key[0]), str(key[1])), []).append(i)
+    return {k: np.asarray(v, dtype=np.intp) for k, v in groups.items()}
