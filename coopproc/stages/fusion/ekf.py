@@ -41,7 +41,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from coopproc.model import FloatArray
-from coopproc.stages.filters import igg3_scalar, mad_sigma_nb
+from coopproc.stages.filters import MAD_SCALE, igg3_scalar, mad_sigma_nb
+from coopproc.stages.fusion.mad_window import union_median, window_push
 from coopproc.stages.fusion.nav_kernel import nav_at
 
 __all__ = [
@@ -332,8 +333,8 @@ def ekf_forward(
     unused = np.zeros((1, 1))
     unused_v = np.zeros(1)
     ring = np.zeros(max(mad_window, 1))
-    ring_n = 0
-    ring_at = 0
+    ring_sorted = np.zeros(max(mad_window, 1) + 1)  # the ring's values but NaN, ascending
+    ring_state = np.zeros(4, dtype=np.int64)  # filled, next slot, sorted count, NaN count
     pool = np.zeros(max(mad_window, 1) + max_m)
     ones = np.ones(max(mad_window, 1) + max_m)
     n_plat = nav_ptr.shape[0] - 1
@@ -364,20 +365,24 @@ def ekf_forward(
             sigma = mad_sigma_nb(v[:m], d[:m], sigma_floor)
         elif robust and m > 0:  # too few for a median: the epoch and the recent window
             used = 0
+            clean = ring_state[3] == 0
             for j in range(m):
                 pool[used] = abs(v[j]) / np.sqrt(d[j])
+                clean = clean and not np.isnan(pool[used])
                 used += 1
-            for j in range(ring_n):
-                pool[used] = ring[j]
-                used += 1
-            sigma = mad_sigma_nb(pool[:used], ones[:used], sigma_floor)
+            if clean:  # the median of the kept sorted window and the epoch's values
+                median = union_median(ring_sorted, ring_state[2], pool, m)
+                sigma = max(MAD_SCALE * median, sigma_floor)
+            else:  # a NaN: the partition of the pooled values, as it always was
+                for j in range(ring_state[0]):
+                    pool[used] = ring[j]
+                    used += 1
+                sigma = mad_sigma_nb(pool[:used], ones[:used], sigma_floor)
         if robust and m > 0:
             for j in range(m):
                 gamma[lo + j] = igg3_scalar(v[j] / (sigma * np.sqrt(d[j])), k0, k1)
                 if mad_window > 0:
-                    ring[ring_at] = abs(v[j]) / np.sqrt(d[j])
-                    ring_at = (ring_at + 1) % mad_window
-                    ring_n = min(ring_n + 1, mad_window)
+                    window_push(ring, ring_sorted, ring_state, abs(v[j]) / np.sqrt(d[j]))
         epoch_update(
             x, c, lo, m, h_idx, h_val, h_cnt, v, gamma, r_var, x_prior, ph,
             False, unused, unused_v, unused_v,
