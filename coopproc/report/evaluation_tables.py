@@ -19,11 +19,16 @@ from collections.abc import Sequence
 import pandas as pd
 
 from coopproc.errors import ConfigError
-from coopproc.report.evaluation import EVALUATION_COLUMNS, check_alignments, evaluation
+from coopproc.report.evaluation import EVALUATION_COLUMNS, check_alignments
 from coopproc.report.formats import Format, render_table
 from coopproc.report.latex import LatexWidth
 from coopproc.report.methods import position_methods
-from coopproc.report.rpe import DEFAULT_SEGMENTS_M, RPE_COLUMNS, check_segments, rpe
+from coopproc.report.rpe import (
+    DEFAULT_SEGMENTS_M,
+    RPE_COLUMNS,
+    check_segments,
+    evaluation_and_rpe,
+)
 from coopproc.report.rundir import RunTables
 from coopproc.report.tables import METRIC_SPECS, MetricSpec, Table, position_table
 
@@ -167,8 +172,7 @@ def evaluation_tables(
     if stored and as_run and run.evaluation is not None and run.rpe is not None:
         ev, errors = run.evaluation, run.rpe
     else:
-        ev = evaluation(run.positions, align, methods)
-        errors = rpe(run.positions, lengths, align, methods)
+        ev, errors = evaluation_and_rpe(run.positions, lengths, align, methods)  # one pass
     tables: list[Table] = []
     for kind in align:
         rows = ev[ev["alignment"] == kind]
