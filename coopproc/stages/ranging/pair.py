@@ -9,17 +9,17 @@ from the relative velocity, and the distance filter's numbers (:func:`kernel_par
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
-from coopproc.errors import StageError
 from coopproc.model import FloatArray, Session, Trajectory, pair_members
 from coopproc.stages.ranging.config import RangingConfig
 from coopproc.stages.ranging.di import anchored_increments, di_variance, range_increments
 from coopproc.stages.ranging.nlos import KernelParams
-from coopproc.stages.ranging.rn import platform_velocity, rn_increments
+from coopproc.stages.ranging.rn import rn_increments
 from coopproc.stages.ranging.table import pair_rows, platform_positions, reference_positions
+from coopproc.stages.ranging.tracks import PlatformTracks
 
 __all__ = ["PairInputs", "kernel_params", "prepare_pair"]
 
@@ -97,14 +97,22 @@ class PairInputs:
 
 
 def prepare_pair(
-    session: Session, cp: Mapping[str, Trajectory], config: RangingConfig, pair: str
+    session: Session,
+    cp: Mapping[str, Trajectory],
+    config: RangingConfig,
+    pair: str,
+    tracks: PlatformTracks | None = None,
 ) -> PairInputs:
+    """One pair's inputs. ``tracks``: the platforms' navigation prepared for every pair
+    (:class:`PlatformTracks`; None: for this pair alone); the caller calls its ``done``."""
+    if tracks is None:
+        tracks = PlatformTracks(session, config, [pair])
     rows = pair_rows(session, pair)
     t = rows["time"].to_numpy(dtype=np.float64)
     obs = rows["range"].to_numpy(dtype=np.float64)
     a, b = pair_members(pair)
-    dr_a = platform_positions(session, session.nav, a, t, "navigation", True)
-    dr_b = platform_positions(session, session.nav, b, t, "navigation", True)
+    dr_a = tracks.positions(a, t)
+    dr_b = tracks.positions(b, t)
     cp_a = platform_positions(session, cp, a, t, "cooperative solution", True)
     cp_b = platform_positions(session, cp, b, t, "cooperative solution", True)
     ref_a = reference_positions(session, a, t)
@@ -133,10 +141,10 @@ def prepare_pair(
     tm[1:] = 0.5 * (t[1:] + t[:-1])
     rn_inc = rn_increments(
         t,
-        platform_positions(session, session.nav, a, tm, "navigation", True),
-        platform_positions(session, session.nav, b, tm, "navigation", True),
-        _velocity(session, a, tm, config),
-        _velocity(session, b, tm, config),
+        tracks.positions(a, tm),
+        tracks.positions(b, tm),
+        tracks.velocity(a, tm),
+        tracks.velocity(b, tm),
     )
     return PairInputs(
         name=pair,
@@ -154,17 +162,3 @@ def prepare_pair(
         params=kernel_params(config, sigma, initial, adaptive_n, rn=False),
         sigma_source=source,
     )
-
-
-def _velocity(
-    session: Session, platform: str, time_s: FloatArray, config: RangingConfig
-) -> FloatArray:
-    info = session.platforms.get(platform)
-    if info is not None and info.role == "anchor" and info.position_enu_m is not None:
-        return np.zeros((time_s.shape[0], 3))
-    traj = session.nav.get(platform)
-    if traj is None:
-        raise StageError(f"ranging: no navigation for platform '{platform}'")
-    if config.rn.velocity == "difference" and traj.vel_enu_mps is not None:
-        traj = replace(traj, vel_enu_mps=None)
-    return platform_velocity(traj, time_s)

@@ -20,21 +20,32 @@ import numpy as np
 
 from coopproc.model import FloatArray, Trajectory
 
-__all__ = ["platform_velocity", "rn_increments"]
+__all__ = ["columns_at", "platform_velocity", "rn_increments", "velocity_columns"]
 
 
 def platform_velocity(traj: Trajectory, time_s: FloatArray) -> FloatArray:
     """Velocity (m/s, (n, 3) ENU) of one platform at ``time_s``; NaN outside its span."""
+    return columns_at(traj, velocity_columns(traj), time_s)
+
+
+def velocity_columns(traj: Trajectory) -> list[FloatArray]:
+    """The velocity (m/s) east, north, up at the trajectory's own epochs, one contiguous
+    array each: its ``vel_*`` columns, else central differences of its positions."""
+    if traj.vel_enu_mps is not None:
+        return [np.ascontiguousarray(traj.vel_enu_mps[:, a]) for a in range(3)]
+    if len(traj) >= 2:
+        return [np.gradient(traj.enu_m[:, a], traj.time_s) for a in range(3)]
+    return [np.zeros(len(traj)) for _ in range(3)]
+
+
+def columns_at(traj: Trajectory, columns: list[FloatArray], time_s: FloatArray) -> FloatArray:
+    """(n, 3): three columns at the trajectory's epochs linearly interpolated at
+    ``time_s`` (``np.interp``), NaN outside its span, as :meth:`Trajectory.interpolate`
+    does with its positions."""
     t = np.asarray(time_s, dtype=np.float64)
     out = np.empty((t.shape[0], 3))
-    if traj.vel_enu_mps is not None:
-        vel = traj.vel_enu_mps
-    elif len(traj) >= 2:
-        vel = np.column_stack([np.gradient(traj.enu_m[:, a], traj.time_s) for a in range(3)])
-    else:
-        vel = np.zeros((len(traj), 3))
     for a in range(3):
-        out[:, a] = np.interp(t, traj.time_s, vel[:, a])
+        out[:, a] = np.interp(t, traj.time_s, columns[a])
     outside = (t < traj.time_s[0]) | (t > traj.time_s[-1])
     out[outside] = np.nan
     return out

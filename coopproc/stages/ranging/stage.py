@@ -60,6 +60,7 @@ from coopproc.stages.ranging.di import (
 )
 from coopproc.stages.ranging.nlos import DistanceFilterOutput, KernelParams, filter_distance
 from coopproc.stages.ranging.pair import PairInputs, kernel_params, prepare_pair
+from coopproc.stages.ranging.tracks import PlatformTracks
 from coopproc.stages.ranging.twoway import filter_distance_two_way
 
 __all__ = [
@@ -245,7 +246,13 @@ def run_ranging(
     of any pair sharing a platform with a pair in a first-pass event (widened by the
     guard times), so there the smoothed DI follows the DR DI plus the DI deviation.
     """
-    pairs = [prepare_pair(session, cp, config, pair) for pair in session.ranges.pairs]
+    # each platform's navigation columns and velocity once, shared by its pairs
+    tracks = PlatformTracks(session, config, session.ranges.pairs)
+    pairs = []
+    for pair in session.ranges.pairs:
+        pairs.append(prepare_pair(session, cp, config, pair, tracks))
+        tracks.done(pair)
+    del tracks
     results = {p.name: _di_method(p, config) for p in pairs}
     if config.di.mask_nlos_cp:
         intervals = _event_intervals(pairs, {k: v[2] for k, v in results.items()}, config)
