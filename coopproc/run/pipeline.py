@@ -158,9 +158,20 @@ def run_pipeline(
 
     # ranges.csv keeps the config's column order whatever order the steps ran in
     columns = {m: columns[m] for m in pipeline.ranges}
+    del range_sets, sigma_by_row, dr_base  # spent once the position steps have run
     with timed("metrics"):
+        # the dead reckoning against the CP solution first: positions.csv's table then
+        # takes the products' trajectories, freeing each platform's once copied in
+        cp_positions = cp_product or products.get("observed")
+        del cp_product
+        dr_quality = (
+            {} if cp_positions is None else dead_reckoning_quality(session, cp_positions.positions)
+        )
+        del cp_positions
+        states = states_table(session, products)
         table = _range_table(base, columns, range_products)
-        positions = positions_table(session, products, output)
+        del base  # the table holds its columns
+        positions = positions_table(session, products, output, release=True)
         sigma = {p: s for prod in range_products for p, s in prod.sigma.items()}
         # true NLOS is labelled against the declared sigma (or, without one, the robust
         # spread of observed - reference), never against what the detector estimated
@@ -168,7 +179,10 @@ def run_pipeline(
         label_sigma = {} if declared is None else {p: float(declared) for p in sigma}
         events = _concat_or_empty([p.nlos_events for p in range_products], NLOS_EVENT_COLUMNS)
         nlos_methods = tuple(m for m in columns if any(m in p.nlos for p in range_products))
-        scores = nlos_scores(table, events, label_sigma, methods=nlos_methods)
+        event_scores = nlos_event_scores(table, events)
+        scores = nlos_scores(
+            table, events, label_sigma, methods=nlos_methods, event_scores=event_scores
+        )
         di = next((p.di for p in range_products if p.di is not None), None)
         result = Result(
             ranges=table,
@@ -180,22 +194,19 @@ def run_pipeline(
             positions=positions,
             metrics=distance_metrics(table, methods=("observed", *columns)),
             position_metrics=position_metrics(positions, methods=tuple(products)),
-            states=states_table(session, products),
+            states=states,
         )
-    cp_positions = cp_product or products.get("observed")
     return PipelineOutput(
         result=result,
         nlos_scores=scores,
-        nlos_event_scores=nlos_event_scores(table, events),
+        nlos_event_scores=event_scores,
         timings_s=timings,
         sigma=sigma,
         ranging_calibration={k: v for p in range_products for k, v in p.calibration.items()},
         fusion_calibration={
             m: p.calibration for m, p in products.items() if p.calibration is not None
         },
-        dr_quality=(
-            {} if cp_positions is None else dead_reckoning_quality(session, cp_positions.positions)
-        ),
+        dr_quality=dr_quality,
         notes=(*tag_notes, *(n for p in products.values() for n in p.notes)),
         chain=steps,
         methods={
@@ -294,13 +305,13 @@ def _range_table(
         flag, estimate = np.zeros(len(base), dtype=np.int64), np.zeros(len(base))
     else:
         flag, estimate = nlos[source]
-    table = base[["time", "pair", "observed"]].copy()
-    for method, values in columns.items():
-        table[method] = values
-    table["reference"] = base["reference"].to_numpy()
-    table["nlos_flag"] = np.asarray(flag, dtype=np.int64)
-    table["nlos_estimate"] = np.asarray(estimate, dtype=np.float64)
-    return table
+    data: dict[str, Any] = {c: base[c] for c in ("time", "pair", "observed")}
+    data.update(columns)
+    data["reference"] = base["reference"].to_numpy()
+    data["nlos_flag"] = np.asarray(flag, dtype=np.int64)
+    data["nlos_estimate"] = np.asarray(estimate, dtype=np.float64)
+    # the columns as they are (no copy: a day's table is ~270 MB, held once)
+    return pd.DataFrame(data, copy=False)
 
 
 def _concat_or_empty(frames: list[pd.DataFrame | None], columns: tuple[str, ...]) -> pd.DataFrame:

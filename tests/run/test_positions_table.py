@@ -97,3 +97,28 @@ def test_no_positions_gives_the_empty_table(session: Session) -> None:
     table = positions_table(session, {"observed": PositionProduct(positions={})}, "ranges")
     assert list(table.columns) == list(POSITIONS_COLUMNS)
     assert len(table) == 0
+
+
+def test_release_empties_the_solutions_and_gives_the_same_table(session: Session) -> None:
+    def products() -> dict[str, PositionProduct]:
+        return {
+            "observed": PositionProduct(positions=_solution(session, 0.1)),
+            "rn": PositionProduct(positions=_solution(session, 0.3)),
+        }
+
+    kept = positions_table(session, products(), "ranges")
+    given = products()
+    released = positions_table(session, given, "ranges", release=True)
+    pd.testing.assert_frame_equal(released, kept, check_exact=True)
+    assert all(not p.positions for p in given.values())  # trajectories handed over
+
+
+def test_own_epochs_are_the_unique_times_of_each_platforms_ranges(session: Session) -> None:
+    frame = session.ranges.frame
+    own = own_epochs(session)
+    assert set(own) == set(session.platform_ids)
+    for platform, times in own.items():
+        mine = (frame["from"] == platform) | (frame["to"] == platform)
+        expected = np.unique(frame["time"].to_numpy(np.float64)[mine.to_numpy()])
+        np.testing.assert_array_equal(times, expected)
+        assert len(times)
