@@ -258,6 +258,24 @@ class Trajectory:
         out[(steps[idx - 1] > limit) & ~exact] = np.nan
         return out
 
+    def covered(self, time_s: FloatArray) -> NDArray[np.bool_]:
+        """Where :meth:`interpolate_within` gives a position (its east not NaN): inside the
+        span and not inside a gap, or exactly on an epoch; the same mask without
+        interpolating (with finite positions; else from the interpolation)."""
+        t = np.asarray(time_s, dtype=np.float64)
+        if len(self) < 2 or not self._finite:
+            return ~np.isnan(self.interpolate_within(t)[:, 0])
+        inside = (t >= self.time_s[0]) & (t <= self.time_s[-1])
+        right = np.searchsorted(self.time_s, t)
+        idx = np.clip(right, 1, len(self) - 1)
+        exact = self.time_s[np.minimum(right, len(self) - 1)] == t
+        gap = (self.time_s[idx] - self.time_s[idx - 1] > self.gap_limit_s()) & ~exact
+        return inside & ~gap
+
+    @functools.cached_property
+    def _finite(self) -> bool:
+        return bool(np.isfinite(self.enu_m).all())
+
     def gap_limit_s(self) -> float:
         """The longest interval between epochs that is not a gap (:func:`gap_limit_s`), s."""
         return gap_limit_s(self.time_s)
@@ -301,6 +319,16 @@ class RangeTable:
     frame: pd.DataFrame
     source: str = ""
 
+    @classmethod
+    def with_id_codes(
+        cls, frame: pd.DataFrame, source: str, id_codes: tuple[np.ndarray, np.ndarray, np.ndarray]
+    ) -> RangeTable:
+        """A table whose :attr:`id_codes` its reader already has (the same values as
+        computed from ``frame``: the ids that occur, sorted, and every row's codes)."""
+        table = cls(frame, source=source)
+        table.__dict__["id_codes"] = id_codes
+        return table
+
     @property
     def extra_columns(self) -> tuple[str, ...]:
         return tuple(c for c in self.frame.columns if c not in RANGE_COLUMNS)
@@ -323,9 +351,7 @@ class RangeTable:
     def id_codes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(platform ids sorted, code of ``from``, code of ``to`` of every row): integer
         codes to select a platform's rows without comparing strings row by row."""
-        both = np.concatenate(
-            [self.frame["from"].to_numpy(object), self.frame["to"].to_numpy(object)]
-        )
+        both = pd.concat([self.frame["from"], self.frame["to"]], ignore_index=True)
         codes, ids = pd.factorize(both, sort=True)
         n = len(self.frame)
         return np.asarray(ids, dtype=object), codes[:n], codes[n:]

@@ -78,16 +78,20 @@ def nav_coverage(session: Session) -> dict[str, NavCoverage]:
     """The coverage of every non-anchor platform with navigation, by id."""
     frame = session.ranges.frame
     times = frame["time"].to_numpy(dtype=np.float64)
-    ends = (frame["from"].to_numpy(), frame["to"].to_numpy())
+    ids, first, second = session.ranges.id_codes  # integer codes, no string compares
     out = {}
     for pid in session.platform_ids:
         traj = session.nav.get(pid)
         if session.platforms[pid].role == "anchor" or traj is None or len(traj) == 0:
             continue
-        rows = (ends[0] == pid) | (ends[1] == pid)
+        at = int(np.searchsorted(ids, pid))
+        if at < ids.shape[0] and ids[at] == pid:
+            rows = (first == at) | (second == at)
+        else:
+            rows = np.zeros(times.shape[0], dtype=bool)
         t = times[rows]
         uncovered = np.zeros(times.shape[0], dtype=bool)
-        uncovered[rows] = np.isnan(traj.interpolate_within(t)[:, 0])
+        uncovered[rows] = ~traj.covered(t)
         start, end = traj.span_s
         gaps = traj.gaps_s() if len(traj) > 1 else np.empty((0, 2))
         tu = times[uncovered]
@@ -207,7 +211,12 @@ def restrict_to_coverage(session: Session) -> tuple[Session, list[str]]:
             + "; ".join(notes).replace("excluded", "would exclude"),
         )
     frame = session.ranges.frame[~drop].reset_index(drop=True)
-    ranges = RangeTable(frame, source=session.ranges.source)
+    ids, first, second = session.ranges.id_codes
+    first, second = first[~drop], second[~drop]
+    present = np.bincount(np.concatenate([first, second]), minlength=ids.shape[0]) > 0
+    code = np.cumsum(present) - 1  # the ids left, renumbered in their sorted order
+    codes = (ids[present], code[first], code[second])
+    ranges = RangeTable.with_id_codes(frame, session.ranges.source, codes)
     restricted = dataclasses.replace(session, ranges=ranges, notes=(*session.notes, *notes))
     return restricted, notes
 

@@ -33,6 +33,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from coopproc.model import FloatArray, Session
@@ -139,6 +140,19 @@ def _known_position(session: Session, pid: str, t: FloatArray) -> FloatArray | N
     return nav.interpolate_within(t)
 
 
+def _known_mask(session: Session, pid: str, t: FloatArray) -> NDArray[np.bool_]:
+    """Where :func:`_known_position` gives a finite position, without interpolating."""
+    info = session.platforms.get(pid)
+    nav = session.nav.get(pid)
+    if info is None or info.role == "anchor" or nav is None or len(nav) < 2:
+        pos = _known_position(session, pid, t[:1])
+        finite = pos is not None and bool(np.isfinite(pos).all())
+        return np.full(t.shape[0], finite)
+    if not np.isfinite(nav.enu_m).all():
+        return np.asarray(np.isfinite(nav.interpolate_within(t)).all(axis=1))
+    return nav.covered(t)
+
+
 def _observations(session: Session, pid: str, known: set[str]) -> _Obs | None:
     nav = session.nav.get(pid)
     if nav is None or len(nav) < 2:
@@ -149,25 +163,38 @@ def _observations(session: Session, pid: str, known: set[str]) -> _Obs | None:
         return None
     ids, first, second = session.ranges.id_codes  # integer codes, no string compares
     own = int(np.searchsorted(ids, pid))
-    other = ids[np.where(first[rows] == own, second[rows], first[rows])]
+    other = np.where(first[rows] == own, second[rows], first[rows])
     t = frame["time"].to_numpy(dtype=np.float64)[rows]
     r = frame["range"].to_numpy(dtype=np.float64)[rows]
-    p = nav.interpolate_within(t)
-    q = np.full_like(p, np.nan)
-    for partner in sorted(set(other.tolist()) & known):
-        sel = other == partner
-        pos = _known_position(session, partner, t[sel])
-        if pos is not None:
-            q[sel] = pos
-    ok = np.isfinite(p).all(axis=1) & np.isfinite(q).all(axis=1) & np.isfinite(r)
+    # which ranges are usable first (masks), the positions only at the ones used
+    partners_known = [(k, str(ids[k])) for k in np.unique(other) if str(ids[k]) in known]
+    q_ok = np.zeros(t.shape[0], dtype=bool)
+    for k, partner in partners_known:
+        sel = other == k
+        q_ok[sel] = _known_mask(session, partner, t[sel])
+    p_ok = (
+        nav.covered(t)
+        if np.isfinite(nav.enu_m).all()
+        else np.isfinite(nav.interpolate_within(t)).all(axis=1)
+    )
+    ok = p_ok & q_ok & np.isfinite(r)
     if ok.sum() < MIN_RANGES:
         return None
     idx = np.flatnonzero(ok)
     usable = int(idx.size)
     if idx.size > MAX_RANGES:
         idx = idx[np.linspace(0, idx.size - 1, MAX_RANGES).round().astype(np.int64)]
-    partners = tuple(sorted(set(other[idx].tolist())))
-    return _Obs(t[idx], p[idx], q[idx], r[idx], partners, usable)
+    t, other = t[idx], other[idx]
+    p = nav.interpolate_within(t)
+    q = np.full_like(p, np.nan)
+    for k, partner in partners_known:
+        sel = other == k
+        if sel.any():
+            pos = _known_position(session, partner, t[sel])
+            assert pos is not None  # its ranges are usable
+            q[sel] = pos
+    partners = tuple(str(ids[k]) for k in np.unique(other))
+    return _Obs(t, p, q, r[idx], partners, usable)
 
 
 def _moved(x: FloatArray, p: FloatArray, centre: FloatArray) -> FloatArray:

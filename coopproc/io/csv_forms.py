@@ -18,6 +18,7 @@ import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -279,6 +280,42 @@ def _reader(path: Path, form: CsvForm) -> Callable[[], list[str]]:
     return read_lines
 
 
+#: Bytes read at a time when checking that a file is plain ASCII.
+_CHUNK = 1 << 23
+
+
+def _plain_head(path: Path, form: CsvForm) -> tuple[str, list[str], int] | None:
+    """(head text, its first lines, the header's index) of a file that
+    :func:`read_table` reads exactly as from its whole decoded text: plain ASCII (so
+    valid UTF-8, no byte order mark), no NUL in its first 4096 bytes, no declared
+    encoding, not gzip, its header within the first lines and not whitespace-delimited.
+    None otherwise (the caller decodes the whole file). The file is checked in chunks,
+    so its text is never held whole."""
+    if form.encoding is not None or path.name.lower().endswith(".gz"):
+        return None
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(_CHUNK)
+            if b"\x00" in head[:4096] or not head.isascii():
+                return None
+            whole = len(head) < _CHUNK
+            if not whole and head.count(b"\n") < _HEAD_LINES:
+                return None  # long lines: the head may not hold the lines looked at
+            while chunk := fh.read(_CHUNK):
+                if not chunk.isascii():
+                    return None
+    except OSError:
+        return None  # the caller reports it
+    text = head.decode("ascii")
+    lines = _head_lines(text, _HEAD_LINES)
+    if not any(t.strip() and not t.strip().startswith("#") for t in lines[:-1]):
+        return None
+    index = _header(lines, path)
+    if sniff_delimiter(lines[index].strip())[0] == r"\s+":
+        return None
+    return text, lines, index
+
+
 def read_table(
     path: Path,
     known: Sequence[str] = (),
@@ -287,29 +324,37 @@ def read_table(
     *,
     required: Sequence[str] = (),
     text_columns: Sequence[str] = (),
+    coded_columns: Sequence[str] = (),
 ) -> CsvTable:
     """A CSV table with ``#`` comments before its header, in coopproc's names and units.
 
     ``known``: coopproc's column names for this kind of file (the header should hold
     some; a first line that holds values names ``expected``). ``required``: columns a
     message should name by their mapped file name when missing. ``text_columns``:
-    columns read as text (platform ids).
+    columns read as text (platform ids); ``coded_columns``: the same, read as pandas
+    categories (text columns of millions of rows and a few distinct values: no string
+    per row).
     """
     form = form or CsvForm()
-    try:
-        data = path.read_bytes()
-        if path.name.lower().endswith(".gz"):
-            data = gzip.decompress(data)
-    except PARSE_ERRORS as err:
-        raise InputError(
-            path, f"cannot read as CSV ({type(err).__name__}: {one_line(err)})"
-        ) from err
-    text, encoding, codec = decode_bytes(data, path, form)  # bad bytes: one clear error
-    del data
-    lines = _head_lines(text, _HEAD_LINES)
-    if not any(t.strip() and not t.strip().startswith("#") for t in lines[:-1]):
-        lines = _split_lines(text)  # a long comment block: look further
-    index = _header(lines, path)
+    found = _plain_head(path, form)
+    if found is not None:  # plain ASCII, comma-delimited: the head is all that is needed
+        text, lines, index = found
+        encoding, codec = "", "utf-8"
+    else:
+        try:
+            data = path.read_bytes()
+            if path.name.lower().endswith(".gz"):
+                data = gzip.decompress(data)
+        except PARSE_ERRORS as err:
+            raise InputError(
+                path, f"cannot read as CSV ({type(err).__name__}: {one_line(err)})"
+            ) from err
+        text, encoding, codec = decode_bytes(data, path, form)  # bad bytes: one clear error
+        del data
+        lines = _head_lines(text, _HEAD_LINES)
+        if not any(t.strip() and not t.strip().startswith("#") for t in lines[:-1]):
+            lines = _split_lines(text)  # a long comment block: look further
+        index = _header(lines, path)
     header = lines[index].strip()
     sep, sep_name = sniff_delimiter(header)
     fields = header.split() if sep == r"\s+" else header.split(sep)
@@ -320,7 +365,8 @@ def read_table(
     first_row = next((t for t in lines[index + 1 :] if t.strip()), "")
     del text
     decimal = "," if _decimal_comma(first_row, sep) else "."
-    as_text = {form.columns.get(c, c): str for c in text_columns}
+    as_text: dict[str, Any] = {form.columns.get(c, c): str for c in text_columns}
+    as_text.update({form.columns.get(c, c): "category" for c in coded_columns})
     try:
         frame = pd.read_csv(
             path,  # the C engine reads a path several times faster than a StringIO

@@ -8,6 +8,7 @@ rows are dropped with a note.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -68,10 +69,14 @@ def _ids(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Column ``name`` as (code of every row, -1 where empty; the distinct ids): a day of
     ranges is millions of rows but a handful of ids, so no per-row Python string."""
-    values = frame[name].astype("string").str.strip()
-    codes, uniques = pd.factorize(values, use_na_sentinel=True)
-    ids = np.asarray(uniques, dtype=object)
-    codes = np.asarray(codes, dtype=np.int64)
+    column = frame[name]
+    if isinstance(column.dtype, pd.CategoricalDtype):
+        codes, ids = _category_ids(column)
+    else:
+        values = column.astype("string").str.strip()
+        codes, uniques = pd.factorize(values, use_na_sentinel=True)
+        ids = np.asarray(uniques, dtype=object)
+        codes = np.asarray(codes, dtype=np.int64)
     blank = [i for i, u in enumerate(ids) if u == ""]
     if blank:
         codes = np.where(codes == blank[0], -1, codes)
@@ -95,6 +100,21 @@ def _ids(
             )
         )
     return codes, ids
+
+
+def _category_ids(column: pd.Series) -> tuple[np.ndarray, np.ndarray]:
+    """What ``pd.factorize`` of the stripped text gives (codes, -1 where missing; the
+    distinct ids in the order they first appear), from a categorical column's codes:
+    only its few categories are stripped, no string per row is made."""
+    stripped = [str(c).strip() for c in column.cat.categories]
+    merged, to_merged = np.unique(np.array(stripped, dtype=object), return_inverse=True)
+    raw = np.asarray(column.cat.codes.to_numpy(), dtype=np.int64)
+    per_row = np.append(to_merged.reshape(-1), -1)[raw]  # code -1 (missing) stays -1
+    codes, seen = pd.factorize(per_row)  # ids numbered as they first appear
+    first = np.asarray(seen, dtype=np.int64)
+    renumber = np.cumsum(first >= 0) - 1  # -1 (missing) is not an id
+    out = np.where(first[codes] >= 0, renumber[codes], -1).astype(np.int64)
+    return out, np.array([merged[k] for k in first if k >= 0], dtype=object)
 
 
 def _merged(
@@ -198,13 +218,16 @@ def range_table_from_frame(frame: pd.DataFrame, where: Locator) -> RangesRead:
     # ids are sorted, so the smaller code is the id that sorts first (pair_name's order)
     lo = np.minimum(src_code, dst_code)
     hi = np.maximum(src_code, dst_code)
-    keys, inverse = np.unique(lo * len(ids) + hi, return_inverse=True)
-    names = np.array([f"{ids[k // len(ids)]}-{ids[k % len(ids)]}" for k in keys], dtype=object)
+    key = lo * len(ids) + hi
+    present = np.bincount(key, minlength=len(ids) ** 2) > 0
+    keys = np.flatnonzero(present)  # sorted, as np.unique gives them
+    inverse = (np.cumsum(present) - 1)[key]
+    names = [f"{ids[k // len(ids)]}-{ids[k % len(ids)]}" for k in keys]
     data = {
         "time": time_s,
-        "pair": names[inverse.reshape(-1)],
-        "from": ids[src_code],
-        "to": ids[dst_code],
+        "pair": text_column(inverse, names),
+        "from": text_column(src_code, ids),
+        "to": text_column(dst_code, ids),
         "range": range_m,
         "sigma": sigma_m,
     }
@@ -218,12 +241,41 @@ def range_table_from_frame(frame: pd.DataFrame, where: Locator) -> RangesRead:
         notes.append(f"{where.path}: times not in order; rows sorted by time")
     else:
         order = np.arange(len(out))
-    dup = out.duplicated(keep="first")
+    dup = _duplicated(out)
     if dup.any():
-        out = out[~dup.to_numpy()].reset_index(drop=True)
-        order = order[~dup.to_numpy()]
+        out = out[~dup].reset_index(drop=True)
+        order = order[~dup]
         notes.append(f"{where.path}: {int(dup.sum())} duplicated row(s) dropped")
-    return RangesRead(RangeTable(out, source=where.path), notes, where, order)
+    codes = (np.asarray(ids, dtype=object), src_code[order], dst_code[order])
+    return RangesRead(RangeTable.with_id_codes(out, where.path, codes), notes, where, order)
+
+
+def text_column(codes: np.ndarray, names: Sequence[str] | np.ndarray) -> pd.Series:
+    """``names[codes]`` as the text column pandas makes of that object array (its
+    default ``str`` dtype), built by Arrow from the codes: no Python string per row."""
+    dtype = pd.Series(np.array(names[:1], dtype=object)).dtype
+    if not (isinstance(dtype, pd.StringDtype) and dtype.storage == "pyarrow"):
+        return pd.Series(np.array(names, dtype=object)[codes])  # pragma: no cover
+    import pyarrow as pa
+
+    table = pa.array(list(names), type=pa.large_string())
+    text = pa.DictionaryArray.from_arrays(pa.array(codes, type=pa.int32()), table)
+    return pd.Series(pd.array(text.dictionary_decode(), dtype=dtype))
+
+
+def _duplicated(frame: pd.DataFrame) -> np.ndarray:
+    """``frame.duplicated(keep="first")`` of a table sorted by time: exact duplicates
+    share their time, so only rows whose time is not unique are compared."""
+    time_s = frame["time"].to_numpy()
+    same = np.diff(time_s) == 0
+    candidate = np.zeros(len(frame), dtype=bool)
+    candidate[1:] |= same
+    candidate[:-1] |= same
+    dup = np.zeros(len(frame), dtype=bool)
+    if candidate.any():
+        rows = np.flatnonzero(candidate)
+        dup[rows] = frame.iloc[rows].duplicated(keep="first").to_numpy()
+    return dup
 
 
 def read_ranges_csv(path: str | Path, form: CsvForm | None = None) -> RangesRead:
@@ -237,7 +289,7 @@ def read_ranges_csv(path: str | Path, form: CsvForm | None = None) -> RangesRead
         "time,from,to,range (then optional sigma and extra columns)",
         form,
         required=_REQUIRED,
-        text_columns=("from", "to"),
+        coded_columns=("from", "to"),
     )
     out = range_table_from_frame(table.frame, table.where)
     out.notes[:0] = table.notes
