@@ -43,7 +43,7 @@ from coopproc.stages.fusion.ekf import (
 )
 from coopproc.stages.fusion.inputs import FusionInputs, fusion_inputs
 from coopproc.stages.fusion.lsq import LsqParams
-from coopproc.stages.fusion.output import trajectories_from_slots
+from coopproc.stages.fusion.output import solutions_from_slots
 from coopproc.stages.fusion.smoother import mbf_backward
 
 __all__ = ["FusionOutput", "FusionParams", "fuse", "fusion_params_from_toml"]
@@ -262,8 +262,9 @@ def fuse(
     del cp_x, cp_c, obs, kernel_obs, gamma, ep_idx, noise
     del nav_t, nav_v, nav_ptr
     slots = (session, moving, epochs, rec_ptr, rec_plat, dim, output)
-    forward = trajectories_from_slots(*slots, xs_f, var_f, hold=True)
-    smoothed = trajectories_from_slots(*slots, xs_s, var_s if smoothed_sigma else None, hold=False)
+    forward, smoothed = solutions_from_slots(
+        *slots, [(xs_f, var_f, True), (xs_s, var_s if smoothed_sigma else None, False)]
+    )
     return FusionOutput(smoothed=smoothed, forward=forward, epochs_s=epochs, observations=table)
 
 

@@ -18,7 +18,12 @@ import pandas as pd
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.stages.fusion.data import nav_points, platform_codes
 
-__all__ = ["recorded_slots", "trajectories_from_slots", "trajectories_from_states"]
+__all__ = [
+    "recorded_slots",
+    "solutions_from_slots",
+    "trajectories_from_slots",
+    "trajectories_from_states",
+]
 
 
 def recorded_slots(
@@ -78,32 +83,58 @@ def trajectories_from_slots(
     ``output="ranges"``: each platform at its recorded epochs; ``"nav"`` (every slot
     recorded): :func:`trajectories_from_states`. ``var`` None: no sigmas.
     """
+    slots = (session, moving, epochs, rec_ptr, rec_plat, dim, output)
+    return solutions_from_slots(*slots, [(xs, var, hold)])[0]
+
+
+def solutions_from_slots(
+    session: Session,
+    moving: list[str],
+    epochs: FloatArray,
+    rec_ptr: np.ndarray,
+    rec_plat: np.ndarray,
+    dim: int,
+    output: str,
+    solutions: list[tuple[FloatArray, FloatArray | None, bool]],
+) -> list[dict[str, Trajectory]]:
+    """:func:`trajectories_from_slots` of several solutions (states, variances, hold) of
+    the same slots (the forward and the smoothed): each platform's slots, epochs and
+    navigation heights found once for all of them."""
     n_ep, n_plat = epochs.shape[0], len(moving)
-    if var is None:
-        var = np.full(xs.shape, np.nan) if output != "ranges" else None
     if output != "ranges":
-        assert var is not None
         full = (n_ep, n_plat * dim)
-        return trajectories_from_states(
-            session, moving, epochs, xs.reshape(full), var.reshape(full), dim, output,
-            hold=hold,
-        )  # fmt: skip
+        nav_rate = []
+        for xs, var, hold in solutions:
+            var_full = (np.full(xs.shape, np.nan) if var is None else var).reshape(full)
+            nav_rate.append(
+                trajectories_from_states(
+                    session, moving, epochs, xs.reshape(full), var_full, dim, output, hold=hold
+                )
+            )
+        return nav_rate
     epoch_of = np.repeat(np.arange(n_ep), np.diff(rec_ptr))
-    by_plat = np.argsort(rec_plat, kind="stable")  # each platform's slots, ascending
-    bounds = np.searchsorted(rec_plat[by_plat], np.arange(n_plat + 1))
-    out: dict[str, Trajectory] = {}
+    # each platform's slots, ascending: a stable sort of small codes (radix sort)
+    code = rec_plat.astype(np.int16 if n_plat < 2**15 else np.int64)
+    by_plat = np.argsort(code, kind="stable")
+    bounds = np.searchsorted(code[by_plat], np.arange(n_plat + 1))
+    del code
+    out: list[dict[str, Trajectory]] = [{} for _ in solutions]
     for p, pid in enumerate(moving):
         slots = by_plat[bounds[p] : bounds[p + 1]]
         at = epoch_of[slots]
-        enu = np.empty((at.shape[0], 3))
-        enu[:, :dim] = xs[slots]
-        if dim < 3:  # the height: the platform's own navigation at those epochs
-            enu[:, dim:] = nav_points(session, pid, epochs[at], range(dim, 3))
-        sig = None
-        if var is not None:
-            sig = np.full((at.shape[0], 3), np.nan)
-            sig[:, :dim] = np.sqrt(np.maximum(var[slots], 0.0))
-        out[pid] = Trajectory(pid, epochs[at], enu, sigma_enu_m=sig, source="fusion")
+        times = epochs[at]
+        up = nav_points(session, pid, times, range(dim, 3)) if dim < 3 else None
+        for i, (xs, var, _) in enumerate(solutions):
+            enu = np.empty((at.shape[0], 3))
+            enu[:, :dim] = xs[slots]
+            if up is not None:  # the height: the platform's own navigation at those epochs
+                enu[:, dim:] = up
+            sig = None
+            if var is not None:
+                sig = np.full((at.shape[0], 3), np.nan)
+                sig[:, :dim] = np.sqrt(np.maximum(var[slots], 0.0))
+            time_s = times if i == 0 else times.copy()
+            out[i][pid] = Trajectory(pid, time_s, enu, sigma_enu_m=sig, source="fusion")
     return out
 
 
