@@ -6,9 +6,9 @@ operations in the same order, so ``evaluation.csv`` and ``rpe.csv`` keep their b
 
 - ``np.sum(a, axis=1)`` of an (n, 3) array adds ``(a0 + a1) + a2``;
 - ``np.sum(a, axis=0)`` (and ``mean``, ``std``) of a C-ordered (n, 3) array adds the rows
-  one after the other, starting from the first row (no pairwise summation across rows);
-- ``np.cumsum`` adds sequentially; ``min``, ``max``, ``np.hypot`` and ``searchsorted``
-  do not depend on an order.
+  one after the other to 0.0 (no pairwise summation across rows);
+- ``np.cumsum`` adds sequentially; ``min`` and ``max`` keep the later of two equal values
+  (the sign of a zero); ``np.hypot`` and ``searchsorted`` do not depend on an order.
 
 Sums over a contiguous 1-D array (numpy's pairwise summation) and medians stay numpy's
 (:mod:`coopproc.report.evaluation`, :mod:`coopproc.report.rpe`). No fast-math: the
@@ -35,34 +35,38 @@ def error_norms(
     n = moved.shape[0]
     e3 = np.empty(n)
     h = np.empty(n)
-    # sums start from the first row, as numpy's reductions do (the sign of a zero sum)
-    s0, s1, s2 = moved[0, 0] - ref[0, 0], moved[0, 1] - ref[0, 1], moved[0, 2] - ref[0, 2]
-    q0, q1, q2 = s0 * s0, s1 * s1, s2 * s2
-    lo0, lo1, lo2 = s0, s1, s2
-    hi0, hi1, hi2 = s0, s1, s2
-    ab0, ab1, ab2 = abs(s0), abs(s1), abs(s2)
+    # sums from 0.0, minima and maxima from the first row, ties to the later value: numpy's
+    # reductions (np.minimum(a, b) is ``a if a < b else b``), down to the sign of a zero
+    s0, s1, s2 = 0.0, 0.0, 0.0
+    q0, q1, q2 = 0.0, 0.0, 0.0
+    lo0, lo1, lo2 = moved[0, 0] - ref[0, 0], moved[0, 1] - ref[0, 1], moved[0, 2] - ref[0, 2]
+    hi0, hi1, hi2 = lo0, lo1, lo2
+    ab0, ab1, ab2 = abs(lo0), abs(lo1), abs(lo2)
     for i in range(n):
         d0 = moved[i, 0] - ref[i, 0]
         d1 = moved[i, 1] - ref[i, 1]
         d2 = moved[i, 2] - ref[i, 2]
         e3[i] = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
         h[i] = np.hypot(d0, d1)
+        s0 += d0
+        s1 += d1
+        s2 += d2
+        q0 += d0 * d0
+        q1 += d1 * d1
+        q2 += d2 * d2
         if i:
-            s0 += d0
-            s1 += d1
-            s2 += d2
-            q0 += d0 * d0
-            q1 += d1 * d1
-            q2 += d2 * d2
-            lo0, lo1, lo2 = min(lo0, d0), min(lo1, d1), min(lo2, d2)
-            hi0, hi1, hi2 = max(hi0, d0), max(hi1, d1), max(hi2, d2)
-            ab0, ab1, ab2 = max(ab0, abs(d0)), max(ab1, abs(d1)), max(ab2, abs(d2))
+            lo0 = lo0 if lo0 < d0 else d0
+            lo1 = lo1 if lo1 < d1 else d1
+            lo2 = lo2 if lo2 < d2 else d2
+            hi0 = hi0 if hi0 > d0 else d0
+            hi1 = hi1 if hi1 > d1 else d1
+            hi2 = hi2 if hi2 > d2 else d2
+            ab0 = max(ab0, abs(d0))
+            ab1 = max(ab1, abs(d1))
+            ab2 = max(ab2, abs(d2))
     m0, m1, m2 = s0 / n, s1 / n, s2 / n
-    c0 = (moved[0, 0] - ref[0, 0]) - m0
-    c1 = (moved[0, 1] - ref[0, 1]) - m1
-    c2 = (moved[0, 2] - ref[0, 2]) - m2
-    v0, v1, v2 = c0 * c0, c1 * c1, c2 * c2
-    for i in range(1, n):
+    v0, v1, v2 = 0.0, 0.0, 0.0
+    for i in range(n):
         c0 = (moved[i, 0] - ref[i, 0]) - m0
         c1 = (moved[i, 1] - ref[i, 1]) - m1
         c2 = (moved[i, 2] - ref[i, 2]) - m2
