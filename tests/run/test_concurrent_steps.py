@@ -26,6 +26,7 @@ from coopproc.model import Session
 from coopproc.run import concurrent_steps
 from coopproc.run.chain import PipelineParams, resolve
 from coopproc.run.concurrent_steps import (
+    BYTES_PER_ROW,
     MIN_ROWS,
     group_label,
     group_steps,
@@ -81,8 +82,13 @@ def test_a_step_that_needs_the_one_before_waits_for_it() -> None:
 @needs_fork
 def test_when_forking_is_allowed(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(concurrent_steps, "_cpus", lambda: 2)
+    monkeypatch.setattr(concurrent_steps, "_available_bytes", lambda: 2 * BYTES_PER_ROW * MIN_ROWS)
     assert workers("auto", MIN_ROWS) == 2
     assert workers("auto", MIN_ROWS - 1) == 1  # a small session: not worth a fork
+    assert workers("auto", MIN_ROWS + 1) == 1  # a second fusion would not fit in memory
+    assert workers(True, MIN_ROWS + 1) == 2  # asked for: the user knows
+    monkeypatch.setattr(concurrent_steps, "_available_bytes", lambda: None)  # unknown
+    assert workers("auto", MIN_ROWS + 1) == 2
     assert workers(True, 10) == 2
     assert workers(False, MIN_ROWS) == 1
     monkeypatch.setattr(concurrent_steps, "_cpus", lambda: 1)
