@@ -131,3 +131,21 @@ def segment_errors(
         m2 = (p[j, 2] - p[i, 2]) - (q[j, 2] - q[i, 2])
         out[i] = np.sqrt((m0 * m0 + m1 * m1) + m2 * m2)
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def run_starts(first: np.ndarray, second: np.ndarray) -> np.ndarray:  # pragma: no cover
+    """Row numbers where ``(first, second)`` changes (0 included, for n > 0): the starts of
+    the runs of equal code pairs, without a temporary per row."""
+    n = first.size
+    count = 1 if n else 0
+    for i in range(1, n):
+        if first[i] != first[i - 1] or second[i] != second[i - 1]:
+            count += 1
+    out = np.empty(count, dtype=np.int64)
+    k = 0
+    for i in range(n):
+        if i == 0 or first[i] != first[i - 1] or second[i] != second[i - 1]:
+            out[k] = i
+            k += 1
+    return out

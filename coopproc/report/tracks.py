@@ -25,11 +25,14 @@ from numpy.typing import NDArray
 
 from coopproc.model import FloatArray, gap_limit_s
 from coopproc.report.methods import method_order, position_methods_of
+from coopproc.report.track_kernels import run_starts
 
 __all__ = ["REFERENCE_METHOD", "Track", "matched_tracks"]
 
 REFERENCE_METHOD = "reference"
 _AXES = ("east", "north", "up")
+#: More runs of equal (platform, method) than this: the rows are not grouped.
+_MAX_RUNS = 100_000
 #: Rows of one group: a slice of the table, or row numbers in the group's order.
 _Rows = slice | NDArray[np.intp]
 
@@ -57,7 +60,8 @@ def _codes(column: pd.Series) -> tuple[NDArray[np.integer], list[str]]:
     """Integer codes (-1: missing) and the names they stand for, in the order pandas'
     ``groupby(sort=True)`` lists the groups (a categorical's category order, else sorted)."""
     if isinstance(column.dtype, pd.CategoricalDtype):
-        return column.cat.codes.to_numpy(), [str(c) for c in column.cat.categories]
+        codes = column.array.codes  # type: ignore[attr-defined]  # a view, not a copy
+        return np.asarray(codes), [str(c) for c in column.cat.categories]
     codes, uniques = pd.factorize(column, sort=True)
     return codes, [str(u) for u in uniques]
 
@@ -70,11 +74,14 @@ def _groups(
     n = platform.size
     if not n:
         return []
-    cuts = np.flatnonzero((platform[1:] != platform[:-1]) | (method[1:] != method[:-1])) + 1
-    starts = np.concatenate([[0], cuts])
-    ends = np.concatenate([cuts, [n]])
-    pairs = list(zip(platform[starts].tolist(), method[starts].tolist(), strict=True))
-    if len(set(pairs)) == len(pairs):  # each group one run of rows
+    starts = run_starts(platform, method)
+    ends = np.append(starts[1:], n)
+    pairs = (
+        list(zip(platform[starts].tolist(), method[starts].tolist(), strict=True))
+        if starts.size <= _MAX_RUNS
+        else []
+    )
+    if pairs and len(set(pairs)) == len(pairs):  # each group one run of rows
         runs = zip(pairs, starts.tolist(), ends.tolist(), strict=True)
         return [(p, m, slice(s, e)) for (p, m), s, e in runs if p >= 0 and m >= 0]
     # rows not grouped: one stable sort by (platform, method) keeps each group's row order
