@@ -278,6 +278,10 @@ class Trajectory:
 
     def gap_limit_s(self) -> float:
         """The longest interval between epochs that is not a gap (:func:`gap_limit_s`), s."""
+        return self._gap_limit
+
+    @functools.cached_property
+    def _gap_limit(self) -> float:  # a median over every epoch: once per trajectory
         return gap_limit_s(self.time_s)
 
     def gaps_s(self) -> FloatArray:

@@ -174,11 +174,12 @@ def check_ranges(
     """
     problems: list[CoopprocError] = []
     frame = ranges.table.frame
-    ids = np.concatenate([frame["from"].to_numpy(), frame["to"].to_numpy()])
+    ids, first, second = ranges.table.id_codes  # integer codes, no string per row
     known = set(platforms) | skip
     expected = ", ".join(sorted(platforms)) or "none"
-    for pid in sorted(set(ids.tolist()) - known):
-        rows = np.flatnonzero((frame["from"].to_numpy() == pid) | (frame["to"].to_numpy() == pid))
+    for pid in sorted({str(i) for i in ids} - known):
+        at = int(np.searchsorted(ids, pid))
+        rows = np.flatnonzero((first == at) | (second == at))
         problems.append(
             ranges.error(
                 f"platform '{pid}' has no navigation (nav_{pid}.csv) and is not an anchor; "

@@ -7,6 +7,7 @@ and ``read_session`` raises the first.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 from typing import Literal
@@ -15,7 +16,13 @@ import numpy as np
 
 from coopproc.errors import CoopprocError, InputError
 from coopproc.io import assemble
-from coopproc.io._common import InputProblems, RawTrajectory, expand, flat
+from coopproc.io._common import (
+    InputProblems,
+    RawTrajectory,
+    expand,
+    flat,
+    release_freed_memory,
+)
 from coopproc.io.csv_mapping import CsvForms
 from coopproc.io.gnss_session import read_gnss
 from coopproc.io.mcap_read import McapContent, decode_mcap, read_mcap_raw
@@ -32,6 +39,8 @@ __all__ = ["inspect_session", "read_session", "validate_session"]
 
 #: Raw-sensor kinds read into the session (the others are listed, with a note).
 RAW_READ = ("imu", "odo", "gnss_obs", "gnss_nav")
+#: Input files read at once.
+READ_THREADS = 2
 
 
 class _Loader:
@@ -75,22 +84,38 @@ class _Loader:
             self.notes.extend(files.notes)
             self.sensors = files.sensors
             self.notes.extend(sensor_note(f) for f in files.sensors if f.kind not in RAW_READ)
-            for kind, group, target in (("nav", files.nav, nav_raw), ("ref", files.ref, ref_raw)):
-                for pid, fpath in sorted(group.items()):
+            # The files are read READ_THREADS at a time (pandas' C parser releases the GIL);
+            # their results and problems are taken in the same order as one by one.
+            with ThreadPoolExecutor(max_workers=READ_THREADS) as pool:
+                if files.ranges is not None:  # the largest file first
+                    later = pool.submit(read_ranges_csv, files.ranges, forms.form("ranges"))
+                reads = [
+                    (kind, pid, target, fpath)
+                    for kind, group, target in (
+                        ("nav", files.nav, nav_raw),
+                        ("ref", files.ref, ref_raw),
+                    )
+                    for pid, fpath in sorted(group.items())
+                ]
+                pending = [
+                    pool.submit(read_trajectory, fpath, pid, forms.form(f"{kind}.{pid}"))
+                    for kind, pid, _, fpath in reads
+                ]
+                for (kind, pid, target, fpath), read in zip(reads, pending, strict=True):
                     self.inputs.append(fpath)
                     try:
-                        target[pid] = read_trajectory(fpath, pid, forms.form(f"{kind}.{pid}"))
+                        target[pid] = read.result()
                     except CoopprocError as err:
                         self.add(err)
                         if kind == "nav":
                             self.failed.add(pid)
-            if files.ranges is not None:
-                self.inputs.append(files.ranges)
-                try:
-                    ranges = read_ranges_csv(files.ranges, forms.form("ranges"))
-                except CoopprocError as err:
-                    self.add(err)
-                    self.failed.add("<ranges>")
+                if files.ranges is not None:
+                    self.inputs.append(files.ranges)
+                    try:
+                        ranges = later.result()
+                    except CoopprocError as err:
+                        self.add(err)
+                        self.failed.add("<ranges>")
             mcap_path = files.mcap
         elif root.name.lower().endswith(".mcap"):
             mcap_path = root
@@ -229,8 +254,7 @@ class _Loader:
         if ranges is not None:
             skip = self.failed - {"<ranges>"}
             if "<toml>" in self.failed:  # anchors unknown: do not blame ranges for them
-                frame = ranges.table.frame
-                skip |= set(frame["from"]) | set(frame["to"])
+                skip |= {str(pid) for pid in ranges.table.id_codes[0]}
             spans = {} if ranges.where.path in bad_times else nav
             spans = {p: t for p, t in spans.items() if t.source not in bad_times}
             self.problems.extend(assemble.check_ranges(ranges, platforms, nav, skip, spans))
@@ -351,6 +375,7 @@ def read_session(path: str | Path) -> Session:
     """
     loader = _Loader()
     session = loader.load(path)
+    release_freed_memory()  # the parsers' buffers
     if loader.problems:
         raise flat(loader.problems[0])
     if session is None:  # pragma: no cover - every None path records a problem
