@@ -24,6 +24,7 @@ import pandas as pd
 
 from coopproc.model import FloatArray, gap_limit_s
 from coopproc.report.methods import method_order, position_methods_of
+from coopproc.report.tracks import codes_of, float_column, groups_of, time_order
 
 __all__ = ["AXIS_METRICS_COLUMNS", "axis_metrics"]
 
@@ -57,12 +58,28 @@ def _max(x: FloatArray) -> float:
 def _errors(own: pd.DataFrame, ref: pd.DataFrame | None, columns: Sequence[str]) -> FloatArray:
     """(n, k) errors of ``own`` against ``ref`` interpolated at its times (NaN outside
     the reference's span or where the reference has no value); angles wrapped."""
-    out = np.full((len(own), len(columns)), np.nan)
     if ref is None or len(ref) < 2:
-        return out
+        return np.full((len(own), len(columns)), np.nan)
     ref = ref.sort_values("time", kind="stable")
-    t_ref = ref["time"].to_numpy(dtype=np.float64)
-    t = own["time"].to_numpy(dtype=np.float64)
+    return _errors_at(
+        own["time"].to_numpy(dtype=np.float64),
+        [own[c].to_numpy(dtype=np.float64, na_value=np.nan) for c in columns],
+        ref["time"].to_numpy(dtype=np.float64),
+        [ref[c].to_numpy(dtype=np.float64, na_value=np.nan) for c in columns],
+        columns,
+    )
+
+
+def _errors_at(
+    t: FloatArray,
+    own: Sequence[FloatArray],
+    t_ref: FloatArray,
+    ref: Sequence[FloatArray],
+    columns: Sequence[str],
+) -> FloatArray:
+    """:func:`_errors` of arrays: the values at times ``t`` against the reference's
+    (sorted by time, at least two rows), one array per column."""
+    out = np.full((t.size, len(columns)), np.nan)
     inside = (t >= t_ref[0]) & (t <= t_ref[-1])
     # nothing across the reference's gaps (epochs it dropped, outages): the interval
     # around t must be at most GAP_FACTOR x its median, and at least 1 s is always one
@@ -71,7 +88,7 @@ def _errors(own: pd.DataFrame, ref: pd.DataFrame | None, columns: Sequence[str])
     exact = t_ref[np.minimum(np.searchsorted(t_ref, t), t_ref.size - 1)] == t
     inside &= exact | (t_ref[right] - t_ref[right - 1] <= limit)
     for i, col in enumerate(columns):
-        values = ref[col].to_numpy(dtype=np.float64, na_value=np.nan)
+        values = ref[i]
         ok = np.isfinite(values)
         if np.count_nonzero(ok) < 2:
             continue
@@ -79,12 +96,21 @@ def _errors(own: pd.DataFrame, ref: pd.DataFrame | None, columns: Sequence[str])
         if col in _ANGLES:
             values = np.degrees(np.unwrap(np.radians(values)))
         truth = np.interp(t, t_ref[ok], values)
-        err = own[col].to_numpy(dtype=np.float64, na_value=np.nan) - truth
+        err = own[i] - truth
         if col in _ANGLES:
             err = np.mod(err + 180.0, 360.0) - 180.0
         err[~inside] = np.nan
         out[:, i] = err
     return out
+
+
+def _sorted(
+    columns: dict[str, FloatArray], rows: slice | np.ndarray, names: Sequence[str]
+) -> list[FloatArray]:
+    """The columns ``names`` at ``rows``, the rows in stable time order (time first)."""
+    picked = [columns[name][rows] for name in ("time", *names)]
+    order = time_order(picked[0])
+    return picked if order is None else [v[order] for v in picked]
 
 
 def axis_metrics(
@@ -93,26 +119,36 @@ def axis_metrics(
     methods: Sequence[str] | None = None,
 ) -> pd.DataFrame:
     """The per-axis table (module docstring): one row per platform and method, rows in
-    the order of Table 3 (platform, then ``nav``, ``methods``, the rest alphabetically)."""
+    the order of Table 3 (platform, then ``nav``, ``methods``, the rest alphabetically).
+    The positions are grouped by integer codes in place (:mod:`coopproc.report.tracks`):
+    no per-group copies of a day's table."""
     rows: list[dict[str, object]] = []
     order = ("nav", *(position_methods_of(positions) if methods is None else methods))
-    for platform, group in positions.groupby("platform", sort=True):
-        refs = group[group["method"] == "reference"]
-        ref = refs if len(refs) else None
+    platform_codes, platforms = codes_of(positions["platform"])
+    method_codes, names = codes_of(positions["method"])
+    columns = {c: float_column(positions, c) for c in ("time", *_AXES, "error_h")}
+    by_platform: dict[int, dict[str, slice | np.ndarray]] = {}
+    for p, m, group in groups_of(platform_codes, method_codes):
+        by_platform.setdefault(p, {})[names[m]] = group
+    for code in sorted(by_platform):
+        platform, groups = platforms[code], by_platform[code]
+        ref = _sorted(columns, groups["reference"], _AXES) if "reference" in groups else None
         st = None if states is None else states[states["platform"] == platform]
         st_ref = None
         if st is not None:
             r = st[st["method"] == "reference"]
             st_ref = r if len(r) else None
-        present = sorted(str(m) for m in group["method"].unique() if m != "reference")
+        present = sorted(name for name in groups if name != "reference")
         for method in method_order(present, order):
-            own = group[group["method"] == method].sort_values("time", kind="stable")
-            e = _errors(own, ref, _AXES)
-            h = own["error_h"].to_numpy(dtype=np.float64, na_value=np.nan)
+            t, *own = _sorted(columns, groups[method], (*_AXES, "error_h"))
+            if ref is None or ref[0].size < 2:
+                e = np.full((t.size, len(_AXES)), np.nan)
+            else:
+                e = _errors_at(t, own[:3], ref[0], ref[1:], _AXES)
             stats: dict[str, object] = {
-                "platform": str(platform),
+                "platform": platform,
                 "method": method,
-                "n": int(np.count_nonzero(np.isfinite(h))),
+                "n": int(np.count_nonzero(np.isfinite(own[3]))),
             }
             for i, axis in enumerate(_AXES):
                 stats[f"rms_{axis}"] = _rms(e[:, i])

@@ -27,7 +27,15 @@ from coopproc.model import FloatArray, gap_limit_s
 from coopproc.report.methods import method_order, position_methods_of
 from coopproc.report.track_kernels import run_starts
 
-__all__ = ["REFERENCE_METHOD", "Track", "matched_tracks"]
+__all__ = [
+    "REFERENCE_METHOD",
+    "Track",
+    "codes_of",
+    "float_column",
+    "groups_of",
+    "matched_tracks",
+    "time_order",
+]
 
 REFERENCE_METHOD = "reference"
 _AXES = ("east", "north", "up")
@@ -48,7 +56,7 @@ class Track(NamedTuple):
     ref: FloatArray
 
 
-def _floats(frame: pd.DataFrame, name: str) -> FloatArray:
+def float_column(frame: pd.DataFrame, name: str) -> FloatArray:
     """A column as float64 (a view of a float64 column: no copy of 40 M rows)."""
     column = frame[name]
     if column.dtype == np.float64:
@@ -56,7 +64,7 @@ def _floats(frame: pd.DataFrame, name: str) -> FloatArray:
     return np.asarray(column.to_numpy(dtype=np.float64, na_value=np.nan))
 
 
-def _codes(column: pd.Series) -> tuple[NDArray[np.integer], list[str]]:
+def codes_of(column: pd.Series) -> tuple[NDArray[np.integer], list[str]]:
     """Integer codes (-1: missing) and the names they stand for, in the order pandas'
     ``groupby(sort=True)`` lists the groups (a categorical's category order, else sorted)."""
     if isinstance(column.dtype, pd.CategoricalDtype):
@@ -66,7 +74,7 @@ def _codes(column: pd.Series) -> tuple[NDArray[np.integer], list[str]]:
     return codes, [str(u) for u in uniques]
 
 
-def _groups(
+def groups_of(
     platform: NDArray[np.integer], method: NDArray[np.integer]
 ) -> list[tuple[int, int, _Rows]]:
     """``(platform code, method code, rows)`` of each group, by platform code; rows with a
@@ -100,7 +108,7 @@ def _groups(
     return out
 
 
-def _time_order(t: FloatArray) -> NDArray[np.intp] | None:
+def time_order(t: FloatArray) -> NDArray[np.intp] | None:
     """The stable time order of ``t`` (NaN last), None when it is in order already."""
     if t.size < 2 or bool(np.all(t[1:] >= t[:-1])):
         return None
@@ -137,11 +145,11 @@ def matched_tracks(
     order = ("nav", *(position_methods_of(positions) if methods is None else methods))
     if not len(positions):
         return
-    platform_codes, platforms = _codes(positions["platform"])
-    method_codes, names = _codes(positions["method"])
-    columns = {name: _floats(positions, name) for name in ("time", *_AXES, "error_h")}
+    platform_codes, platforms = codes_of(positions["platform"])
+    method_codes, names = codes_of(positions["method"])
+    columns = {name: float_column(positions, name) for name in ("time", *_AXES, "error_h")}
     by_platform: dict[int, dict[str, _Rows]] = {}
-    for p, m, rows in _groups(platform_codes, method_codes):
+    for p, m, rows in groups_of(platform_codes, method_codes):
         by_platform.setdefault(p, {})[names[m]] = rows
     for p in sorted(by_platform):
         yield from _platform_tracks(platforms[p], by_platform[p], columns, order)
@@ -155,7 +163,7 @@ def _platform_tracks(
 ) -> Iterator[Track]:
     ref_rows = groups.get(REFERENCE_METHOD)
     t_ref = columns["time"][ref_rows] if ref_rows is not None else np.empty(0)
-    sort = _time_order(t_ref)
+    sort = time_order(t_ref)
     q = [columns[a][ref_rows] if ref_rows is not None else np.empty(0) for a in _AXES]
     if sort is not None:
         t_ref, q = t_ref[sort], [v[sort] for v in q]
@@ -164,7 +172,7 @@ def _platform_tracks(
     present = sorted(name for name in groups if name != REFERENCE_METHOD)
     for method in method_order(present, order):
         rows = groups[method]
-        sort = _time_order(columns["time"][rows])
+        sort = time_order(columns["time"][rows])
         picked = [columns[a][rows] for a in ("time", *_AXES, "error_h")]
         if sort is not None:
             picked = [v[sort] for v in picked]
