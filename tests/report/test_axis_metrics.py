@@ -111,3 +111,18 @@ def test_nothing_across_reference_gaps() -> None:
     row = axis_metrics(pd.concat([ref, own], ignore_index=True)).iloc[0]
     assert row["rms_east"] == pytest.approx(0.1)
     assert row["max_east"] == pytest.approx(0.1)
+
+
+def test_row_order_and_text_storage_do_not_change_the_table() -> None:
+    """Rows grouped by integer codes: shuffled rows (each method's own time order lost),
+    categorical text columns and a second platform without reference give the same rows."""
+    one = _positions()
+    other = one[one["method"] == "ins"].assign(platform="B")  # no reference rows
+    table = pd.concat([one, other], ignore_index=True)
+    expected = axis_metrics(table, _states())
+    assert expected["platform"].tolist() == ["A", "B"]
+    assert expected.iloc[1]["n"] == 8 and np.isnan(expected.iloc[1]["rms_east"])
+    shuffled = table.sample(frac=1.0, random_state=7).reset_index(drop=True)
+    coded = table.astype({"platform": "category", "method": "category"})
+    for variant in (shuffled, coded):
+        pd.testing.assert_frame_equal(axis_metrics(variant, _states()), expected, check_exact=True)
