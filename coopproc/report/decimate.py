@@ -10,17 +10,36 @@ line breaks inserted by :func:`coopproc.report.gaps.break_gaps`) are all kept, a
 are the first and last sample of every run between them, so a line still stops and
 starts where the data do. A series of at most ``max_points`` samples is returned as is.
 
+How many points a panel can show is :func:`panel_points`: two (the bucket's minimum
+and maximum) per pixel column of the Axes at :data:`~coopproc.report.style.DRAWN_DPI`,
+at most :data:`~coopproc.report.style.MAX_LINE_POINTS`, so a line of a day costs what
+one of an hour does.
+
 Only the figures use this; every table and statistic is computed from the full data.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from matplotlib.axes import Axes
 
 from coopproc.model import FloatArray
-from coopproc.report.style import MAX_LINE_POINTS
+from coopproc.report.style import DRAWN_DPI, MAX_LINE_POINTS
 
-__all__ = ["decimate", "envelope_indices"]
+__all__ = ["decimate", "envelope_indices", "panel_points"]
+
+
+def panel_points(ax: Axes) -> int:
+    """Most points worth drawing along the width of ``ax``: two per pixel column at
+    :data:`~coopproc.report.style.DRAWN_DPI` (its width as laid out when drawn on),
+    at most :data:`~coopproc.report.style.MAX_LINE_POINTS`."""
+    fig = ax.get_figure(root=True)
+    if fig is None:
+        return MAX_LINE_POINTS
+    width_in = ax.get_position().width * fig.get_figwidth()
+    return max(2, min(MAX_LINE_POINTS, 2 * math.ceil(width_in * DRAWN_DPI)))
 
 
 def envelope_indices(

@@ -9,7 +9,7 @@ key (the method name, ``reference``). The figures that stack these panels are
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -21,24 +21,23 @@ from coopproc.model import FloatArray
 from coopproc.report.decimate import decimate, envelope_indices
 from coopproc.report.gaps import break_gaps
 from coopproc.report.methods import position_methods, primary_method
+from coopproc.report.panels import by_method as rows_by_method
+from coopproc.report.panels import time_sorted
 from coopproc.report.rundir import RunTables
-from coopproc.report.style import method_style
+from coopproc.report.style import MAX_LINE_POINTS, method_style
 
 __all__ = ["TRACK_CMAP", "error_norm", "plot_error_cdf", "plot_error_track", "track_method"]
 
 #: Colour map of the error-coloured track (perceptually uniform, readable in grey).
 TRACK_CMAP = "viridis"
+#: The columns of an empty track (a method without rows).
+_TRACK_COLUMNS = ("time", "east", "north", "error_h")
 #: The colour scale of the track ends at this percentile of the errors (outliers saturate).
 _TOP_PERCENTILE = 95.0
 
 
 def _values(frame: pd.DataFrame, column: str) -> FloatArray:
     return frame[column].to_numpy(dtype=np.float64, na_value=np.nan)
-
-
-def _by_method(frame: pd.DataFrame) -> dict[str, pd.DataFrame]:
-    """The rows per method in row order, grouped once."""
-    return {str(k): g for k, g in frame.groupby("method", sort=False, observed=True)}
 
 
 def track_method(run: RunTables) -> str | None:
@@ -53,15 +52,22 @@ def track_method(run: RunTables) -> str | None:
 
 
 def plot_error_cdf(
-    ax: Axes, platform_positions: pd.DataFrame, *, methods: Sequence[str] | None = None
+    ax: Axes,
+    platform_positions: pd.DataFrame | Mapping[str, pd.DataFrame],
+    *,
+    methods: Sequence[str] | None = None,
 ) -> Axes:
     """Empirical CDF of the horizontal error ``error_h`` per method, overlaid.
 
     The curve of n errors steps up by 1/n at each sorted error (y = k/n at the k-th
-    smallest); dotted lines at 0.5 and 0.95 read off CEP50 and CEP95. ``methods``
-    default: every method of the rows but ``reference``, in row order.
+    smallest); dotted lines at 0.5 and 0.95 read off CEP50 and CEP95. Of a long series,
+    the sorted errors drawn are those that begin and end each of
+    :data:`~coopproc.report.style.MAX_LINE_POINTS` / 2 equal runs of ranks: the exact
+    curve at a resolution finer than the panel's pixels. ``platform_positions``: the
+    platform's rows, or its rows per method; ``methods`` default: every method of the
+    rows but ``reference``, in row order.
     """
-    by_method = _by_method(platform_positions)
+    by_method = rows_by_method(platform_positions)
     if methods is None:
         methods = [m for m in by_method if m != "reference"]
     for method in methods:
@@ -71,8 +77,7 @@ def plot_error_cdf(
         h = h[np.isfinite(h)]
         if not h.size:
             continue
-        y = np.arange(1, h.size + 1, dtype=np.float64) / h.size
-        x, y = decimate(np.concatenate([[0.0], h]), np.concatenate([[0.0], y]))
+        x, y = _cdf_points(h)
         ax.plot(
             x,
             y,
@@ -89,6 +94,23 @@ def plot_error_cdf(
     return ax
 
 
+def _cdf_points(sorted_h: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The points of the CDF of the sorted finite ``sorted_h`` drawn: (0, 0), then the
+    k-th smallest error at y = k/n for the first and last rank of each of
+    ``MAX_LINE_POINTS // 2`` equal runs of the n + 1 points (every rank when they are
+    fewer): the min/max envelope of a rising curve (:func:`~coopproc.report.decimate.
+    envelope_indices` of y), taken directly."""
+    n = sorted_h.size
+    x = np.concatenate([[0.0], sorted_h])
+    if n + 1 <= MAX_LINE_POINTS:
+        at = np.arange(n + 1)
+    else:
+        bucket = np.arange(n + 1, dtype=np.int64) * (MAX_LINE_POINTS // 2) // (n + 1)
+        edge = np.flatnonzero(np.diff(bucket))
+        at = np.unique(np.concatenate([[0, n], edge, edge + 1]))
+    return x[at], at.astype(np.float64) / n
+
+
 def error_norm(errors: FloatArray) -> Normalize:
     """Colour scale of the track: 0 to the 95th percentile of the finite ``errors``."""
     h = np.asarray(errors, dtype=np.float64)
@@ -99,7 +121,7 @@ def error_norm(errors: FloatArray) -> Normalize:
 
 def plot_error_track(
     ax: Axes,
-    platform_positions: pd.DataFrame,
+    platform_positions: pd.DataFrame | Mapping[str, pd.DataFrame],
     method: str,
     *,
     norm: Normalize | None = None,
@@ -111,9 +133,9 @@ def plot_error_track(
     ``norm``: the colour scale (default :func:`error_norm` of these errors); returns the
     dots (for a colour bar), None when the method has no epoch with an error.
     """
-    by_method = _by_method(platform_positions)
-    empty = platform_positions.iloc[:0]
-    ref = by_method.get("reference", empty).sort_values("time", kind="stable")
+    by_method = rows_by_method(platform_positions)
+    empty = pd.DataFrame({c: pd.Series(dtype=np.float64) for c in _TRACK_COLUMNS})
+    ref = time_sorted(by_method.get("reference", empty))
     if len(ref):
         style = method_style("reference")
         # no chord across a gap of the reference (float epochs, outages): NaN breaks
@@ -128,7 +150,7 @@ def plot_error_track(
             color=style.color,
             linewidth=0.5,
         )
-    own = by_method.get(method, empty).sort_values("time", kind="stable")
+    own = time_sorted(by_method.get(method, empty))
     h = _values(own, "error_h")
     keep = np.isfinite(h)
     if not keep.any():

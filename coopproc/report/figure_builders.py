@@ -9,7 +9,7 @@ them (:mod:`coopproc.report.gaps`).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -60,17 +60,25 @@ def _has(frame: pd.DataFrame, column: str) -> pd.Series:
 
 
 class FigureGroups:
-    """The run's rows per pair / platform, grouped once and shared by the figures."""
+    """The run's rows per pair / platform (and a platform's per method), grouped once and
+    shared by the figures: slices of the tables, not copies (a day: 38 M position rows)."""
 
     def __init__(self, run: RunTables) -> None:
         self.run = run
         self._cache: dict[str, dict[str, pd.DataFrame]] = {}
+        self._methods: dict[str, Mapping[str, pd.DataFrame]] = {}
         self._gaps: dict[str, dict[str, GapSpans]] = {}
 
     def positions(self) -> dict[str, pd.DataFrame]:
         if "positions" not in self._cache:
             self._cache["positions"] = groups(self.run.positions, "platform")
         return self._cache["positions"]
+
+    def methods(self, platform: str) -> Mapping[str, pd.DataFrame]:
+        """The platform's rows per method (:func:`~coopproc.report.panels.groups`)."""
+        if platform not in self._methods:
+            self._methods[platform] = groups(self.positions()[platform], "method")
+        return self._methods[platform]
 
     def ranges(self) -> dict[str, pd.DataFrame]:
         if "ranges" not in self._cache:
@@ -134,18 +142,33 @@ def _di_errors(run: RunTables, opts: FigureOptions, g: FigureGroups) -> Panels |
 
 def _platform_rows(
     g: FigureGroups, opts: FigureOptions, methods: Sequence[str], *, error: bool
-) -> dict[str, pd.DataFrame]:
-    """Each chosen platform's rows of ``methods`` (with a horizontal error if ``error``)."""
+) -> dict[str, dict[str, pd.DataFrame]]:
+    """Each chosen platform's rows per method of ``methods`` (slices; with ``error``: the
+    platforms where one of them has a horizontal error, never a mask over every row)."""
     out = {}
-    for platform, rows in g.positions().items():
+    for platform in g.positions():
         if not opts.keep_platform(platform):
             continue
-        keep = rows["method"].isin(list(methods))
+        own = g.methods(platform)
+        rows = {m: own[m] for m in methods if m in own and len(own[m])}
         if error:
-            keep &= _has(rows, "error_h")
-        if keep.any():
-            out[platform] = rows[keep]
+            rows = {m: r for m, r in rows.items() if bool(r["error_h"].notna().any())}
+        if rows:
+            out[platform] = rows
     return out
+
+
+def _epochs(rows: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
+    """The time and horizontal error of every row of ``rows`` (the gap rule's input)."""
+    parts = list(rows.values())
+    return pd.DataFrame(
+        {
+            "time": np.concatenate([r["time"].to_numpy(dtype=np.float64) for r in parts]),
+            "error_h": np.concatenate(
+                [r["error_h"].to_numpy(dtype=np.float64, na_value=np.nan) for r in parts]
+            ),
+        }
+    )
 
 
 def _position_errors(run: RunTables, opts: FigureOptions, g: FigureGroups) -> Panels | None:
@@ -156,7 +179,10 @@ def _position_errors(run: RunTables, opts: FigureOptions, g: FigureGroups) -> Pa
     if not platforms:
         return None
     t0 = run.time_origin_s
-    rows_of = lambda: platform_gaps(_platform_rows(g, opts, methods, error=False))  # noqa: E731
+
+    def rows_of() -> dict[str, GapSpans]:
+        chosen = _platform_rows(g, opts, methods, error=False)
+        return platform_gaps({p: _epochs(rows) for p, rows in chosen.items()})
 
     def draw(ax: Axes, i: int) -> None:
         rows = by_platform[platforms[i]]
@@ -191,15 +217,14 @@ def _nlos_convergence(run: RunTables, opts: FigureOptions, g: FigureGroups) -> P
 def _trajectories(run: RunTables, opts: FigureOptions, g: FigureGroups) -> Panels | None:
     """Tracks in the east-north plane, one panel per moving platform (paper 000 fig. 7):
     start, end and anchors marked, a zoomed inset where the methods overlap."""
-    by_platform = {p: rows for p, rows in g.positions().items() if opts.keep_platform(p)}
-    platforms = sorted(by_platform)
+    platforms = sorted(p for p in g.positions() if opts.keep_platform(p))
     if not platforms:
         return None
     methods = ("reference", "nav", *position_methods(run))
     anchors = run_anchors(run)
 
     def draw(ax: Axes, i: int) -> None:
-        plot_trajectory(ax, by_platform[platforms[i]], methods=methods, anchors=anchors)
+        plot_trajectory(ax, g.methods(platforms[i]), methods=methods, anchors=anchors)
 
     titles = [f"Platform {p}" for p in platforms]
     return Panels(platforms, titles, grid_layout(2.3, opts.style), draw, noun="platforms")
@@ -230,15 +255,14 @@ def _error_track(run: RunTables, opts: FigureOptions, g: FigureGroups) -> Panels
     platforms = sorted(own)
     if not platforms:
         return None
-    errors = [rows["error_h"].to_numpy(dtype=np.float64) for rows in own.values()]
+    errors = [rows[method]["error_h"].to_numpy(dtype=np.float64) for rows in own.values()]
     norm = error_norm(np.concatenate(errors))
-    by_platform = g.positions()
     anchors = run_anchors(run)
 
     def draw(ax: Axes, i: int) -> Any:
-        rows = by_platform[platforms[i]]
+        rows = g.methods(platforms[i])
         dots = plot_error_track(ax, rows, method, norm=norm)
-        track = own[platforms[i]].sort_values("time", kind="stable")
+        track = rows[method][_has(rows[method], "error_h")].sort_values("time", kind="stable")
         mark_start_end(ax, track["east"].to_numpy(float), track["north"].to_numpy(float))
         mark_anchors(ax, anchors)
         return dots

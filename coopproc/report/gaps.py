@@ -55,8 +55,10 @@ import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.collections import PolyCollection
+from matplotlib.path import Path
 
 from coopproc.model import GAP_FACTOR, FloatArray
+from coopproc.report.style import DRAWN_COLUMNS
 
 __all__ = [
     "LENIENT_MIN",
@@ -69,6 +71,7 @@ __all__ = [
     "break_gaps",
     "gap_spans",
     "line_gap_limit_s",
+    "merge_close",
     "pair_gaps",
     "platform_gaps",
     "series_gaps",
@@ -97,14 +100,24 @@ NO_REFERENCE_SPAN: dict[str, Any] = {
 _EMPTY = np.empty((0, 2), dtype=np.float64)
 
 
+def _distinct(time_s: FloatArray) -> FloatArray:
+    """The distinct finite times of ``time_s``, sorted (``np.unique`` without its sort
+    when they are sorted already, as a table's times are)."""
+    t = np.asarray(time_s, dtype=np.float64)
+    if t.size > 1 and bool(np.all(t[1:] >= t[:-1])):  # sorted, no NaN
+        t = t[np.concatenate([[True], t[1:] != t[:-1]])]
+        return t if np.isfinite(t[0]) and np.isfinite(t[-1]) else t[np.isfinite(t)]
+    t = np.unique(t)
+    return t[np.isfinite(t)]
+
+
 def typical_step_s(time_s: FloatArray) -> float:
     """The normal step between the distinct finite times of ``time_s`` (in any order), s:
     the longer of the :data:`STEP_PERCENTILE` percentile of the steps and their
     time-weighted :data:`TIME_SHARE` percentile over the steps up to ``GAP_FACTOR`` times the
     lenient step (the longest step but the :func:`_lenient_rank` longest; see the module
     docstring); NaN with fewer than two distinct times."""
-    t = np.unique(np.asarray(time_s, dtype=np.float64))
-    t = t[np.isfinite(t)]
+    t = _distinct(time_s)
     if t.shape[0] < 2:
         return float("nan")
     steps = np.sort(np.diff(t))
@@ -157,8 +170,7 @@ def gap_spans(
     ``limit_s`` (default :func:`line_gap_limit_s`); with ``bounds`` (first, last time of
     the run) also the stretches before the first and after the last sample when longer.
     Without samples, the whole of ``bounds`` (nothing without bounds)."""
-    t = np.unique(np.asarray(time_s, dtype=np.float64))
-    t = t[np.isfinite(t)]
+    t = _distinct(time_s)
     if not t.size:
         return _EMPTY.copy() if bounds is None else np.array([bounds], dtype=np.float64)
     limit = line_gap_limit_s(t) if limit_s is None else limit_s
@@ -271,13 +283,41 @@ def platform_gaps(positions_by_platform: Mapping[str, pd.DataFrame]) -> dict[str
     }
 
 
+def merge_close(spans: FloatArray, within_s: float) -> FloatArray:
+    """``spans`` (sorted by start) with every two that overlap or whose space between
+    them is shorter than ``within_s`` joined into one: what a pixel column cannot tell
+    apart. A span however narrow stays."""
+    spans = np.asarray(spans, dtype=np.float64).reshape(-1, 2)
+    if spans.shape[0] < 2:
+        return spans
+    reach = np.maximum.accumulate(spans[:, 1])  # the end of the spans so far
+    first = np.flatnonzero(np.concatenate([[True], spans[1:, 0] - reach[:-1] >= within_s]))
+    return np.column_stack([spans[first, 0], np.maximum.reduceat(spans[:, 1], first)])
+
+
+def _rectangles(spans: FloatArray) -> tuple[FloatArray, np.ndarray]:
+    """Vertices and codes of one compound path of a closed rectangle per span, from the
+    bottom (0) to the top (1) of the axes."""
+    x = spans[:, [0, 0, 1, 1, 0]]
+    y = np.broadcast_to([0.0, 1.0, 1.0, 0.0, 0.0], x.shape)
+    codes = np.tile(
+        np.array([Path.MOVETO, Path.LINETO, Path.LINETO, Path.LINETO, Path.CLOSEPOLY]),
+        spans.shape[0],
+    ).astype(Path.code_type)
+    return np.column_stack([x.ravel(), y.ravel()]), codes
+
+
 def shade_gaps(ax: Axes, gaps: GapSpans | None) -> None:
     """Shade ``gaps`` (times as drawn) on ``ax`` under the data, each kind labelled once.
 
-    Each kind is one collection of rectangles spanning the axes' height (what ``axvspan``
-    draws per span, with its ``gid``, label and style): a platform of many pairs can have
-    thousands of spans, and one artist per span cost tens of seconds at 20 platforms
-    x 1 h. The spans' times count in the x data limits, as ``axvspan``'s do."""
+    Each kind is one artist, one compound path of rectangles spanning the axes' height
+    (what ``axvspan`` draws per span, with its ``gid``, label and style): a platform of
+    many pairs can have thousands of spans, and one artist (or one hatched path) per span
+    cost tens of seconds a day of data. Spans closer than a
+    :data:`~coopproc.report.style.DRAWN_COLUMNS`-th of the
+    time drawn (the panel's data and spans) are joined: the unshaded sliver between them
+    would be under a pixel wide; a span however narrow is kept. The spans' times count in
+    the x data limits, as ``axvspan``'s do."""
     if gaps is None:
         return
     kinds = (
@@ -288,11 +328,12 @@ def shade_gaps(ax: Axes, gaps: GapSpans | None) -> None:
         spans = np.asarray(spans, dtype=np.float64).reshape(-1, 2)
         if not spans.shape[0]:
             continue
-        x = spans[:, [0, 0, 1, 1]]  # each span a rectangle from the bottom to the top
-        verts = np.stack([x, np.broadcast_to([0.0, 1.0, 1.0, 0.0], x.shape)], axis=2)
+        spans = merge_close(spans[np.argsort(spans[:, 0], kind="stable")], _column_s(ax, spans))
+        verts, codes = _rectangles(spans)
         shade = PolyCollection(
-            list(verts), transform=ax.get_xaxis_transform(which="grid"), label=label, **style
+            [], transform=ax.get_xaxis_transform(which="grid"), label=label, **style
         )
+        shade.set_verts_and_codes([verts], [codes])  # type: ignore[list-item]
         shade.set_gid(gid)
         ax.add_collection(shade, autolim=False)
         ax.update_datalim(np.column_stack([spans.ravel(), np.zeros(spans.size)]), updatey=False)
@@ -300,14 +341,25 @@ def shade_gaps(ax: Axes, gaps: GapSpans | None) -> None:
         ax.autoscale(ax.get_autoscalex_on(), axis="x")
 
 
+def _column_s(ax: Axes, spans: FloatArray) -> float:
+    """One :data:`~coopproc.report.style.DRAWN_COLUMNS`-th of the time the panel draws:
+    its data so far and ``spans``."""
+    lo, hi = float(spans.min()), float(spans.max())
+    x0, x1 = ax.dataLim.intervalx
+    if np.isfinite(x0) and np.isfinite(x1) and x1 >= x0:
+        lo, hi = min(lo, float(x0)), max(hi, float(x1))
+    return (hi - lo) / DRAWN_COLUMNS
+
+
 def shaded_spans(ax: Axes, gid: str) -> FloatArray:
     """(k, 2) start and end, as drawn, of the spans :func:`shade_gaps` shaded on ``ax``
     with ``gid`` (``uwb_outage``, ``no_reference``), in drawing order."""
-    x = [
-        np.asarray(path.vertices, dtype=np.float64)[:, 0]
+    polygons = [
+        np.asarray(v, dtype=np.float64)[:, 0]
         for shade in ax.collections
         if shade.get_gid() == gid
         for path in shade.get_paths()
+        for v in path.to_polygons(closed_only=False)
     ]
-    out = [(float(v.min()), float(v.max())) for v in x]
+    out = [(float(x.min()), float(x.max())) for x in polygons]
     return np.array(out, dtype=np.float64).reshape(-1, 2)

@@ -10,7 +10,7 @@ pages. Up to 6 panels are stacked in one column sharing the time axis; more go i
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -25,6 +25,7 @@ from coopproc.report.style import DEFAULT_STYLE, PANEL_HEIGHT_IN, FigureStyle
 __all__ = [
     "Layout",
     "Panels",
+    "by_method",
     "colorbar_below",
     "grid",
     "grid_layout",
@@ -33,6 +34,7 @@ __all__ = [
     "stack",
     "stack_layout",
     "time_label",
+    "time_sorted",
 ]
 
 #: Most panels stacked in one column; more go into a 3-column grid.
@@ -177,6 +179,19 @@ def groups(frame: pd.DataFrame, column: str) -> dict[str, pd.DataFrame]:
         bounds = zip(uniques, starts[:-1], starts[1:], strict=True)
         return {str(k): frame.iloc[a:b] for k, a, b in bounds}
     return {str(k): g for k, g in frame.groupby(column, sort=False, observed=True)}
+
+
+def by_method(rows: pd.DataFrame | Mapping[str, pd.DataFrame]) -> Mapping[str, pd.DataFrame]:
+    """One platform's rows per method: ``rows`` itself when already grouped (e.g.
+    :meth:`~coopproc.report.figure_builders.FigureGroups.methods`), else :func:`groups`."""
+    return rows if isinstance(rows, Mapping) else groups(rows, "method")
+
+
+def time_sorted(rows: pd.DataFrame) -> pd.DataFrame:
+    """``rows`` in time order (a stable sort), as they are when already sorted: no copy."""
+    if rows["time"].is_monotonic_increasing:
+        return rows
+    return rows.sort_values("time", kind="stable")
 
 
 def _legend_only(fig: Figure, axes: list[Axes], drawn: list[Any]) -> None:

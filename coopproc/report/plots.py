@@ -13,22 +13,25 @@ consecutive samples are further apart than the figures' gap rule
 the longer of the 90th percentile and the time-weighted 75th percentile of its steps), and the
 spans without data given as ``gaps`` (UWB outages, no reference:
 :class:`~coopproc.report.gaps.GapSpans`) are shaded under the data. A line of more than
-:data:`~coopproc.report.style.MAX_LINE_POINTS` samples is drawn from its min/max envelope
+:func:`~coopproc.report.decimate.panel_points` samples (two per pixel column of the panel,
+at most :data:`~coopproc.report.style.MAX_LINE_POINTS`) is drawn from its min/max envelope
 (:mod:`coopproc.report.decimate`: spikes and gaps stay visible, every break is kept).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.ticker import MaxNLocator
 
-from coopproc.report.decimate import decimate
+from coopproc.report.decimate import decimate, panel_points
 from coopproc.report.gaps import GapSpans, break_gaps, shade_gaps
 from coopproc.report.methods import position_methods_of, range_methods_of
+from coopproc.report.panels import by_method as rows_by_method
+from coopproc.report.panels import time_sorted
 from coopproc.report.style import DI_STYLES, NLOS_SPAN, method_style
 from coopproc.report.trajectory_plots import plot_trajectory  # moved; re-exported
 
@@ -45,17 +48,12 @@ def _values(frame: pd.DataFrame, column: str) -> np.ndarray:
     return frame[column].to_numpy(dtype=np.float64, na_value=np.nan)
 
 
-def _break_gaps(time_s: np.ndarray, *series: np.ndarray) -> tuple[np.ndarray, ...]:
+def _break_gaps(ax: Axes, time_s: np.ndarray, *series: np.ndarray) -> tuple[np.ndarray, ...]:
     """``time_s`` and ``series`` with a NaN inserted in every gap of ``time_s`` (sorted),
-    so that a line plot draws nothing across it, then decimated for drawing (the
-    decimation keeps every NaN)."""
+    so that a line plot draws nothing across it, then decimated to what ``ax``'s pixels
+    show (:func:`~coopproc.report.decimate.panel_points`; every NaN kept)."""
     time_s, *rest = break_gaps(time_s, *series)
-    return decimate(time_s, *rest)
-
-
-def _by_method(frame: pd.DataFrame) -> dict[str, pd.DataFrame]:
-    """The rows per method, grouped once (no comparison of the text column per method)."""
-    return {str(k): g for k, g in frame.groupby("method", sort=False, observed=True)}
+    return decimate(time_s, *rest, max_points=panel_points(ax))
 
 
 def plot_distance_errors(
@@ -76,7 +74,7 @@ def plot_distance_errors(
     """
     if methods is None:
         methods = range_methods_of(pair_ranges)
-    rows = pair_ranges.sort_values("time", kind="stable")
+    rows = time_sorted(pair_ranges)
     t = _values(rows, "time") - time_origin_s
     ref = _values(rows, "reference")
     for method in methods:
@@ -84,7 +82,7 @@ def plot_distance_errors(
             continue
         err = _values(rows, method) - ref
         keep = np.isfinite(err)
-        x, y = _break_gaps(t[keep], err[keep])
+        x, y = _break_gaps(ax, t[keep], err[keep])
         ax.plot(x, y, gid=method, **method_style(method).kwargs(t[keep].size))
     if pair_events is not None:
         for i, (start, end) in enumerate(
@@ -116,13 +114,13 @@ def plot_di_errors(
     Paper 000 fig. 8 (the distance increments of eq. (1) and the filter of eq. (4)-(7));
     ``gaps`` (the pair's outages and no-reference spans, run times) shaded.
     """
-    rows = pair_di.sort_values("time", kind="stable")
+    rows = time_sorted(pair_di)
     t = _values(rows, "time") - time_origin_s
     ref = _values(rows, "di_reference")
     for column, style in DI_STYLES.items():
         err = _values(rows, column) - ref
         keep = np.isfinite(err)
-        x, y = _break_gaps(t[keep], err[keep])
+        x, y = _break_gaps(ax, t[keep], err[keep])
         ax.plot(x, y, gid=column, **style.kwargs(t[keep].size))
     if gaps is not None:
         shade_gaps(ax, gaps.shifted(time_origin_s))
@@ -133,7 +131,7 @@ def plot_di_errors(
 
 def plot_position_errors(
     ax: Axes,
-    platform_positions: pd.DataFrame,
+    platform_positions: pd.DataFrame | Mapping[str, pd.DataFrame],
     *,
     methods: Sequence[str] | None = None,
     time_origin_s: float = 0.0,
@@ -141,22 +139,23 @@ def plot_position_errors(
 ) -> Axes:
     """Horizontal position error over time per method (paper 000 fig. 12).
 
-    ``methods`` default: the position methods of the rows (not ``nav`` / ``reference``);
-    ``gaps`` (the platform's outages and no-reference spans, run times) shaded.
+    ``platform_positions``: the platform's rows, or its rows per method; ``methods``
+    default: the position methods of the rows (not ``nav`` / ``reference``); ``gaps``
+    (the platform's outages and no-reference spans, run times) shaded.
     """
+    by_method = rows_by_method(platform_positions)
     if methods is None:
-        methods = position_methods_of(platform_positions)
-    by_method = _by_method(platform_positions)
+        methods = position_methods_of(pd.DataFrame({"method": list(by_method)}))
     for method in methods:
         if method not in by_method:
             continue
-        rows = by_method[method].sort_values("time", kind="stable")
+        rows = time_sorted(by_method[method])
         err = _values(rows, "error_h")
         keep = np.isfinite(err)
         if not keep.any():
             continue
         t = _values(rows, "time") - time_origin_s
-        x, y = _break_gaps(t[keep], err[keep])
+        x, y = _break_gaps(ax, t[keep], err[keep])
         ax.plot(x, y, gid=method, **method_style(method).kwargs(t[keep].size))
     if gaps is not None:
         shade_gaps(ax, gaps.shifted(time_origin_s))

@@ -33,6 +33,8 @@ from coopproc.model import FloatArray
 from coopproc.report.decimate import decimate
 from coopproc.report.gaps import break_gaps, line_gap_limit_s
 from coopproc.report.methods import position_methods_of
+from coopproc.report.panels import by_method as rows_by_method
+from coopproc.report.panels import time_sorted
 from coopproc.report.rundir import RunTables
 from coopproc.report.style import method_style
 
@@ -87,10 +89,6 @@ _ZOOM_SIZE = 0.45
 
 def _values(frame: pd.DataFrame, column: str) -> FloatArray:
     return frame[column].to_numpy(dtype=np.float64, na_value=np.nan)
-
-
-def _by_method(frame: pd.DataFrame) -> dict[str, pd.DataFrame]:
-    return {str(k): g for k, g in frame.groupby("method", sort=False, observed=True)}
 
 
 def track_xy(
@@ -174,15 +172,15 @@ def _zoom_window(
         return None
     if np.percentile(h, 95.0) >= ZOOM_FRACTION * size_m:
         return None  # the methods are apart at the panel's scale already
-    keyed = [tracks["reference"].drop_duplicates("time").set_index("time")]
-    keyed += [tracks[m].drop_duplicates("time").set_index("time") for m in methods]
-    common = keyed[0].index
-    for frame in keyed[1:]:
-        common = common.intersection(frame.index)
-    if not len(common):
+    keyed = [_first_per_time(tracks[m]) for m in ("reference", *methods)]
+    common = keyed[0][0]
+    for t, _, _ in keyed[1:]:
+        common = common[_rows_at(t, common) >= 0]
+    if not common.size:
         return None
-    east = np.column_stack([f.loc[common, "east"].to_numpy(np.float64) for f in keyed])
-    north = np.column_stack([f.loc[common, "north"].to_numpy(np.float64) for f in keyed])
+    at_rows = [_rows_at(t, common) for t, _, _ in keyed]
+    east = np.column_stack([e[i] for (_, e, _), i in zip(keyed, at_rows, strict=True)])
+    north = np.column_stack([n[i] for (_, _, n), i in zip(keyed, at_rows, strict=True)])
     dist = np.hypot(east - east[:, :1], north - north[:, :1])[:, 1:]  # from the reference
     spread = np.nanmax(dist, axis=1) - np.nanmin(dist, axis=1)
     if not np.isfinite(spread).any():
@@ -193,13 +191,31 @@ def _zoom_window(
     return ce, cn, max(1.8 * reach, 0.002 * size_m, 0.01)
 
 
+def _first_per_time(rows: pd.DataFrame) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Time (sorted), east and north of the first row at each time of ``rows`` (in time
+    order)."""
+    t, east, north = (_values(rows, c) for c in ("time", "east", "north"))
+    first = np.concatenate([[True], t[1:] != t[:-1]]) if t.size else np.ones(0, dtype=bool)
+    return t[first], east[first], north[first]
+
+
+def _rows_at(sorted_t: FloatArray, times: FloatArray) -> np.ndarray:
+    """Index in ``sorted_t`` (sorted, distinct) of each of ``times``; -1 where absent."""
+    at = np.searchsorted(sorted_t, times)
+    at[at >= sorted_t.size] = 0
+    found = sorted_t[at] == times if sorted_t.size else np.zeros(times.size, dtype=bool)
+    return np.where(found, at, -1)
+
+
 def _inset(
     ax: Axes,
     tracks: Mapping[str, pd.DataFrame],
     window: tuple[float, float, float],
     box: tuple[float, float, float, float],
+    limits: Mapping[str, float],
 ) -> None:
-    """The zoomed inset beside the track's bounding ``box`` (east0, north0, east1, north1)."""
+    """The zoomed inset beside the track's bounding ``box`` (east0, north0, east1, north1);
+    ``limits``: each track's gap limit (that of its whole track)."""
     e0, n0, e1, n1 = box
     width, height = e1 - e0, n1 - n0
     side = _ZOOM_SIZE * max(width, height)
@@ -217,7 +233,7 @@ def _inset(
         near = (np.abs(east - ce) < 3 * half) & (np.abs(north - cn) < 3 * half)
         if not near.any():
             continue
-        limit = line_gap_limit_s(time_s)  # the whole track's epochs
+        limit = limits[method]  # the whole track's epochs
         x, y = track_xy(time_s[near], east[near], north[near], reduce=False, limit_s=limit)
         style = method_style(method).kwargs()
         style["label"] = "_nolegend_"
@@ -243,7 +259,7 @@ def _inset(
 
 def plot_trajectory(
     ax: Axes,
-    platform_positions: pd.DataFrame,
+    platform_positions: pd.DataFrame | Mapping[str, pd.DataFrame],
     *,
     methods: Sequence[str] | None = None,
     anchors: Mapping[str, tuple[float, float]] | None = None,
@@ -252,23 +268,29 @@ def plot_trajectory(
     """The platform's track per method, start and end marked, ``anchors`` (east, north
     by id) drawn, and a zoomed inset where the methods overlap (see the module docstring).
 
-    ``methods`` default: ``reference``, ``nav``, then the position methods of the rows.
+    ``platform_positions``: the platform's rows, or its rows per method; ``methods``
+    default: ``reference``, ``nav``, then the position methods of the rows.
     """
+    by_method = rows_by_method(platform_positions)
     if methods is None:
-        methods = ("reference", "nav", *position_methods_of(platform_positions))
-    by_method = _by_method(platform_positions)
+        names = pd.DataFrame({"method": list(by_method)})
+        methods = ("reference", "nav", *position_methods_of(names))
     tracks: dict[str, pd.DataFrame] = {}
     for method in methods:
         if method not in by_method:
             continue
-        rows = by_method[method].sort_values("time", kind="stable")
+        rows = time_sorted(by_method[method])
         keep = np.isfinite(_values(rows, "east")) & np.isfinite(_values(rows, "north"))
-        if keep.any():
+        if keep.all():
+            tracks[method] = rows
+        elif keep.any():
             tracks[method] = rows[keep]
+    limits: dict[str, float] = {}
     for method, rows in tracks.items():
         style = method_style(method)
-        east, north = _values(rows, "east"), _values(rows, "north")
-        x, y = track_xy(_values(rows, "time"), east, north)
+        time_s, east, north = (_values(rows, c) for c in ("time", "east", "north"))
+        limits[method] = line_gap_limit_s(time_s)
+        x, y = track_xy(time_s, east, north, limit_s=limits[method])
         ax.plot(x, y, gid=method, **style.kwargs(east.size))
     if tracks:
         first = tracks.get("reference", next(iter(tracks.values())))
@@ -282,7 +304,7 @@ def plot_trajectory(
         box = (float(east.min()), float(north.min()), float(east.max()), float(north.max()))
         window = _zoom_window(tracks, fused, max(box[2] - box[0], box[3] - box[1]))
         if window is not None:
-            _inset(ax, tracks, window, _data_box(tracks, anchors or {}))
+            _inset(ax, tracks, window, _data_box(tracks, anchors or {}), limits)
     ax.set_xlabel("East (m)")
     ax.set_ylabel("North (m)")
     ax.set_aspect("equal", adjustable="datalim")
