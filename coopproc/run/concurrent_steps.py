@@ -16,10 +16,11 @@ Forking is allowed where :mod:`coopproc.report.page_workers` allows it: ``fork``
 the process is not daemonic (``coopproc batch``'s Dask workers) and this is the main
 thread. ``[run] parallel_fusion``: ``"auto"`` (the default) also wants two CPUs, at
 least :data:`MIN_ROWS` range rows (below, a fusion takes about a second and forking is
-not worth it) and twice the second fusion's memory (:data:`BYTES_PER_ROW`) available;
-``true`` only the fork rules; ``false`` never forks. Two fusions at once hold two
-fusions' working arrays: the run's peak memory grows by about one fusion's (measured
-+0.3 GB at 20 platforms x 1 h, +0.55 GB at 10 x 4 h, in PSS summed over both processes).
+not worth it) and the second fusion's memory (:data:`BYTES_PER_ROW`) at most
+:data:`MAX_EXTRA_BYTES` and twice available; ``true`` only the fork rules; ``false``
+never forks. Two fusions at once hold two fusions' working arrays: the run's peak
+memory grows by about one fusion's (PSS summed over both processes: +0.3 GB at 20
+platforms x 1 h, +0.55-0.65 GB at 10 x 4 h, +2.5 GB at a day of 10 platforms).
 
 An error in the child (e.g. a :class:`~coopproc.errors.StageError`) is raised in the
 caller as it would have been raised there; a child that dies (killed, e.g. for memory)
@@ -59,9 +60,15 @@ T = TypeVar("T")
 MIN_ROWS = 200_000
 
 #: Memory a second fusion at the same time holds, per range row (its working arrays and
-#: product; measured 0.5-0.9 kB at 20 x 1 h and 10 x 4 h): ``"auto"`` forks only when
-#: twice that fits in the memory available.
+#: product; measured 0.5-0.9 kB at 20 x 1 h and 10 x 4 h, 0.7 kB at a day of 10
+#: platforms): ``"auto"`` forks only when that is at most :data:`MAX_EXTRA_BYTES` and
+#: twice it fits in the memory available.
 BYTES_PER_ROW = 1_000
+
+#: The most memory ``"auto"`` lets a second fusion add to the run's peak (1 M range rows,
+#: e.g. 10 platforms x 6 h or 20 x 1.5 h; beyond, the fusions run one after the other
+#: unless ``parallel_fusion = true``).
+MAX_EXTRA_BYTES = 1_000_000_000
 
 #: Most steps of one group (the caller's and one child's: two fusions at once already
 #: hold two fusions' working memory).
@@ -105,8 +112,9 @@ def workers(setting: bool | Literal["auto"], rows: int) -> int:
     if setting == "auto":
         if _cpus() < 2 or rows < MIN_ROWS:
             return 1
+        extra = BYTES_PER_ROW * rows
         available = _available_bytes()
-        if available is not None and 2 * BYTES_PER_ROW * rows > available:
+        if extra > MAX_EXTRA_BYTES or (available is not None and 2 * extra > available):
             return 1
     return MAX_GROUP
 

@@ -77,10 +77,10 @@ class RunParams:
         metadata={
             "help": "run the fusions of the processed range sets (and any other position "
             "steps that do not need each other) two at a time, one in a forked process: "
-            "'auto' = when the machine has 2+ CPUs, the session 200000+ range rows and "
-            "the memory for a second fusion (about 1 kB a range row, twice); true = "
-            "whenever the process can fork; false = one after the other (same results "
-            "either way; docs/scale.md)"
+            "'auto' = with 200000 to 1 M range rows (the second fusion adds about 1 kB "
+            "a range row to the peak memory), 2+ CPUs and twice that memory available; "
+            "true = whenever the process can fork, at any size; false = one after the "
+            "other (same results either way; docs/scale.md)"
         },
     )
     outages: tuple[tuple[float, float], ...] = field(

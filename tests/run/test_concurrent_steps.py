@@ -27,6 +27,7 @@ from coopproc.run import concurrent_steps
 from coopproc.run.chain import PipelineParams, resolve
 from coopproc.run.concurrent_steps import (
     BYTES_PER_ROW,
+    MAX_EXTRA_BYTES,
     MIN_ROWS,
     group_label,
     group_steps,
@@ -89,6 +90,11 @@ def test_when_forking_is_allowed(monkeypatch: pytest.MonkeyPatch) -> None:
     assert workers(True, MIN_ROWS + 1) == 2  # asked for: the user knows
     monkeypatch.setattr(concurrent_steps, "_available_bytes", lambda: None)  # unknown
     assert workers("auto", MIN_ROWS + 1) == 2
+    # a second fusion that would add more than MAX_EXTRA_BYTES to the peak: not by default
+    biggest = MAX_EXTRA_BYTES // BYTES_PER_ROW
+    assert workers("auto", biggest) == 2
+    assert workers("auto", biggest + 1) == 1
+    assert workers(True, biggest + 1) == 2
     assert workers(True, 10) == 2
     assert workers(False, MIN_ROWS) == 1
     monkeypatch.setattr(concurrent_steps, "_cpus", lambda: 1)
