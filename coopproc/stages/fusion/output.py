@@ -46,11 +46,18 @@ def recorded_slots(
     wanted = np.zeros(n_ep * n_plat, dtype=bool)  # slot k * P + p
     wanted[:n_plat] = True
     wanted[(n_ep - 1) * n_plat :] = True
-    for frame in (session.ranges.frame, ranges):
+    frames = [session.ranges.frame]
+    if not _same_rows(session.ranges.frame, ranges):  # (the observed set: the same slots)
+        frames.append(ranges)
+    for frame in frames:
         t = pd.to_numeric(frame["time"], errors="coerce").to_numpy(np.float64)
         good = np.isfinite(t)
-        right = np.clip(np.searchsorted(epochs, t, side="right") - 1, 0, n_ep - 1)
-        left = np.clip(np.searchsorted(epochs, t, side="left"), 0, n_ep - 1)
+        # one search: the epochs at or before t; those before t one fewer where t is one
+        after = np.searchsorted(epochs, t, side="right")
+        exact = epochs[np.maximum(after - 1, 0)] == t
+        right = np.clip(after - 1, 0, n_ep - 1)
+        left = np.clip(after - exact, 0, n_ep - 1)
+        del after, exact
         for column in ("from", "to"):
             ids = frame[column]
             if not pd.api.types.is_string_dtype(ids):
@@ -63,6 +70,19 @@ def recorded_slots(
     counts = np.bincount(unique // n_plat, minlength=n_ep)
     ptr = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
     return ptr, (unique % n_plat).astype(np.int64)
+
+
+def _same_rows(first: pd.DataFrame, second: pd.DataFrame) -> bool:
+    """Whether two range tables have the same time, from and to columns, row by row."""
+    if first is second:
+        return True
+    if len(first) != len(second):
+        return False
+    for column in ("time", "from", "to"):
+        a, b = first[column], second[column]
+        if a.dtype != b.dtype or not a.equals(b):
+            return False
+    return True
 
 
 def trajectories_from_slots(

@@ -11,6 +11,7 @@ import pytest
 from coopproc.sim import simulate
 from coopproc.stages.fusion.fuse import FusionOutput, FusionParams, fuse
 from coopproc.stages.fusion.inputs import fusion_inputs
+from coopproc.stages.fusion.output import recorded_slots
 
 
 def _same(a: FusionOutput, b: FusionOutput) -> None:
@@ -66,3 +67,37 @@ def test_with_ranges_of_other_rows_prepares_afresh() -> None:
     _same(fuse(session, fewer, params, inputs=again), fuse(session, fewer, params))
     with pytest.raises(ValueError, match="another session"):
         fuse(session, frame, params, output="nav", inputs=inputs)
+
+
+def _slots_naive(session, ranges, moving, epochs):
+    """The recorded slots as first written: both searches, both tables."""
+    n_ep, n_plat = epochs.shape[0], len(moving)
+    wanted = np.zeros(n_ep * n_plat, dtype=bool)
+    wanted[:n_plat] = True
+    wanted[(n_ep - 1) * n_plat :] = True
+    for frame in (session.ranges.frame, ranges):
+        t = frame["time"].to_numpy(np.float64)
+        right = np.clip(np.searchsorted(epochs, t, side="right") - 1, 0, n_ep - 1)
+        left = np.clip(np.searchsorted(epochs, t, side="left"), 0, n_ep - 1)
+        for column in ("from", "to"):
+            code = np.array([moving.index(p) if p in moving else -1 for p in frame[column]])
+            sel = np.isfinite(t) & (code >= 0)
+            wanted[right[sel] * n_plat + code[sel]] = True
+            wanted[left[sel] * n_plat + code[sel]] = True
+    unique = np.flatnonzero(wanted)
+    ptr = np.concatenate(([0], np.cumsum(np.bincount(unique // n_plat, minlength=n_ep))))
+    return ptr, unique % n_plat
+
+
+def test_recorded_slots_one_search() -> None:
+    session = simulate("dr-faults", seed=0, duration_s=20.0).session
+    frame = session.ranges.frame
+    moving = list(session.moving_platforms())
+    times = np.unique(frame["time"].to_numpy(np.float64))
+    epochs = times[::3]  # most range times between two epochs, some on one
+    late = frame.assign(time=frame["time"] + 0.013)  # none on an epoch, some past the last
+    late.loc[late.index[:4], "time"] = np.nan
+    for ranges in (frame[["time", "from", "to", "range"]], late):
+        ptr, plat = recorded_slots(session, ranges, moving, epochs, False)
+        want_ptr, want_plat = _slots_naive(session, ranges, moving, epochs)
+        assert np.array_equal(ptr, want_ptr) and np.array_equal(plat, want_plat)
