@@ -1,14 +1,16 @@
 """positions.csv in memory: every method's positions, built once into its final columns.
 
-A day of 10 platforms is about 40 M rows. The table is made in two passes over its
-pieces (one per platform and method, in the table's row order: platform, method, time):
-the first finds each piece's epochs (the solution at the platform's own range epochs,
-and which reference epochs exist) and counts its rows, the second computes each piece's
-values and writes them into five preallocated float64 columns and the integer codes of
-``platform`` and ``method`` in place. The reference is interpolated once per platform and
-set of epochs, not once per piece. No per-piece frames are concatenated (that held the
-table twice), and the text columns are categorical (one byte per row instead of a string
-per row); the CSV bytes are the same.
+A day of 10 platforms is about 40 M rows. The table is written in one pass over its
+pieces (one per platform and method, in the table's row order: platform, method, time)
+into five preallocated float64 columns and the integer codes of ``platform`` and
+``method``. The columns are allocated for an upper bound of the rows (every solution
+epoch, and the reference and navigation at every basis epoch); the rows a piece leaves
+out (epochs that are not the platform's own, epochs without reference) are the unused
+tail, which is never written, so never takes memory, and the table is a view of the
+written rows. The reference is interpolated once per platform and set of epochs, not
+once per piece. No per-piece frames are concatenated (that held the table twice), and
+the text columns are categorical (one byte per row instead of a string per row); the
+CSV bytes are the same.
 
 With ``release=True`` each platform's trajectories are taken out of the products'
 ``positions`` dicts once its rows are written, so that the solutions (about 32 bytes per
@@ -57,41 +59,34 @@ def _missing_rows(time_s: FloatArray, own: FloatArray) -> NDArray[np.intp]:
     return np.flatnonzero(own[np.minimum(at, own.shape[0] - 1)] != time_s)
 
 
-@dataclass(frozen=True)
-class _Piece:
-    """One (platform, method) block of rows (its values are computed when written)."""
-
-    method: str
-    size: int
-
-
 @dataclass
 class _Platform:
     """What one platform's pieces are made from; epochs and reference computed once."""
 
     session: Session
     products: Mapping[str, PositionProduct]
+    own: FloatArray | None  # the platform's own range epochs (None: every epoch)
     platform: str
     basis: str | None  # the solution whose epochs the reference and nav rows take
     ref: Trajectory | None
-    missing: dict[str, NDArray[np.intp] | None]
-    _times: dict[str, FloatArray]
+    _rows: dict[str, tuple[FloatArray, NDArray[np.intp] | None]]
     _truth: list[tuple[FloatArray, FloatArray]]
 
-    def times(self, method: str) -> FloatArray:
-        """The method's epochs (at the platform's own epochs), in the solution's order."""
-        if method not in self._times:
+    def rows(self, method: str) -> tuple[FloatArray, NDArray[np.intp] | None]:
+        """The method's epochs at the platform's own epochs, in the solution's order, and
+        the solution rows left out (None: none)."""
+        if method not in self._rows:
             t = self.products[method].positions[self.platform].time_s
-            drop = self.missing[method]
+            drop = None if self.own is None else _missing_rows(t, self.own)
             if drop is not None and drop.shape[0]:
                 keep = np.ones(t.shape[0], dtype=bool)
                 keep[drop] = False
                 t = t[keep]
-            self._times[method] = t
-        return self._times[method]
+            self._rows[method] = (t, drop)
+        return self._rows[method]
 
     def truth(self, time_s: FloatArray) -> FloatArray:
-        """``ref.interpolate_within(time_s)``, once per distinct epochs (and gap limit)."""
+        """``ref.interpolate_within(time_s)``, once per distinct epochs."""
         for t, truth in self._truth:
             if t is time_s or (t.shape == time_s.shape and np.array_equal(t, time_s)):
                 return truth
@@ -100,33 +95,29 @@ class _Platform:
         self._truth.append((time_s, truth))
         return truth
 
-    def reference_ok(self) -> NDArray[np.bool_]:
-        assert self.basis is not None
-        return np.all(np.isfinite(self.truth(self.times(self.basis))), axis=1)
+    def forget(self) -> None:
+        self._rows.clear()
+        self._truth.clear()
 
     def values(self, method: str) -> tuple[FloatArray, FloatArray, FloatArray]:
         """A piece's time, (n, 3) east/north/up and horizontal error, in solution order."""
         if method == "reference":
-            ok = self.reference_ok()
-            t = self.times(str(self.basis))
-            return t[ok], self.truth(t)[ok], np.full(int(ok.sum()), np.nan)
+            t = self.rows(str(self.basis))[0]
+            truth = self.truth(t)
+            ok = np.all(np.isfinite(truth), axis=1)
+            return t[ok], truth[ok], np.full(int(ok.sum()), np.nan)
         if method == "nav":
-            t = self.times(str(self.basis))
+            t = self.rows(str(self.basis))[0]
             enu = self.session.nav[self.platform].interpolate(t)
         else:
-            t = self.times(method)
+            t, drop = self.rows(method)
             enu = self.products[method].positions[self.platform].enu_m
-            drop = self.missing[method]
             if drop is not None and drop.shape[0]:
                 enu = np.delete(enu, drop, axis=0)
         if self.ref is None:
             return t, enu, np.full(t.shape[0], np.nan)
         truth = self.truth(t)
         return t, enu, np.hypot(enu[:, 0] - truth[:, 0], enu[:, 1] - truth[:, 1])
-
-    def forget(self) -> None:
-        self._times.clear()
-        self._truth.clear()
 
 
 def _platform_pieces(
@@ -135,30 +126,29 @@ def _platform_pieces(
     own: Mapping[str, FloatArray] | None,
     basis: str | None,
     platform: str,
-) -> tuple[list[_Piece], _Platform]:
-    """The platform's pieces in row order (method by name), counted, not filled."""
+) -> tuple[list[str], _Platform, int]:
+    """The platform's pieces (methods by name, in row order), where their values come
+    from, and an upper bound of their rows."""
     ref = session.reference.get(platform)
     ref = ref if ref is not None and len(ref) >= 2 else None
-    missing: dict[str, NDArray[np.intp] | None] = {}
-    for method, product in products.items():
-        traj = product.positions.get(platform)
-        if traj is not None:
-            mine = None if own is None else own.get(platform, np.empty(0))
-            missing[method] = None if mine is None else _missing_rows(traj.time_s, mine)
+    lengths = {
+        m: len(p.positions[platform]) for m, p in products.items() if platform in p.positions
+    }
     # the reference and own navigation at the epochs of the basis solution; a tag the
     # basis leaves out has its reference at its first method's epochs
-    like = basis if basis in missing else None
+    like = basis if basis in lengths else None
     if like is None and session.platforms[platform].role == "tag":
-        like = next(iter(missing), None)
-    source = _Platform(session, products, platform, like, ref, missing, {}, [])
-    found = {m: _Piece(m, len(source.times(m))) for m in missing}
+        like = next(iter(lengths), None)
+    mine = None if own is None else own.get(platform, np.empty(0))
+    source = _Platform(session, products, mine, platform, like, ref, {}, [])
+    methods = list(lengths)
     if like is not None:
         if ref is not None:
-            found["reference"] = _Piece("reference", int(source.reference_ok().sum()))
+            methods.append("reference")
         if like == basis and platform in session.nav:  # a tag: no navigation of its own
-            found["nav"] = _Piece("nav", len(source.times(like)))
-    source.forget()  # pass 1 keeps counts only
-    return [found[m] for m in sorted(found)], source
+            methods.append("nav")
+    bound = sum(lengths.values()) + (len(methods) - len(lengths)) * lengths.get(str(like), 0)
+    return sorted(methods), source, bound
 
 
 def positions_table(
@@ -179,26 +169,23 @@ def positions_table(
     basis = next((m for m in ("observed", *methods) if m in products), None)
     if basis is not None and not products[basis].positions:
         basis = methods[0]
-    platforms_in = sorted({p for product in products.values() for p in product.positions})
-    plan = [
-        (platform, _platform_pieces(session, products, own, basis, platform))
-        for platform in platforms_in
-    ]  # pass 1: each piece's epochs and rows
-    kept = [(p, [c for c in pieces if c.size], e) for p, (pieces, e) in plan]
-    kept = [(p, pieces, e) for p, pieces, e in kept if pieces]
-    if not kept:
-        return pd.DataFrame(columns=list(POSITIONS_COLUMNS))
-    total = sum(c.size for _, pieces, _ in kept for c in pieces)
-    platforms = [p for p, _, _ in kept]
-    method_names = sorted({c.method for _, pieces, _ in kept for c in pieces})
-    columns = {name: np.empty(total) for name in ("time", "east", "north", "up", "error_h")}
-    platform_code: np.ndarray = np.empty(total, dtype=_code_dtype(len(platforms)))
-    method_code: np.ndarray = np.empty(total, dtype=_code_dtype(len(method_names)))
+    platforms = sorted({p for product in products.values() for p in product.positions})
+    plan = [_platform_pieces(session, products, own, basis, p) for p in platforms]
+    names = sorted({m for pieces, _, _ in plan for m in pieces})
+    bound = sum(b for _, _, b in plan)
+    columns = {name: np.empty(bound) for name in ("time", "east", "north", "up", "error_h")}
+    platform_code: np.ndarray = np.empty(bound, dtype=_code_dtype(len(platforms)))
+    method_code: np.ndarray = np.empty(bound, dtype=_code_dtype(len(names)))
+    used_platforms: set[int] = set()
+    used_methods: set[int] = set()
     start = 0
-    for code, (platform, pieces, source) in enumerate(kept):  # pass 2: fill in place
-        for piece in pieces:
-            time_s, enu, error_h = source.values(piece.method)
-            n = piece.size
+    for code, (pieces, source, _) in enumerate(plan):  # fill in place, piece by piece
+        first = start
+        for method in pieces:
+            time_s, enu, error_h = source.values(method)
+            n = time_s.shape[0]
+            if n == 0:
+                continue
             rows = slice(start, start + n)
             order = None
             if n > 1 and not bool(np.all(time_s[1:] >= time_s[:-1])):
@@ -211,25 +198,40 @@ def positions_table(
                 ("error_h", error_h),
             ):
                 columns[name][rows] = values if order is None else values[order]
-            method_code[rows] = method_names.index(piece.method)
+            method_code[rows] = names.index(method)
+            used_methods.add(names.index(method))
             start += n
-        platform_code[start - sum(c.size for c in pieces) : start] = code
-        source.forget()
+        platform_code[first:start] = code
+        if start > first:
+            used_platforms.add(code)
+        source.forget()  # its epochs and reference at them go now
         if release:
-            _release(products, platform)
-    if release:  # platforms without rows too
-        for platform, _ in plan:
-            _release(products, platform)
+            _release(products, platforms[code])
+    if start == 0:
+        return pd.DataFrame(columns=list(POSITIONS_COLUMNS))
+    platform_code, platform_names = _used(platform_code[:start], platforms, used_platforms)
+    method_code, method_names = _used(method_code[:start], names, used_methods)
     data: dict[str, object] = {
-        "time": columns["time"],
-        "platform": pd.Categorical.from_codes(platform_code, categories=pd.Index(platforms)),
+        "time": columns["time"][:start],
+        "platform": pd.Categorical.from_codes(platform_code, categories=pd.Index(platform_names)),
         "method": pd.Categorical.from_codes(method_code, categories=pd.Index(method_names)),
-        "east": columns["east"],
-        "north": columns["north"],
-        "up": columns["up"],
-        "error_h": columns["error_h"],
+        "east": columns["east"][:start],
+        "north": columns["north"][:start],
+        "up": columns["up"][:start],
+        "error_h": columns["error_h"][:start],
     }
     return pd.DataFrame(data, columns=list(POSITIONS_COLUMNS), copy=False)
+
+
+def _used(codes: np.ndarray, names: list[str], used: set[int]) -> tuple[np.ndarray, list[str]]:
+    """The codes and categories of the names that have rows (a piece without rows gives
+    no category, as the table always did)."""
+    if len(used) == len(names):
+        return codes, names
+    kept = sorted(used)
+    remap = np.full(len(names), -1, dtype=np.int64)
+    remap[kept] = np.arange(len(kept))
+    return remap[codes].astype(_code_dtype(len(kept))), [names[i] for i in kept]
 
 
 def _release(products: Mapping[str, PositionProduct], platform: str) -> None:
