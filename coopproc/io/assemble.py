@@ -11,6 +11,7 @@ Decisions (documented in docs/formats.md):
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 
 import numpy as np
@@ -47,10 +48,8 @@ def to_session_time(raw: RawTrajectory, base: str, gps_week: int | None) -> RawT
             'absolute GPS times cannot be aligned with [time] base = "relative"; expected '
             "base gps_tow or unix, or the reference as ref_<ID>.csv in relative seconds",
         )
-    out = raw.take(np.arange(raw.time_s.size))
-    out.time_s = t
-    out.time_kind = "session"
-    return out
+    # the other arrays shared, not copied (nothing writes into them)
+    return dataclasses.replace(raw, time_s=t, time_kind="session", notes=list(raw.notes))
 
 
 def filter_quality(raw: RawTrajectory, accepted: tuple[int, ...]) -> tuple[RawTrajectory, str]:

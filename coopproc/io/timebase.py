@@ -86,7 +86,12 @@ def _fits(t: FloatArray, base: str) -> bool:
 
 def _median_step(t: FloatArray) -> float | None:
     """Median interval between distinct epochs; None for fewer than four epochs."""
-    u = np.unique(t[np.isfinite(t)])
+    t = t[np.isfinite(t)]
+    step = np.diff(t)
+    if np.all(step >= 0):  # in order (as read): np.unique without its sort
+        u = t[np.concatenate([[True], step > 0])] if t.size else t
+    else:
+        u = np.unique(t)
     return float(np.median(np.diff(u))) if u.size >= 4 else None
 
 
