@@ -184,3 +184,68 @@ def test_distance_metrics_of_shuffled_interleaved_rows_are_those_of_the_sorted_g
     )
     for column in ("max", "mean", "rmse", "snr_db", "smoothness", "n"):
         assert got[column].tolist() == [r[column] for r in rows]  # bit for bit
+
+
+def _groupby_position_metrics(positions: pd.DataFrame) -> pd.DataFrame:
+    """Table 3 as it was computed before integer codes: groupby and boolean masks."""
+    rows = []
+    for platform, group in positions.groupby("platform", sort=True, observed=True):
+        refs = group[group["method"] == "reference"].sort_values("time", kind="stable")
+        for method in ("nav", "observed", "di"):
+            own = group[group["method"] == method].sort_values("time", kind="stable")
+            h = own["error_h"].to_numpy(np.float64)
+            h = h[np.isfinite(h)]
+            t = own["time"].to_numpy(np.float64)
+            t_ref = refs["time"].to_numpy(np.float64)
+            outside = (t < t_ref[0]) | (t > t_ref[-1])
+            axes = []
+            for axis in ("east", "north"):
+                truth = np.interp(t, t_ref, refs[axis].to_numpy(np.float64))
+                truth[outside] = np.nan
+                e = own[axis].to_numpy(np.float64) - truth
+                e = e[np.isfinite(e)]
+                axes.append(float(np.sqrt(np.mean(e * e))))
+            rows.append(
+                {
+                    "platform": str(platform),
+                    "method": method,
+                    "n": h.size,
+                    "max": float(np.max(h)),
+                    "mean": float(np.mean(h)),
+                    "rmse": float(np.sqrt(np.mean(h * h))),
+                    "rms_east": axes[0],
+                    "rms_north": axes[1],
+                    "cep50": float(np.percentile(h, 50)),
+                    "cep95": float(np.percentile(h, 95)),
+                }
+            )
+    return pd.DataFrame(rows)
+
+
+def test_position_metrics_by_codes_are_the_groupby_ones_whatever_the_row_order() -> None:
+    rng = np.random.default_rng(3)
+    frames = []
+    for platform in ("B", "A"):
+        t = np.sort(rng.uniform(0.0, 600.0, 400))
+        truth = np.column_stack([np.sin(t / 50.0) * 20.0, t * 0.1, np.zeros_like(t)])
+        for method, noise in (("reference", 0.0), ("nav", 1.0), ("observed", 0.2), ("di", 0.1)):
+            enu = truth + rng.normal(0.0, noise, truth.shape)
+            err = np.hypot(enu[:, 0] - truth[:, 0], enu[:, 1] - truth[:, 1])
+            err[rng.random(err.size) < 0.05] = np.nan  # epochs without an error
+            frames.append(
+                pd.DataFrame(
+                    {"time": t, "platform": platform, "method": method}
+                    | {"east": enu[:, 0], "north": enu[:, 1], "up": enu[:, 2]}
+                    | {"error_h": np.nan if method == "reference" else err}
+                )
+            )
+    table = pd.concat(frames, ignore_index=True)
+    expected = _groupby_position_metrics(table)
+    grouped = table.sort_values(["platform", "method", "time"], kind="stable")
+    shuffled = table.sample(frac=1.0, random_state=1)  # groups split, times out of order
+    categorical = grouped.astype({"platform": "category", "method": "category"})
+    for positions in (grouped, shuffled, categorical):
+        got = position_metrics(positions, methods=("observed", "di"))
+        pd.testing.assert_frame_equal(
+            got[list(expected.columns)], expected, check_exact=True, check_dtype=False
+        )

@@ -8,7 +8,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from coopproc.report.scores import NLOS_SCORE_COLUMNS, nlos_event_scores, nlos_scores, robust_sigma
+from coopproc.report.scores import (
+    NLOS_SCORE_COLUMNS,
+    _in_events,
+    nlos_event_scores,
+    nlos_scores,
+    robust_sigma,
+)
 
 
 def _ranges() -> pd.DataFrame:
@@ -72,3 +78,17 @@ def test_missing_sigma_uses_mad_and_no_reference_scores_nothing() -> None:
     no_ref = nlos_scores(ranges.assign(reference=np.nan), EVENTS, {"A-B": 0.1})
     assert list(no_ref["epochs"]) == [0, 0]
     assert math.isnan(no_ref.iloc[1]["recall"])
+
+
+def test_events_found_by_binary_search_are_the_epochs_between_start_and_end() -> None:
+    rng = np.random.default_rng(2)
+    t = np.sort(np.round(rng.uniform(0.0, 100.0, 500), 1))  # ties on the edges too
+    t[-3:] = np.nan  # times sort NaN last
+    starts = np.round(rng.uniform(-5.0, 100.0, 40), 1)
+    ends = starts + np.round(rng.uniform(-2.0, 8.0, 40), 1)  # some end before they start
+    starts[:3], ends[3:5] = [np.nan, -np.inf, 50.0], [np.nan, np.inf]
+    expected = np.zeros(t.shape[0], dtype=bool)
+    for start, end in zip(starts, ends, strict=True):
+        expected |= (t >= start) & (t <= end)
+    np.testing.assert_array_equal(_in_events(t, starts, ends), expected)
+    assert expected.any() and not expected.all()
