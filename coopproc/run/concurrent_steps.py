@@ -20,7 +20,7 @@ not worth it) and the second fusion's memory (:data:`BYTES_PER_ROW`) at most
 :data:`MAX_EXTRA_BYTES` and twice available; ``true`` only the fork rules; ``false``
 never forks. Two fusions at once hold two fusions' working arrays: the run's peak
 memory grows by about one fusion's (PSS summed over both processes: +0.3 GB at 20
-platforms x 1 h, +0.55-0.65 GB at 10 x 4 h, +2.5 GB at a day of 10 platforms).
+platforms x 1 h, +0.55-0.65 GB at 10 x 4 h, +3 GB at a day of 10 platforms).
 
 An error in the child (e.g. a :class:`~coopproc.errors.StageError`) is raised in the
 caller as it would have been raised there; a child that dies (killed, e.g. for memory)
@@ -60,7 +60,7 @@ T = TypeVar("T")
 MIN_ROWS = 200_000
 
 #: Memory a second fusion at the same time holds, per range row (its working arrays and
-#: product; measured 0.5-0.9 kB at 20 x 1 h and 10 x 4 h, 0.7 kB at a day of 10
+#: product; measured 0.5-0.9 kB at 20 x 1 h and 10 x 4 h, 0.8 kB at a day of 10
 #: platforms): ``"auto"`` forks only when that is at most :data:`MAX_EXTRA_BYTES` and
 #: twice it fits in the memory available.
 BYTES_PER_ROW = 1_000
