@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import codecs
 import gzip
-import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +24,16 @@ import pandas as pd
 
 from coopproc.errors import InputError
 from coopproc.io._common import PARSE_ERRORS, Locator, missing_column, one_line, parser_error
+from coopproc.io.csv_head import (
+    HEAD_LINES,
+    decimal_comma,
+    head_lines,
+    header_index,
+    plain_head,
+    sniff_delimiter,
+    split_lines,
+    text_lines,
+)
 
 __all__ = [
     "UNITS",
@@ -149,47 +158,6 @@ def decode_bytes(data: bytes, path: Path, form: CsvForm) -> tuple[str, str, str]
         ) from err
 
 
-_CANDIDATES = ((",", "','"), (";", "';'"), ("\t", "tab"), ("|", "'|'"))
-_DECIMAL_COMMA = re.compile(r"\A[+-]?\d+,\d+([eE][+-]?\d+)?\Z")
-_DECIMAL_POINT = re.compile(r"\A[+-]?(\d+\.\d*|\.\d+)([eE][+-]?\d+)?\Z")
-
-
-def sniff_delimiter(header: str) -> tuple[str, str]:
-    """The delimiter of a header line and its name: the candidate giving most fields.
-
-    Ties go to ``,`` then ``;``, tab, ``|``; a header none of these splits is split on
-    whitespace (``\\s+``) when that gives two or more fields, else read as one column.
-    """
-    best, name, most = ",", "','", 1
-    for sep, label in _CANDIDATES:
-        count = len(header.split(sep))
-        if count > most:
-            best, name, most = sep, label, count
-    if most == 1 and len(header.split()) >= 2:
-        return r"\s+", "whitespace"
-    return best, name
-
-
-def _decimal_comma(row: str, sep: str) -> bool:
-    """Whether a data row written with ``sep`` uses decimal commas (``1,5``)."""
-    if sep == ",":
-        return False
-    fields = row.split() if sep == r"\s+" else row.split(sep)
-    fields = [f.strip().strip('"') for f in fields]
-    return any(_DECIMAL_COMMA.match(f) for f in fields) and not any(
-        _DECIMAL_POINT.match(f) for f in fields
-    )
-
-
-def _header(lines: Sequence[str], path: Path) -> int:
-    """0-based index of the header line (after ``#`` comments and blank lines)."""
-    for index, text in enumerate(lines):
-        stripped = text.strip()
-        if stripped and not stripped.startswith("#"):
-            return index
-    raise InputError(path, "empty file; expected a header line and data rows")
-
-
 def _is_number(text: str) -> bool:
     try:
         float(text.replace(",", "."))
@@ -228,46 +196,6 @@ def _check_widths(path: Path, lines: Sequence[str], header: int, width: int) -> 
             )
 
 
-def _split_lines(text: str) -> list[str]:
-    return text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
-
-
-def _head_lines(text: str, count: int) -> list[str]:
-    """The first ``count`` lines of ``text`` (all of them if fewer), split as
-    :func:`_split_lines` does, without splitting the whole (large) text."""
-    end = 0
-    for _ in range(count):
-        found = text.find("\n", end)
-        if found < 0:
-            return _split_lines(text)
-        end = found + 1
-    return _split_lines(text[:end])[:-1]
-
-
-def _text_lines(read_lines: Callable[[], list[str]], first_data_line: int) -> Callable[[int], int]:
-    """Map data row index -> 1-based line of the decoded text, skipping blank lines.
-
-    ``read_lines`` gives the text's lines; it is called on the first lookup only (an
-    error message), so a large file's lines are not held in memory."""
-    cache: list[int] = []
-
-    def line_of(row: int) -> int:
-        if not cache:
-            lines = read_lines()
-            cache.extend(
-                n
-                for n, text in enumerate(lines[first_data_line - 1 :], start=first_data_line)
-                if text.strip()
-            )
-        return cache[row] if row < len(cache) else first_data_line + row
-
-    return line_of
-
-
-#: Lines looked at for the header and the first row (the rest is left to the C reader).
-_HEAD_LINES = 1000
-
-
 def _reader(path: Path, form: CsvForm) -> Callable[[], list[str]]:
     """The decoded lines of ``path``, read again when an error message needs a line."""
 
@@ -275,45 +203,9 @@ def _reader(path: Path, form: CsvForm) -> Callable[[], list[str]]:
         data = path.read_bytes()
         if path.name.lower().endswith(".gz"):
             data = gzip.decompress(data)
-        return _split_lines(decode_bytes(data, path, form)[0])
+        return split_lines(decode_bytes(data, path, form)[0])
 
     return read_lines
-
-
-#: Bytes read at a time when checking that a file is plain ASCII.
-_CHUNK = 1 << 23
-
-
-def _plain_head(path: Path, form: CsvForm) -> tuple[str, list[str], int] | None:
-    """(head text, its first lines, the header's index) of a file that
-    :func:`read_table` reads exactly as from its whole decoded text: plain ASCII (so
-    valid UTF-8, no byte order mark), no NUL in its first 4096 bytes, no declared
-    encoding, not gzip, its header within the first lines and not whitespace-delimited.
-    None otherwise (the caller decodes the whole file). The file is checked in chunks,
-    so its text is never held whole."""
-    if form.encoding is not None or path.name.lower().endswith(".gz"):
-        return None
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(_CHUNK)
-            if b"\x00" in head[:4096] or not head.isascii():
-                return None
-            whole = len(head) < _CHUNK
-            if not whole and head.count(b"\n") < _HEAD_LINES:
-                return None  # long lines: the head may not hold the lines looked at
-            while chunk := fh.read(_CHUNK):
-                if not chunk.isascii():
-                    return None
-    except OSError:
-        return None  # the caller reports it
-    text = head.decode("ascii")
-    lines = _head_lines(text, _HEAD_LINES)
-    if not any(t.strip() and not t.strip().startswith("#") for t in lines[:-1]):
-        return None
-    index = _header(lines, path)
-    if sniff_delimiter(lines[index].strip())[0] == r"\s+":
-        return None
-    return text, lines, index
 
 
 def read_table(
@@ -336,7 +228,7 @@ def read_table(
     per row).
     """
     form = form or CsvForm()
-    found = _plain_head(path, form)
+    found = plain_head(path, form)
     if found is not None:  # plain ASCII, comma-delimited: the head is all that is needed
         text, lines, index = found
         encoding, codec = "", "utf-8"
@@ -351,20 +243,20 @@ def read_table(
             ) from err
         text, encoding, codec = decode_bytes(data, path, form)  # bad bytes: one clear error
         del data
-        lines = _head_lines(text, _HEAD_LINES)
+        lines = head_lines(text, HEAD_LINES)
         if not any(t.strip() and not t.strip().startswith("#") for t in lines[:-1]):
-            lines = _split_lines(text)  # a long comment block: look further
-        index = _header(lines, path)
+            lines = split_lines(text)  # a long comment block: look further
+        index = header_index(lines, path)
     header = lines[index].strip()
     sep, sep_name = sniff_delimiter(header)
     fields = header.split() if sep == r"\s+" else header.split(sep)
     fields = [f.strip().strip('"') for f in fields]
     _check_header(path, index + 1, fields, known, expected)
     if sep == r"\s+":
-        _check_widths(path, _split_lines(text), index, len(fields))
+        _check_widths(path, split_lines(text), index, len(fields))
     first_row = next((t for t in lines[index + 1 :] if t.strip()), "")
     del text
-    decimal = "," if _decimal_comma(first_row, sep) else "."
+    decimal = "," if decimal_comma(first_row, sep) else "."
     as_text: dict[str, Any] = {form.columns.get(c, c): str for c in text_columns}
     as_text.update({form.columns.get(c, c): "category" for c in coded_columns})
     try:
@@ -389,7 +281,7 @@ def read_table(
     frame.columns = [str(c).strip() for c in frame.columns]
     if any(c.startswith("Unnamed:") for c in frame.columns):
         raise InputError(path, "a column has no name in the header", line=index + 1)
-    where = Locator(str(path), lines=_text_lines(_reader(path, form), index + 2))
+    where = Locator(str(path), lines=text_lines(_reader(path, form), index + 2))
     notes = []
     said = [encoding] if encoding else []
     if sep != ",":

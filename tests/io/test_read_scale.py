@@ -15,7 +15,7 @@ import pytest
 
 from coopproc.checks.coverage import restrict_to_coverage
 from coopproc.errors import InputError
-from coopproc.io import csv_forms, read_session, validate_session
+from coopproc.io import csv_head, read_session, validate_session
 from coopproc.io._common import Locator
 from coopproc.io.ranges_csv import _duplicated, range_table_from_frame, read_ranges_csv
 from coopproc.io.timebase import _median_step
@@ -119,12 +119,12 @@ def test_restricted_table_keeps_matching_id_codes(tmp_path: Path) -> None:
 def test_non_ascii_byte_past_the_first_chunk_is_reported(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(csv_forms, "_CHUNK", 1 << 15)
+    monkeypatch.setattr(csv_head, "_CHUNK", 1 << 15)
     rows = [f"{100 + i * 0.1:.6f},A,B,{10 + i % 7}.5" for i in range(6000)]
     rows[5000] = rows[5000].replace(",A,", ",\xe9,")
     path = tmp_path / "ranges.csv"
     path.write_bytes(("time,from,to,range\n" + "\n".join(rows) + "\n").encode("latin-1"))
-    assert path.stat().st_size > 2 * csv_forms._CHUNK
+    assert path.stat().st_size > 2 * csv_head._CHUNK
     with pytest.raises(InputError) as err:
         read_ranges_csv(path)
     assert err.value.line == 5002
