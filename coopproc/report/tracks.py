@@ -141,7 +141,8 @@ def matched_tracks(
 ) -> Iterator[Track]:
     """Each platform's methods at their evaluation epochs (module doc): platforms in
     ``groupby`` order, methods ``nav``, then ``methods`` (default: those of the table),
-    then any other alphabetically; a platform without reference rows yields nothing."""
+    then any other alphabetically; ``reference`` is never a method. A platform without
+    reference rows yields its methods with no epochs (``n`` 0 in ``evaluation.csv``)."""
     order = ("nav", *(position_methods_of(positions) if methods is None else methods))
     if not len(positions):
         return
