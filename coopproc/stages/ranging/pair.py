@@ -18,7 +18,7 @@ from coopproc.stages.ranging.config import RangingConfig
 from coopproc.stages.ranging.di import anchored_increments, di_variance, range_increments
 from coopproc.stages.ranging.nlos import KernelParams
 from coopproc.stages.ranging.rn import rn_increments
-from coopproc.stages.ranging.table import pair_rows, platform_positions, reference_positions
+from coopproc.stages.ranging.table import pair_columns, platform_positions, reference_positions
 from coopproc.stages.ranging.tracks import PlatformTracks
 
 __all__ = ["PairInputs", "kernel_params", "prepare_pair"]
@@ -107,9 +107,7 @@ def prepare_pair(
     (:class:`PlatformTracks`; None: for this pair alone); the caller calls its ``done``."""
     if tracks is None:
         tracks = PlatformTracks(session, config, [pair])
-    rows = pair_rows(session, pair)
-    t = rows["time"].to_numpy(dtype=np.float64)
-    obs = rows["range"].to_numpy(dtype=np.float64)
+    t, obs = pair_columns(session, pair)
     a, b = pair_members(pair)
     dr_a = tracks.positions(a, t)
     dr_b = tracks.positions(b, t)

@@ -17,7 +17,13 @@ import pandas as pd
 from coopproc.errors import StageError
 from coopproc.model import FloatArray, Session, Trajectory, pair_members
 
-__all__ = ["observed_table", "platform_positions", "reference_positions"]
+__all__ = [
+    "observed_table",
+    "pair_columns",
+    "pair_rows",
+    "platform_positions",
+    "reference_positions",
+]
 
 
 def platform_positions(
@@ -58,12 +64,21 @@ def pair_rows(session: Session, pair: str) -> pd.DataFrame:
     return session.ranges.for_pair(pair).sort_values("time", kind="stable")
 
 
+def pair_columns(session: Session, pair: str) -> tuple[FloatArray, FloatArray]:
+    """Time and range of :func:`pair_rows` (the same rows in the same order: a stable sort
+    by time, NaN last), without copying the pair's other columns into a frame."""
+    frame = session.ranges.frame
+    rows = session.ranges.pair_index.get(pair, np.empty(0, dtype=np.int64))
+    time = frame["time"].to_numpy(dtype=np.float64)[rows]
+    order = np.argsort(time, kind="stable")
+    return time[order], frame["range"].to_numpy(dtype=np.float64)[rows[order]]
+
+
 def observed_table(session: Session) -> pd.DataFrame:
     """``time, pair, observed, reference`` at every range epoch (module docstring)."""
     parts = []
     for pair in session.ranges.pairs:
-        rows = pair_rows(session, pair)
-        t = rows["time"].to_numpy(dtype=np.float64)
+        t, observed = pair_columns(session, pair)
         a, b = pair_members(pair)
         reference = np.linalg.norm(
             reference_positions(session, a, t) - reference_positions(session, b, t), axis=1
@@ -73,7 +88,7 @@ def observed_table(session: Session) -> pd.DataFrame:
                 {
                     "time": t,
                     "pair": pair,
-                    "observed": rows["range"].to_numpy(dtype=np.float64),
+                    "observed": observed,
                     "reference": reference,
                 }
             )

@@ -7,10 +7,12 @@ from dataclasses import fields, replace
 
 import numpy as np
 
+from coopproc.model import RangeTable
 from coopproc.sim import simulate
 from coopproc.stages.ranging.config import RangingConfig
 from coopproc.stages.ranging.pair import prepare_pair
 from coopproc.stages.ranging.rn import platform_velocity
+from coopproc.stages.ranging.table import pair_columns, pair_rows
 from coopproc.stages.ranging.tracks import PlatformTracks
 
 
@@ -53,3 +55,18 @@ def test_velocity_is_platform_velocity() -> None:
             assert np.array_equal(got, platform_velocity(use, t), equal_nan=True)
             inside = (t >= traj.time_s[0]) & (t <= traj.time_s[-1])
             assert np.isfinite(got[inside]).all() and np.isnan(got[~inside]).all()
+
+
+def test_pair_columns_are_pair_rows() -> None:
+    session = simulate("dr-faults", seed=0, duration_s=20.0).session
+    frame = session.ranges.frame.sample(frac=1.0, random_state=0)  # rows out of time order
+    time = frame["time"].to_numpy(dtype=np.float64).copy()
+    time[: time.shape[0] - 1 : 9] = time[1::9]  # ties
+    time[5] = np.nan
+    ranges = RangeTable(frame.assign(time=time).reset_index(drop=True))
+    shuffled = replace(session, ranges=ranges)
+    for pair in shuffled.ranges.pairs:
+        rows = pair_rows(shuffled, pair)
+        t, observed = pair_columns(shuffled, pair)
+        assert np.array_equal(t, rows["time"].to_numpy(dtype=np.float64), equal_nan=True)
+        assert np.array_equal(observed, rows["range"].to_numpy(dtype=np.float64), equal_nan=True)
