@@ -58,7 +58,6 @@ from matplotlib.collections import PolyCollection
 from matplotlib.path import Path
 
 from coopproc.model import GAP_FACTOR, FloatArray
-from coopproc.report.style import DRAWN_COLUMNS
 
 __all__ = [
     "LENIENT_MIN",
@@ -71,7 +70,6 @@ __all__ = [
     "break_gaps",
     "gap_spans",
     "line_gap_limit_s",
-    "merge_close",
     "pair_gaps",
     "platform_gaps",
     "series_gaps",
@@ -283,18 +281,6 @@ def platform_gaps(positions_by_platform: Mapping[str, pd.DataFrame]) -> dict[str
     }
 
 
-def merge_close(spans: FloatArray, within_s: float) -> FloatArray:
-    """``spans`` (sorted by start) with every two that overlap or whose space between
-    them is shorter than ``within_s`` joined into one: what a pixel column cannot tell
-    apart. A span however narrow stays."""
-    spans = np.asarray(spans, dtype=np.float64).reshape(-1, 2)
-    if spans.shape[0] < 2:
-        return spans
-    reach = np.maximum.accumulate(spans[:, 1])  # the end of the spans so far
-    first = np.flatnonzero(np.concatenate([[True], spans[1:, 0] - reach[:-1] >= within_s]))
-    return np.column_stack([spans[first, 0], np.maximum.reduceat(spans[:, 1], first)])
-
-
 def _rectangles(spans: FloatArray) -> tuple[FloatArray, np.ndarray]:
     """Vertices and codes of one compound path of a closed rectangle per span, from the
     bottom (0) to the top (1) of the axes."""
@@ -313,11 +299,10 @@ def shade_gaps(ax: Axes, gaps: GapSpans | None) -> None:
     Each kind is one artist, one compound path of rectangles spanning the axes' height
     (what ``axvspan`` draws per span, with its ``gid``, label and style): a platform of
     many pairs can have thousands of spans, and one artist (or one hatched path) per span
-    cost tens of seconds a day of data. Spans closer than a
-    :data:`~coopproc.report.style.DRAWN_COLUMNS`-th of the
-    time drawn (the panel's data and spans) are joined: the unshaded sliver between them
-    would be under a pixel wide; a span however narrow is kept. The spans' times count in
-    the x data limits, as ``axvspan``'s do."""
+    cost tens of seconds a day of data. The spans are not joined: spans narrower than a
+    pixel, a pixel apart, are drawn as faint as the share of the pixel they cover, as they
+    were one by one (joined, they would look like one span without data). The spans'
+    times count in the x data limits, as ``axvspan``'s do."""
     if gaps is None:
         return
     kinds = (
@@ -328,7 +313,6 @@ def shade_gaps(ax: Axes, gaps: GapSpans | None) -> None:
         spans = np.asarray(spans, dtype=np.float64).reshape(-1, 2)
         if not spans.shape[0]:
             continue
-        spans = merge_close(spans[np.argsort(spans[:, 0], kind="stable")], _column_s(ax, spans))
         verts, codes = _rectangles(spans)
         shade = PolyCollection(
             [], transform=ax.get_xaxis_transform(which="grid"), label=label, **style
@@ -339,16 +323,6 @@ def shade_gaps(ax: Axes, gaps: GapSpans | None) -> None:
         ax.update_datalim(np.column_stack([spans.ravel(), np.zeros(spans.size)]), updatey=False)
         # a lazy x autoscale request as axvspan's, if on (an eager set_xlim here: 7 s)
         ax.autoscale(ax.get_autoscalex_on(), axis="x")
-
-
-def _column_s(ax: Axes, spans: FloatArray) -> float:
-    """One :data:`~coopproc.report.style.DRAWN_COLUMNS`-th of the time the panel draws:
-    its data so far and ``spans``."""
-    lo, hi = float(spans.min()), float(spans.max())
-    x0, x1 = ax.dataLim.intervalx
-    if np.isfinite(x0) and np.isfinite(x1) and x1 >= x0:
-        lo, hi = min(lo, float(x0)), max(hi, float(x1))
-    return (hi - lo) / DRAWN_COLUMNS
 
 
 def shaded_spans(ax: Axes, gid: str) -> FloatArray:

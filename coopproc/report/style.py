@@ -20,7 +20,6 @@ __all__ = [
     "COLUMN_WIDTH_IN",
     "DEFAULT_STYLE",
     "DI_STYLES",
-    "DRAWN_COLUMNS",
     "DRAWN_DPI",
     "EXTRA_COLORS",
     "EXTRA_DASHES",
@@ -52,17 +51,13 @@ MAX_PANELS = 24
 #: panels, every pair of 10 platforms; beyond, the panels most worth looking at
 #: (:mod:`coopproc.report.panel_cap`). ``--max-pages`` / ``[run] max_pages``; 0: all.
 MAX_PAGES = 2
-#: The time (or track) resolution of what is drawn: about the pixel columns of the widest
-#: panel (7 in at 300 dpi: 2100). Gap shading closer than one column is joined
-#: (:func:`coopproc.report.gaps.shade_gaps`).
-DRAWN_COLUMNS = 2500
 #: The resolution the time-series lines are decimated for (``write_figures``' default
 #: dpi): two points per pixel column of the panel (:func:`coopproc.report.decimate.panel_points`).
 DRAWN_DPI = 300
 #: Most points drawn per line and panel: longer series are drawn from their min/max
-#: envelope (:mod:`coopproc.report.decimate`), two points a column; statistics always
-#: use every sample.
-MAX_LINE_POINTS = 2 * DRAWN_COLUMNS
+#: envelope (:mod:`coopproc.report.decimate`): two points a pixel column of the widest
+#: panel (7 in at 300 dpi: 2100 columns); statistics always use every sample.
+MAX_LINE_POINTS = 5000
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ from matplotlib.figure import Figure
 
 from coopproc.report.decimate import decimate, panel_points
 from coopproc.report.evaluation_plots import _cdf_points, plot_error_cdf
-from coopproc.report.gaps import GapSpans, merge_close, shade_gaps, shaded_spans
+from coopproc.report.gaps import GapSpans, shade_gaps, shaded_spans
 from coopproc.report.panels import groups
 from coopproc.report.plots import plot_position_errors
 from coopproc.report.style import DRAWN_DPI, MAX_LINE_POINTS
@@ -55,35 +55,19 @@ def test_rows_per_method_draw_what_the_rows_draw() -> None:
         np.testing.assert_array_equal(y, as_groups[key])
 
 
-def test_spans_closer_than_a_column_join_and_a_narrow_span_stays() -> None:
-    spans = np.array([[0.0, 10.0], [10.5, 20.0], [19.0, 25.0], [40.0, 41.0], [41.0, 50.0]])
-    assert merge_close(spans, 1.0).tolist() == [[0.0, 25.0], [40.0, 50.0]]
-    assert merge_close(spans, 0.0).tolist() == [
-        [0.0, 10.0],
-        [10.5, 25.0],
-        [40.0, 41.0],
-        [41.0, 50.0],
-    ]
-    # a day of short no-reference spans 2 s apart, one lone 0.5 s span far from them
+def test_a_day_of_spans_is_one_path_per_kind_and_every_span_stays() -> None:
+    # a day of short no-reference spans 2 s apart (under a pixel), one lone 0.5 s outage
     starts = np.arange(0.0, 20_000.0, 5.0)
     many = np.column_stack([starts, starts + 3.0])
     lone = np.array([[60_000.0, 60_000.5]])
     ax = Figure().subplots()
     ax.plot([0.0, 86_400.0], [0.0, 1.0])
-    shade_gaps(ax, GapSpans(lone, np.vstack([many, lone + 1000.0])))
-    shaded = shaded_spans(ax, "no_reference")
-    assert shaded.tolist() == [[0.0, 19_998.0], [61_000.0, 61_000.5]]
-    assert shaded_spans(ax, "uwb_outage").tolist() == [[60_000.0, 60_000.5]]
+    shade_gaps(ax, GapSpans(lone, many))
+    # not joined: sub-pixel spans stay as faint as the share of the pixels they cover
+    assert shaded_spans(ax, "no_reference").tolist() == many.tolist()
+    assert shaded_spans(ax, "uwb_outage").tolist() == lone.tolist()
     shades = [c for c in ax.collections if c.get_gid() == "no_reference"]
     assert len(shades) == 1 and len(shades[0].get_paths()) == 1  # one hatched path
-
-
-def test_spans_a_pixel_apart_stay_apart() -> None:
-    ax = Figure().subplots()
-    ax.plot([0.0, 1000.0], [0.0, 1.0])
-    spans = np.array([[100.0, 101.0], [102.0, 103.0]])  # 1 s apart: 2.5 columns of 1000 s
-    shade_gaps(ax, GapSpans(spans, spans[:0]))
-    assert shaded_spans(ax, "uwb_outage").tolist() == spans.tolist()
 
 
 def test_cdf_points_are_the_envelope_of_the_exact_curve() -> None:
