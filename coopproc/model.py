@@ -356,9 +356,15 @@ class RangeTable:
         """(platform ids sorted, code of ``from``, code of ``to`` of every row): integer
         codes to select a platform's rows without comparing strings row by row."""
         both = pd.concat([self.frame["from"], self.frame["to"]], ignore_index=True)
-        codes, ids = pd.factorize(both, sort=True)
+        codes, seen = pd.factorize(both)  # hashed in place: no Python string per row
+        found = np.asarray(seen, dtype=object)
+        order = sorted(range(found.shape[0]), key=lambda i: found[i])  # ids as text sort
+        rank = np.empty(found.shape[0] + 1, dtype=np.intp)
+        rank[order] = np.arange(found.shape[0])
+        rank[-1] = -1  # missing stays -1
+        codes = rank[codes]
         n = len(self.frame)
-        return np.asarray(ids, dtype=object), codes[:n], codes[n:]
+        return found[order], codes[:n], codes[n:]
 
     def rows_of(self, platform: str) -> np.ndarray:
         """Row positions (ascending) of the ranges ``platform`` takes part in."""

@@ -143,3 +143,17 @@ def test_problems_of_several_files_listed_in_file_order(tmp_path: Path) -> None:
     problems = validate_session(session)
     files = [p.split(":")[0].rsplit("/", 1)[-1] for p in problems]
     assert files == ["nav_A.csv", "ref_C.pos", "ranges.csv"]
+
+
+@pytest.mark.parametrize("dtype", ["str", "object", "category"])
+def test_id_codes_sort_the_ids_as_text(dtype: str) -> None:
+    frame = pd.DataFrame({"from": ["C", "A", "B10", "C"], "to": ["A", "B2", "A", "B10"]})
+    if dtype == "category":  # categories in another order than the text's
+        for name in ("from", "to"):
+            frame[name] = pd.Categorical(frame[name], categories=["C", "B2", "B10", "A"])
+    else:
+        frame = frame.astype(dtype)
+    ids, first, second = RangeTable(frame).id_codes
+    assert list(ids) == ["A", "B10", "B2", "C"]
+    assert list(ids[first]) == ["C", "A", "B10", "C"]
+    assert list(ids[second]) == ["A", "B2", "A", "B10"]
