@@ -245,7 +245,8 @@ def fuse(
             "innovation": innov[at],
             "innovation_var": innov_var[at],
             "gamma": gamma[at],
-        }
+        },
+        copy=False,  # memory (issue 11): fresh arrays and immutable id columns, not copied
     )
     del innov, innov_var, at, from_id, to_id  # memory (issue 11): what the table took is spent
     if smooth and discard is not None and discard(table):
