@@ -263,9 +263,9 @@ def fuse(
     del cp_x, cp_c, obs, kernel_obs, gamma, ep_idx, noise
     del nav_t, nav_v, nav_ptr
     slots = (session, moving, epochs, rec_ptr, rec_plat, dim, output)
-    forward, smoothed = solutions_from_slots(
-        *slots, [(xs_f, var_f, True), (xs_s, var_s if smoothed_sigma else None, False)]
-    )
+    solutions = [(xs_f, var_f, True), (xs_s, var_s if smoothed_sigma else None, False)]
+    del xs_f, var_f, xs_s, var_s  # the forward states go once their trajectories are built
+    forward, smoothed = solutions_from_slots(*slots, solutions)
     return FusionOutput(smoothed=smoothed, forward=forward, epochs_s=epochs, observations=table)
 
 

@@ -119,42 +119,55 @@ def solutions_from_slots(
 ) -> list[dict[str, Trajectory]]:
     """:func:`trajectories_from_slots` of several solutions (states, variances, hold) of
     the same slots (the forward and the smoothed): each platform's slots, epochs and
-    navigation heights found once for all of them."""
+    navigation heights found once for all of them. ``solutions`` is consumed: each
+    solution's arrays are let go as soon as its trajectories are built (memory, issue 11:
+    the smoothed trajectories are built after the forward states are freed)."""
     n_ep, n_plat = epochs.shape[0], len(moving)
+    out: list[dict[str, Trajectory]] = []
     if output != "ranges":
         full = (n_ep, n_plat * dim)
-        nav_rate = []
-        for xs, var, hold in solutions:
+        while solutions:
+            xs, var, hold = solutions.pop(0)
             var_full = (np.full(xs.shape, np.nan) if var is None else var).reshape(full)
-            nav_rate.append(
+            out.append(
                 trajectories_from_states(
                     session, moving, epochs, xs.reshape(full), var_full, dim, output, hold=hold
                 )
             )
-        return nav_rate
-    epoch_of = np.repeat(np.arange(n_ep), np.diff(rec_ptr))
+            del xs, var, var_full
+        return out
+    epoch_of: np.ndarray | None = np.repeat(np.arange(n_ep), np.diff(rec_ptr))
     # each platform's slots, ascending: a stable sort of small codes (radix sort)
     code = rec_plat.astype(np.int16 if n_plat < 2**15 else np.int64)
     by_plat = np.argsort(code, kind="stable")
     bounds = np.searchsorted(code[by_plat], np.arange(n_plat + 1))
     del code
-    out: list[dict[str, Trajectory]] = [{} for _ in solutions]
-    for p, pid in enumerate(moving):
-        slots = by_plat[bounds[p] : bounds[p + 1]]
-        at = epoch_of[slots]
-        times = epochs[at]
-        up = nav_points(session, pid, times, range(dim, 3)) if dim < 3 else None
-        for i, (xs, var, _) in enumerate(solutions):
-            enu = np.empty((at.shape[0], 3))
+    times_of: list[FloatArray] = []  # each platform's epochs and heights, from the first
+    heights: list[FloatArray | None] = []
+    while solutions:
+        xs, var, _ = solutions.pop(0)
+        found: dict[str, Trajectory] = {}
+        for p, pid in enumerate(moving):
+            slots = by_plat[bounds[p] : bounds[p + 1]]
+            if epoch_of is not None:
+                times = epochs[epoch_of[slots]]
+                times_of.append(times)
+                heights.append(nav_points(session, pid, times, range(dim, 3)) if dim < 3 else None)
+            else:
+                times = times_of[p].copy()
+            enu = np.empty((slots.shape[0], 3))
             enu[:, :dim] = xs[slots]
+            up = heights[p]
             if up is not None:  # the height: the platform's own navigation at those epochs
                 enu[:, dim:] = up
             sig = None
             if var is not None:
-                sig = np.full((at.shape[0], 3), np.nan)
+                sig = np.full((slots.shape[0], 3), np.nan)
                 sig[:, :dim] = np.sqrt(np.maximum(var[slots], 0.0))
-            time_s = times if i == 0 else times.copy()
-            out[i][pid] = Trajectory(pid, time_s, enu, sigma_enu_m=sig, source="fusion")
+            found[pid] = Trajectory(pid, times, enu, sigma_enu_m=sig, source="fusion")
+        del xs, var
+        epoch_of = None
+        out.append(found)
     return out
 
 
