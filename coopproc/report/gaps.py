@@ -299,10 +299,10 @@ def shade_gaps(ax: Axes, gaps: GapSpans | None) -> None:
     Each kind is one artist, one compound path of rectangles spanning the axes' height
     (what ``axvspan`` draws per span, with its ``gid``, label and style): a platform of
     many pairs can have thousands of spans, and one artist (or one hatched path) per span
-    cost tens of seconds a day of data. The spans are not joined: spans narrower than a
-    pixel, a pixel apart, are drawn as faint as the share of the pixel they cover, as they
-    were one by one (joined, they would look like one span without data). The spans'
-    times count in the x data limits, as ``axvspan``'s do."""
+    cost tens of seconds a day of data. The spans are neither joined (spans under a pixel
+    apart would look like one span without data) nor left unsnapped: each is drawn on
+    whole pixels, as one path per span is, so the pixels are those of drawing them one by
+    one. The spans' times count in the x data limits, as ``axvspan``'s do."""
     if gaps is None:
         return
     kinds = (
@@ -319,6 +319,9 @@ def shade_gaps(ax: Axes, gaps: GapSpans | None) -> None:
         )
         shade.set_verts_and_codes([verts], [codes])  # type: ignore[list-item]
         shade.set_gid(gid)
+        # every rectangle on whole pixels, as one path per span is (matplotlib snaps
+        # paths of up to 1024 vertices only): sub-pixel spans look as they did one by one
+        shade.set_snap(True)
         ax.add_collection(shade, autolim=False)
         ax.update_datalim(np.column_stack([spans.ravel(), np.zeros(spans.size)]), updatey=False)
         # a lazy x autoscale request as axvspan's, if on (an eager set_xlim here: 7 s)

@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import pandas as pd
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from coopproc.report.decimate import decimate, panel_points
 from coopproc.report.evaluation_plots import _cdf_points, plot_error_cdf
-from coopproc.report.gaps import GapSpans, shade_gaps, shaded_spans
+from coopproc.report.gaps import NO_REFERENCE_SPAN, GapSpans, shade_gaps, shaded_spans
 from coopproc.report.panels import groups
 from coopproc.report.plots import plot_position_errors
 from coopproc.report.style import DRAWN_DPI, MAX_LINE_POINTS
@@ -63,11 +67,37 @@ def test_a_day_of_spans_is_one_path_per_kind_and_every_span_stays() -> None:
     ax = Figure().subplots()
     ax.plot([0.0, 86_400.0], [0.0, 1.0])
     shade_gaps(ax, GapSpans(lone, many))
-    # not joined: sub-pixel spans stay as faint as the share of the pixels they cover
+    # not joined: spans a pixel apart stay apart
     assert shaded_spans(ax, "no_reference").tolist() == many.tolist()
     assert shaded_spans(ax, "uwb_outage").tolist() == lone.tolist()
     shades = [c for c in ax.collections if c.get_gid() == "no_reference"]
     assert len(shades) == 1 and len(shades[0].get_paths()) == 1  # one hatched path
+
+
+def _pixels(draw: Callable[[Axes], None]) -> np.ndarray:
+    fig = Figure(figsize=(2.3, 1.5), dpi=300)
+    ax = fig.subplots()
+    ax.plot([0.0, 86_400.0], [0.0, 1.0], linewidth=0.0)
+    draw(ax)
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    return np.asarray(canvas.buffer_rgba(), dtype=np.float64)[..., :3]
+
+
+def test_one_path_of_spans_has_the_pixels_of_one_span_at_a_time() -> None:
+    rng = np.random.default_rng(1)
+    starts = np.sort(rng.uniform(0.0, 86_400.0, 250))  # 1 to 60 s wide: mostly sub-pixel
+    spans = np.column_stack([starts, starts + rng.uniform(1.0, 60.0, starts.size)])
+    spans = spans[np.concatenate([[True], spans[1:, 0] > spans[:-1, 1]])]
+
+    def one_by_one(ax: Axes) -> None:
+        for start, end in spans:
+            ax.axvspan(start, end, **NO_REFERENCE_SPAN)
+
+    old = _pixels(one_by_one)
+    new = _pixels(lambda ax: shade_gaps(ax, GapSpans(spans[:0], spans)))
+    assert (old < 250).any(axis=2).sum() > 500  # the spans show
+    assert (np.abs(old - new) > 0).any(axis=2).mean() < 0.002
 
 
 def test_cdf_points_are_the_envelope_of_the_exact_curve() -> None:
