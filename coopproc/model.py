@@ -6,7 +6,7 @@ Containers are frozen; stages return new objects and never mutate their inputs.
 
 Output tables (``Result``) are pandas DataFrames whose columns are fixed by the data
 contract (``shared/design/DATA.md``, mirrored in ``docs/formats.md``); the column tuples
-below are the single source of those names.
+(:mod:`coopproc.names`, re-exported here) are the single source of those names.
 """
 
 from __future__ import annotations
@@ -20,6 +20,21 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
+
+from coopproc.names import (
+    DI_COLUMNS,
+    METHODS,
+    METRICS_COLUMNS,
+    NLOS_ESTIMATE_COLUMNS,
+    NLOS_EVENT_COLUMNS,
+    POSITION_METRICS_COLUMNS,
+    POSITIONS_COLUMNS,
+    RANGE_COLUMNS,
+    RANGES_OUT_COLUMNS,
+    STATES_COLUMNS,
+    pair_members,
+    pair_name,
+)
 
 if TYPE_CHECKING:  # coopproc.sensors imports this module
     from coopproc.sensors import ImuData, OdometerData
@@ -58,53 +73,6 @@ Role = Literal["follower", "leader", "anchor", "tag"]
 ROLES: tuple[str, ...] = ("follower", "leader", "anchor", "tag")
 TimeBase = Literal["gps_tow", "unix", "relative"]
 
-#: Range-processing methods, in the order tables list them.
-METHODS: tuple[str, ...] = ("observed", "rn", "di")
-
-#: Columns of the in-memory range table (``RangeTable.frame``); extra columns follow.
-RANGE_COLUMNS: tuple[str, ...] = ("time", "pair", "from", "to", "range", "sigma")
-
-# Output tables (DATA.md "Output").
-RANGES_OUT_COLUMNS: tuple[str, ...] = (
-    "time",
-    "pair",
-    "observed",
-    "rn",
-    "di",
-    "reference",
-    "nlos_flag",
-    "nlos_estimate",
-)
-DI_COLUMNS: tuple[str, ...] = ("time", "pair", "di_dr", "di_cp", "di_smoothed", "di_reference")
-NLOS_EVENT_COLUMNS: tuple[str, ...] = ("pair", "method", "start", "end", "epochs", "estimate")
-#: Extension of DATA.md: the NLOS estimate after each step of eq. (11) (paper 000 fig. 10).
-NLOS_ESTIMATE_COLUMNS: tuple[str, ...] = ("pair", "method", "event", "step", "time", "estimate")
-POSITIONS_COLUMNS: tuple[str, ...] = (
-    "time",
-    "platform",
-    "method",
-    "east",
-    "north",
-    "up",
-    "error_h",
-)
-METRICS_COLUMNS: tuple[str, ...] = (
-    "pair",
-    "method",
-    "max",
-    "mean",
-    "rmse",
-    "snr_db",
-    "smoothness",
-    "n",
-)
-POSITION_METRICS_COLUMNS: tuple[str, ...] = ("platform", "method", "max", "mean", "rmse", "n")
-#: states.csv (DATA.md): velocity (m/s, ENU) and attitude (deg; roll right side down,
-#: pitch nose up, yaw = heading clockwise from north) of the methods that estimate them.
-_STATE_VALUES = ("vel_east", "vel_north", "vel_up", "roll", "pitch", "yaw")
-STATES_COLUMNS: tuple[str, ...] = ("time", "platform", "method", *_STATE_VALUES)
-STATES_COLUMNS += tuple(f"sigma_{c}" for c in _STATE_VALUES)
-
 
 #: A gap in a time series: an interval between consecutive epochs longer than this many
 #: times the median interval (the one rule of :meth:`Trajectory.interpolate_within`, the
@@ -121,27 +89,6 @@ def gap_limit_s(time_s: FloatArray) -> float:
     if t.shape[0] < 2:
         return float("inf")
     return GAP_FACTOR * float(np.median(np.diff(t)))
-
-
-def pair_name(a: str, b: str) -> str:
-    """The unordered pair of two platform ids, ``A-B`` with the ids in sorted order."""
-    first, second = sorted((a, b))
-    return f"{first}-{second}"
-
-
-def pair_members(pair: str) -> tuple[str, str]:
-    """The two platform ids of a pair name made by :func:`pair_name`.
-
-    Ids may contain ``-``; the split is the one whose halves are in sorted order, which
-    is unique for names made by :func:`pair_name` when ids have no ``-`` and the first
-    such split otherwise.
-    """
-    parts = pair.split("-")
-    for i in range(1, len(parts)):
-        a, b = "-".join(parts[:i]), "-".join(parts[i:])
-        if a <= b:
-            return a, b
-    raise ValueError(f"not a pair name: {pair!r}")
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,90 @@
+"""Names fixed by the data contract: the columns of the output tables and of the range
+table (DATA.md "Output"), and the name of a platform pair.
+
+The single source of those names; :mod:`coopproc.model` re-exports them.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "DI_COLUMNS",
+    "METHODS",
+    "METRICS_COLUMNS",
+    "NLOS_ESTIMATE_COLUMNS",
+    "NLOS_EVENT_COLUMNS",
+    "POSITIONS_COLUMNS",
+    "POSITION_METRICS_COLUMNS",
+    "RANGES_OUT_COLUMNS",
+    "RANGE_COLUMNS",
+    "STATES_COLUMNS",
+    "pair_members",
+    "pair_name",
+]
+
+#: Range-processing methods, in the order tables list them.
+METHODS: tuple[str, ...] = ("observed", "rn", "di")
+
+#: Columns of the in-memory range table (``RangeTable.frame``); extra columns follow.
+RANGE_COLUMNS: tuple[str, ...] = ("time", "pair", "from", "to", "range", "sigma")
+
+# Output tables (DATA.md "Output").
+RANGES_OUT_COLUMNS: tuple[str, ...] = (
+    "time",
+    "pair",
+    "observed",
+    "rn",
+    "di",
+    "reference",
+    "nlos_flag",
+    "nlos_estimate",
+)
+DI_COLUMNS: tuple[str, ...] = ("time", "pair", "di_dr", "di_cp", "di_smoothed", "di_reference")
+NLOS_EVENT_COLUMNS: tuple[str, ...] = ("pair", "method", "start", "end", "epochs", "estimate")
+#: Extension of DATA.md: the NLOS estimate after each step of eq. (11) (paper 000 fig. 10).
+NLOS_ESTIMATE_COLUMNS: tuple[str, ...] = ("pair", "method", "event", "step", "time", "estimate")
+POSITIONS_COLUMNS: tuple[str, ...] = (
+    "time",
+    "platform",
+    "method",
+    "east",
+    "north",
+    "up",
+    "error_h",
+)
+METRICS_COLUMNS: tuple[str, ...] = (
+    "pair",
+    "method",
+    "max",
+    "mean",
+    "rmse",
+    "snr_db",
+    "smoothness",
+    "n",
+)
+POSITION_METRICS_COLUMNS: tuple[str, ...] = ("platform", "method", "max", "mean", "rmse", "n")
+#: states.csv (DATA.md): velocity (m/s, ENU) and attitude (deg; roll right side down,
+#: pitch nose up, yaw = heading clockwise from north) of the methods that estimate them.
+_STATE_VALUES = ("vel_east", "vel_north", "vel_up", "roll", "pitch", "yaw")
+STATES_COLUMNS: tuple[str, ...] = ("time", "platform", "method", *_STATE_VALUES)
+STATES_COLUMNS += tuple(f"sigma_{c}" for c in _STATE_VALUES)
+
+
+def pair_name(a: str, b: str) -> str:
+    """The unordered pair of two platform ids, ``A-B`` with the ids in sorted order."""
+    first, second = sorted((a, b))
+    return f"{first}-{second}"
+
+
+def pair_members(pair: str) -> tuple[str, str]:
+    """The two platform ids of a pair name made by :func:`pair_name`.
+
+    Ids may contain ``-``; the split is the one whose halves are in sorted order, which
+    is unique for names made by :func:`pair_name` when ids have no ``-`` and the first
+    such split otherwise.
+    """
+    parts = pair.split("-")
+    for i in range(1, len(parts)):
+        a, b = "-".join(parts[:i]), "-".join(parts[i:])
+        if a <= b:
+            return a, b
+    raise ValueError(f"not a pair name: {pair!r}")
