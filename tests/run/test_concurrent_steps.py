@@ -20,7 +20,7 @@ from click.testing import CliRunner
 
 from coopproc.checks.coverage import prepare_run
 from coopproc.cli import main
-from coopproc.errors import InputError, StageError
+from coopproc.errors import CoopprocError, InputError, StageError
 from coopproc.io import read_session
 from coopproc.model import Session
 from coopproc.run import concurrent_steps
@@ -154,13 +154,25 @@ def _fails_odd() -> None:  # an error whose class needs keyword arguments to reb
     raise InputError("nav_B.csv", "time goes backwards", line=12)
 
 
+def _fails_unpicklable() -> None:  # an error holding what pickle cannot take
+    err = StageError("fusion: cannot go on")
+    err.hook = lambda: None  # type: ignore[attr-defined]
+    raise err
+
+
 @needs_fork
 def test_an_error_in_the_child_reaches_the_caller_as_it_was() -> None:
     with pytest.raises(StageError, match=r"^fusion: platform B has no navigation"):
         run_concurrently([lambda: 1, _fails], ["fusion (rn)", "fusion (di)"])
-    with pytest.raises(StageError) as caught:  # rebuilt with the same message
+    # rebuilt with the same message (as itself where tblib's pickling is installed, e.g.
+    # after dask was imported; else as a StageError)
+    with pytest.raises(CoopprocError) as caught:
         run_concurrently([lambda: 1, _fails_odd], ["fusion (rn)", "fusion (di)"])
     assert str(caught.value) == "nav_B.csv:12: time goes backwards"
+    with pytest.raises(StageError) as caught:
+        run_concurrently([lambda: 1, _fails_unpicklable], ["fusion (rn)", "fusion (di)"])
+    assert str(caught.value) == "fusion: cannot go on"
+    assert not hasattr(caught.value, "hook")  # rebuilt, not the original
 
 
 def _killed() -> None:
