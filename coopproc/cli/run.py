@@ -106,6 +106,7 @@ def run(
     from coopproc.io import read_session
     from coopproc.run.calibration_summary import calibration_lines
     from coopproc.run.chain import resolve
+    from coopproc.run.concurrent_steps import group_steps, workers
     from coopproc.run.config import load_run_config
     from coopproc.run.output import write_run
     from coopproc.run.pipeline import run_pipeline
@@ -137,7 +138,8 @@ def run(
         require_pyarrow()  # before the work
     show_bar = not quiet and sys.stderr.isatty()
     # read, prepare, the chain's steps, metrics, summary, tables, (figures,) html
-    total = len(resolve(config.pipeline)) + 6 + (1 if config.run.figures else 0)
+    steps = resolve(config.pipeline)
+    total = len(steps) + 6 + (1 if config.run.figures else 0)
     with PhaseProgress(total, bar=show_bar, log=None if quiet else note, prefix="run") as phases:
         phases.start("read")
         data = read_session(session)
@@ -153,6 +155,9 @@ def run(
         # ranges the navigation does not cover left out, frames checked; notes appended
         phases.start("prepare")
         data, _ = prepare_run(data)
+        # steps run two at a time are one phase (run.concurrent_steps)
+        together = workers(config.run.parallel_fusion, len(data.ranges))
+        phases.set_total(total - len(steps) + len(group_steps(steps, together)))
         for text in data.notes:
             note(f"note: {text}")
         output = run_pipeline(data, config, progress=phases.start)

@@ -48,6 +48,12 @@ class PhaseProgress:
 
             self._bar = tqdm(total=total, unit="phase", leave=False)
 
+    def set_total(self, total: int) -> None:
+        """The number of phases expected, once it is known better (e.g. after reading)."""
+        if self._bar is not None:
+            self._bar.total = total
+            self._bar.refresh()
+
     def start(self, label: str) -> None:
         """Phase ``label`` starts now (the running one, if any, has ended)."""
         self.end()

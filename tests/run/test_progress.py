@@ -38,3 +38,15 @@ def test_an_error_logs_no_line_for_the_unfinished_phase() -> None:
     quiet.start("x")
     quiet.close()
     assert set(quiet.timings_s) == {"x"}
+
+
+def test_the_bar_total_follows_what_is_known_after_reading(capsys) -> None:  # type: ignore[no-untyped-def]
+    # steps run two at a time are one phase: the bar is told after reading
+    with PhaseProgress(12, bar=True, log=None) as p:
+        p.start("read")
+        p.set_total(11)
+        assert p._bar.total == 11
+        for label in ("prepare", "fusion (rn, di)"):
+            p.start(label)
+        assert p._bar.n == 2
+    assert set(p.timings_s) == {"read", "prepare", "fusion (rn, di)"}
