@@ -22,6 +22,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
@@ -52,11 +53,30 @@ def own_epochs(session: Session) -> dict[str, FloatArray]:
 
 def _missing_rows(time_s: FloatArray, own: FloatArray) -> NDArray[np.intp]:
     """Indices of ``time_s`` not in the sorted unique ``own`` (``~np.isin``; usually none
-    or a few): one binary search per epoch instead of ``isin``'s sort of both arrays."""
+    or a few): a merge of the two when ``time_s`` is increasing (a solution's epochs),
+    else one binary search per epoch, instead of ``isin``'s sort of both arrays."""
     if own.shape[0] == 0:
         return np.arange(time_s.shape[0])
-    at = np.searchsorted(own, time_s)
-    return np.flatnonzero(own[np.minimum(at, own.shape[0] - 1)] != time_s)
+    if time_s.shape[0] > 1 and bool(np.all(time_s[1:] > time_s[:-1])):
+        found = _found_merged(time_s, own)
+    else:
+        at = np.searchsorted(own, time_s)
+        found = own[np.minimum(at, own.shape[0] - 1)] == time_s
+    return np.flatnonzero(~found)
+
+
+@numba.njit(cache=True)
+def _found_merged(time_s: FloatArray, own: FloatArray) -> NDArray[np.bool_]:  # pragma: no cover
+    """Whether each of the increasing ``time_s`` is in the sorted ``own`` (NaN last)."""
+    found = np.zeros(time_s.shape[0], dtype=np.bool_)
+    j = 0
+    m = own.shape[0]
+    for i in range(time_s.shape[0]):
+        t = time_s[i]
+        while j < m and own[j] < t:
+            j += 1
+        found[i] = j < m and own[j] == t
+    return found
 
 
 @dataclass

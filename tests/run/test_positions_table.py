@@ -12,7 +12,7 @@ import pytest
 from coopproc.io import read_session
 from coopproc.io.outdir import csv_text
 from coopproc.model import POSITIONS_COLUMNS, Session, Trajectory
-from coopproc.run.positions_table import own_epochs, positions_table
+from coopproc.run.positions_table import _missing_rows, own_epochs, positions_table
 from coopproc.stages.base import PositionProduct
 
 SAMPLE = Path(__file__).resolve().parents[2] / "sample_logs"
@@ -122,3 +122,12 @@ def test_own_epochs_are_the_unique_times_of_each_platforms_ranges(session: Sessi
         expected = np.unique(frame["time"].to_numpy(np.float64)[mine.to_numpy()])
         np.testing.assert_array_equal(times, expected)
         assert len(times)
+
+
+def test_missing_rows_by_merge_are_those_not_in_the_own_epochs() -> None:
+    rng = np.random.default_rng(4)
+    own = np.unique(np.round(rng.uniform(0.0, 50.0, 300), 1))
+    times = np.unique(np.concatenate([own[::2], np.round(rng.uniform(-5.0, 60.0, 80), 2)]))
+    for t in (times, times[::-1], np.array([own[3]])):  # merged, searched, one epoch
+        np.testing.assert_array_equal(_missing_rows(t, own), np.flatnonzero(~np.isin(t, own)))
+    assert _missing_rows(times, own).shape[0] > 0
