@@ -65,6 +65,9 @@ def _convert(value: Any, tp: Any, where: str) -> Any:
                 return _convert(value, arg, where)
             except ConfigError as err:
                 errors.append(str(err))
+        if len(errors) > 1:  # e.g. bool | Literal["auto"]: every accepted form named
+            reasons = [e.removeprefix(f"{where}: ") for e in errors]
+            raise ConfigError(f"{where}: {'; or '.join(reasons)}")
         raise ConfigError(errors[0] if errors else f"{where}: unexpected value {value!r}")
     if origin is typing.Literal:
         if value not in args:
