@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1] / "coopproc"
-SHARED = ("model", "names", "sensors", "errors", "frames", "timeconv", "configtools")
+SHARED = ("model", "names", "memory", "sensors", "errors", "frames", "timeconv", "configtools")
 
 #: package -> coopproc packages/modules it must not import
 FORBIDDEN: dict[str, tuple[str, ...]] = {

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from coopproc.errors import InputError
-from coopproc.io._common import release_freed_memory
+from coopproc.memory import release_freed_memory
 from coopproc.model import GAP_FACTOR, FloatArray, RangeTable, Session
 
 __all__ = [

@@ -9,13 +9,10 @@ offending line and the count of others.
 
 from __future__ import annotations
 
-import ctypes
 import difflib
-import functools
 import gzip
 import re
 import struct
-import sys
 import zlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -42,7 +39,6 @@ __all__ = [
     "numeric_column",
     "one_line",
     "parser_error",
-    "release_freed_memory",
 ]
 
 #: Platform ids: letters, digits, ``_`` and ``-`` (DATA.md "Words").
@@ -298,24 +294,3 @@ def file_lines(path: Path, first_data_line: int) -> Callable[[int], int]:
         return cache[row] if row < len(cache) else first_data_line + row
 
     return line_of
-
-
-@functools.cache
-def _malloc_trim() -> Callable[[int], int] | None:
-    if not sys.platform.startswith("linux"):
-        return None
-    try:
-        return ctypes.CDLL(None).malloc_trim  # type: ignore[no-any-return]
-    except (OSError, AttributeError):  # not glibc (musl has none)
-        return None
-
-
-def release_freed_memory() -> None:
-    """Give the C heap's free pages back to the system (glibc ``malloc_trim``).
-
-    The CSV parsers' buffers are freed after a read, but the allocator keeps most of
-    them (several hundred MB after a day of logs), so the process would go on holding
-    them; a no-op where there is no ``malloc_trim``."""
-    trim = _malloc_trim()
-    if trim is not None:
-        trim(0)

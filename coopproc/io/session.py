@@ -21,7 +21,6 @@ from coopproc.io._common import (
     RawTrajectory,
     expand,
     flat,
-    release_freed_memory,
 )
 from coopproc.io.csv_mapping import CsvForms
 from coopproc.io.gnss_session import read_gnss
@@ -33,6 +32,7 @@ from coopproc.io.rosbag_read import BagContent, session_bag
 from coopproc.io.rosbag_scan import bag_files, is_bag
 from coopproc.io.session_toml import TomlRead, mcap_mapping, parse_session_toml, read_session_toml
 from coopproc.io.timebase import TimedFile, WeekSource, check_times, infer_time_base
+from coopproc.memory import release_freed_memory
 from coopproc.model import SensorFile, Session, SessionConfig, Trajectory
 
 __all__ = ["inspect_session", "read_session", "validate_session"]

@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 
 from coopproc.errors import StageError
-from coopproc.io._common import release_freed_memory
+from coopproc.memory import release_freed_memory
 from coopproc.model import (
     DI_COLUMNS,
     NLOS_ESTIMATE_COLUMNS,
