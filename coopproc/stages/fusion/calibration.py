@@ -155,6 +155,7 @@ def _drift_scales(
     smoothed_sigma: bool = True,
     smoothed: bool = True,
     inputs: FusionInputs | None = None,
+    forward: bool = True,
 ) -> tuple[FusionOutput, dict[str, float], dict[str, float]]:
     """Inflate the drift of platforms whose range innovations are inconsistent (NIS above
     :data:`NIS_LIMIT`) by sqrt(NIS), refusing until none is (at most
@@ -162,7 +163,8 @@ def _drift_scales(
     Returns the last fusion (at the range epochs), the scales and the last NIS.
     ``smoothed=False``: the caller reads only the scales (every fusion forward only).
     ``inputs``: :func:`fusion_inputs` of ``ranges`` at the range epochs (None: prepared
-    here), shared by every round (they differ only in the drift scales)."""
+    here), shared by every round (they differ only in the drift scales). ``forward``:
+    build the forward trajectories (:func:`fuse`)."""
     if inputs is None:
         inputs = fusion_inputs(session, ranges, params, "ranges")
     moving = set(session.moving_platforms()) if only is None else only
@@ -188,7 +190,7 @@ def _drift_scales(
     fits = 0
     fused = fuse(
         session, ranges, params, output="ranges", drift_scale=scale,
-        smoothed_sigma=smoothed_sigma, discard=refitted, inputs=inputs,
+        smoothed_sigma=smoothed_sigma, discard=refitted, inputs=inputs, forward=forward,
     )  # fmt: skip
     nis = platform_nis(fused.observations)
     for done in range(NIS_ROUNDS):
@@ -202,7 +204,7 @@ def _drift_scales(
         last.clear()
         fused = fuse(
             session, ranges, params, output="ranges", drift_scale=scale,
-            smoothed_sigma=smoothed_sigma, discard=refitted, inputs=inputs,
+            smoothed_sigma=smoothed_sigma, discard=refitted, inputs=inputs, forward=forward,
         )  # fmt: skip
         nis = platform_nis(fused.observations)
     return fused, scale, nis
@@ -218,6 +220,7 @@ def calibrated_fuse(
     sigma_floor: Mapping[str, float] | None = None,
     smoothed_sigma: bool = True,
     max_epochs: int | None = CALIBRATION_EPOCHS,
+    forward: bool = True,
 ) -> tuple[FusionOutput, FusionCalibration]:
     """Fuse with per-pair sigmas and drift scales estimated from the data (module docstring).
 
@@ -229,17 +232,22 @@ def calibrated_fuse(
     (measured on paper-experiment seed 1: fused DI mean error 0.080 m against 0.074 m).
     ``max_epochs``: above this many distinct range times the platform range-bias
     iteration fuses an evenly thinned subset (:func:`calibration_rows`; None: always
-    every range).
+    every range). ``forward``: the result's forward trajectories are built (False: the
+    smoothed only, :func:`fuse`).
     """
     if not params.self_calibrate:
-        plain = fuse(session, ranges, params, output=output, smoothed_sigma=smoothed_sigma)
+        plain = fuse(
+            session, ranges, params, output=output, smoothed_sigma=smoothed_sigma,
+            forward=forward,
+        )  # fmt: skip
         return plain, FusionCalibration({}, {}, {}, {}, {})
     # 1. dead reckoning that the ranges contradict, with the given range sigmas; what the
     # fusions of this range set share is prepared once (fusion_inputs)
     inputs = fusion_inputs(session, ranges, params, "ranges")
     first, scale, first_nis = _drift_scales(
-        session, ranges, params, {}, smoothed_sigma=smoothed_sigma, inputs=inputs
-    )
+        session, ranges, params, {}, smoothed_sigma=smoothed_sigma, inputs=inputs,
+        forward=forward,
+    )  # fmt: skip
     # 2. per-pair ranging sigma from the post-fit residuals
     pairs = pair_codes(ranges["from"], ranges["to"])
     resid = residuals_by_row(session, first, ranges)
@@ -283,7 +291,7 @@ def calibrated_fuse(
             inputs = inputs.with_ranges(calibrated)  # the corrected ranges and new sigmas
             _, scale, _ = _drift_scales(
                 session, calibrated, params, unscaled, only=set(platform_factor),
-                smoothed_sigma=False, smoothed=False, inputs=inputs,
+                smoothed_sigma=False, smoothed=False, inputs=inputs, forward=False,
             )  # fmt: skip
     unchanged = np.array_equal(new_sigma, given) and not platform_factor
     if unchanged and output == "ranges":
@@ -295,7 +303,7 @@ def calibrated_fuse(
         del inputs  # the first inputs' var and z arrays, not held beside the final ones
         result = fuse(
             session, calibrated, params, output=output, drift_scale=scale,
-            smoothed_sigma=smoothed_sigma, inputs=final,
+            smoothed_sigma=smoothed_sigma, inputs=final, forward=forward,
         )  # fmt: skip
         del final
         nis = _platform_nis(result.observations)

@@ -46,6 +46,8 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
             label=inp.range_set,
             sigma_floor=floor,
             smoothed_sigma=False,  # positions.csv and the ranging stage take positions only
+            # the forward solution is the CP solution's increments only (memory, issue 11)
+            forward=inp.want_cp and inp.output == "ranges",
         )
         cp = None
         if inp.want_cp:

@@ -182,6 +182,7 @@ def fuse(
     smoothed_sigma: bool = True,
     discard: Callable[[pd.DataFrame], bool] | None = None,
     inputs: FusionInputs | None = None,
+    forward: bool = True,
 ) -> FusionOutput:
     """Fuse every moving platform's navigation with the ranges.
 
@@ -203,6 +204,8 @@ def fuse(
     inputs : :func:`~coopproc.stages.fusion.inputs.fusion_inputs` of these session,
         ranges, params and output, prepared earlier (another fusion of the same range set
         with other drift scales); None: prepared here.
+    forward : build the forward trajectories (False: ``forward`` is empty; a caller that
+        reads the smoothed solution only saves their time and memory, issue 11).
     """
     if inputs is None:
         inputs = fusion_inputs(session, ranges, params, output)
@@ -263,10 +266,13 @@ def fuse(
     del cp_x, cp_c, obs, kernel_obs, gamma, ep_idx, noise
     del nav_t, nav_v, nav_ptr
     slots = (session, moving, epochs, rec_ptr, rec_plat, dim, output)
-    solutions = [(xs_f, var_f, True), (xs_s, var_s if smoothed_sigma else None, False)]
+    solutions = [(xs_s, var_s if smoothed_sigma else None, False)]
+    if forward:
+        solutions.insert(0, (xs_f, var_f, True))
     del xs_f, var_f, xs_s, var_s  # the forward states go once their trajectories are built
-    forward, smoothed = solutions_from_slots(*slots, solutions)
-    return FusionOutput(smoothed=smoothed, forward=forward, epochs_s=epochs, observations=table)
+    built = solutions_from_slots(*slots, solutions)
+    held = built.pop(0) if forward else {}
+    return FusionOutput(smoothed=built[0], forward=held, epochs_s=epochs, observations=table)
 
 
 def _drift(session: Session, pid: str, params: FusionParams) -> float:

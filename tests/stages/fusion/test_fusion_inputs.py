@@ -101,3 +101,20 @@ def test_recorded_slots_one_search() -> None:
         ptr, plat = recorded_slots(session, ranges, moving, epochs, False)
         want_ptr, want_plat = _slots_naive(session, ranges, moving, epochs)
         assert np.array_equal(ptr, want_ptr) and np.array_equal(plat, want_plat)
+
+
+def test_without_the_forward_trajectories_the_smoothed_are_the_same() -> None:
+    # fusion (rn) / (di) read the smoothed solution only: the forward one is not built
+    from coopproc.stages.fusion.calibration import calibrated_fuse
+
+    session = simulate("dr-faults", seed=0, duration_s=40.0).session
+    frame = session.ranges.frame[["time", "from", "to", "range", "sigma"]]
+    both, cal_both = calibrated_fuse(session, frame, FusionParams(), smoothed_sigma=False)
+    smoothed, cal = calibrated_fuse(
+        session, frame, FusionParams(), smoothed_sigma=False, forward=False
+    )
+    assert smoothed.forward == {} and len(both.forward) == len(both.smoothed) > 1
+    assert cal == cal_both
+    for pid, track in both.smoothed.items():
+        assert np.array_equal(track.enu_m, smoothed.smoothed[pid].enu_m)
+        assert np.array_equal(track.time_s, smoothed.smoothed[pid].time_s)
