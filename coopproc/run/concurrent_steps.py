@@ -100,8 +100,8 @@ def _available_bytes() -> int | None:
                 if line.startswith("MemAvailable:"):
                     return int(line.split()[1]) * 1024
     except (OSError, ValueError, IndexError):
-        pass
-    return None
+        return None  # no /proc/meminfo (not Linux) or unreadable: unknown
+    return None  # a kernel without MemAvailable: unknown
 
 
 def workers(setting: bool | Literal["auto"], rows: int) -> int:
