@@ -28,9 +28,19 @@ Lambda is kept transposed so that Lambda g, the O(n^2) part of each backward ste
 contiguous rows (vectorized) with the same additions per entry as the row dot products:
 the results are bit for bit those of the plain loops. The tests check the result
 against the dense RTS recursion.
+
+The re-run of block b - 1 does not depend on the backward pass over block b, so on a
+machine with two cores or more the two run at once (:func:`mbf_backward` hands the re-runs
+to a second thread; both compiled loops release the GIL): a smoother pass costs about the
+larger of the two instead of their sum (issue 11), with the same arithmetic, so the same
+bits.
 """
 
 from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -49,7 +59,247 @@ from coopproc.stages.fusion.ekf import (
 __all__ = ["mbf_backward"]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
+def _block_extent(
+    obs_ptr: IntArray, rec_ptr: IntArray, n_blocks: int, block: int, n_epochs: int
+) -> tuple[int, int]:
+    """The most observations and the most recorded slots of any block."""
+    most = 0
+    most_rec = 0
+    for b in range(n_blocks):
+        lo = b * block
+        hi = min(lo + block, n_epochs)
+        most = max(most, obs_ptr[hi] - obs_ptr[lo])
+        most_rec = max(most_rec, rec_ptr[hi] - rec_ptr[lo])
+    return most, most_rec
+
+
+@dataclass(frozen=True)
+class _BlockBuffers:
+    """One block's re-run: its filtered states, covariances (or the recorded platforms'
+    rows of them), and every scalar update's Jacobian row, gain, innovation and variance;
+    with the per-epoch work arrays of the re-run."""
+
+    bx: FloatArray
+    bc: FloatArray
+    b_rows: FloatArray
+    b_idx: IntArray
+    b_val: FloatArray
+    b_cnt: IntArray
+    b_gain: FloatArray
+    b_y: FloatArray
+    b_s: FloatArray
+    work: tuple[IntArray, FloatArray, IntArray, FloatArray, FloatArray, FloatArray, FloatArray]
+
+    @classmethod
+    def allocate(
+        cls, block: int, n: int, dim: int, most: int, most_rec: int, max_m: int, with_var: bool
+    ) -> _BlockBuffers:
+        width = 2 * dim
+        rows = max(most, 1)
+        return cls(
+            bx=np.empty((block, n)),
+            bc=np.empty((block if with_var else 1, n, n)),
+            b_rows=np.empty((max(most_rec, 1) * dim, n)),
+            b_idx=np.zeros((rows, width), dtype=np.int64),
+            b_val=np.zeros((rows, width)),
+            b_cnt=np.zeros(rows, dtype=np.int64),
+            b_gain=np.zeros((rows, n)),
+            b_y=np.zeros(rows),
+            b_s=np.zeros(rows),
+            work=epoch_buffers(max_m, dim, n),
+        )
+
+
+@numba.njit(cache=True, nogil=True)
+def _rerun_block(
+    b: int,
+    cp_x: FloatArray,
+    cp_c: FloatArray,
+    epochs: FloatArray,
+    nav_t: FloatArray,
+    nav_v: FloatArray,
+    nav_ptr: IntArray,
+    q_coef: FloatArray,
+    q_squared: bool,
+    dt: FloatArray,
+    obs_ptr: IntArray,
+    obs_kind: IntArray,
+    obs_a: IntArray,
+    obs_b: IntArray,
+    obs_anchor: IntArray,
+    anchor_tab: FloatArray,
+    obs_dz2: FloatArray,
+    z: FloatArray,
+    r_var: FloatArray,
+    gamma: FloatArray,
+    dim: int,
+    rec_ptr: IntArray,
+    rec_plat: IntArray,
+    block: int,
+    with_var: bool,
+    cursor: IntArray,
+    nav_prev: FloatArray,
+    nav_now: FloatArray,
+    bx: FloatArray,
+    bc: FloatArray,
+    b_rows: FloatArray,
+    b_idx: IntArray,
+    b_val: FloatArray,
+    b_cnt: IntArray,
+    b_gain: FloatArray,
+    b_y: FloatArray,
+    b_s: FloatArray,
+    h_idx: IntArray,
+    h_val: FloatArray,
+    h_cnt: IntArray,
+    v: FloatArray,
+    d: FloatArray,
+    ph: FloatArray,
+    x_prior: FloatArray,
+) -> None:
+    """Re-run the forward filter over block ``b`` from its checkpoint, keeping what the
+    backward pass reads (the forward pass's own code and robust factors: the same bits)."""
+    n_epochs = dt.shape[0]
+    first = b * block
+    last = min(first + block, n_epochs)
+    base = obs_ptr[first]
+    rec_base = rec_ptr[first]
+    x = cp_x[b].copy()
+    c = cp_c[b].copy()
+    # the navigation at the epoch before the block (the cursor searches back)
+    nav_at(nav_t, nav_v, nav_ptr, epochs[max(first - 1, 0)], cursor, nav_prev)
+    for k in range(first, last):
+        if k > 0:
+            nav_at(nav_t, nav_v, nav_ptr, epochs[k], cursor, nav_now)
+            time_update(x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt)
+            nav_prev[:] = nav_now
+        lo = obs_ptr[k]
+        m = obs_ptr[k + 1] - lo
+        epoch_innovations(
+            x, c, lo, m, obs_kind, obs_a, obs_b, obs_anchor, anchor_tab, obs_dz2, z,
+            r_var, dim, h_idx, h_val, h_cnt, v, d,
+        )  # fmt: skip
+        at = lo - base
+        epoch_update(
+            x, c, lo, m, h_idx, h_val, h_cnt, v, gamma, r_var, x_prior, ph,
+            True, b_gain[at : at + m], b_y[at : at + m], b_s[at : at + m],
+        )  # fmt: skip
+        for j in range(m):
+            b_cnt[at + j] = h_cnt[j]
+            for p in range(h_cnt[j]):
+                b_idx[at + j, p] = h_idx[j, p]
+                b_val[at + j, p] = h_val[j, p]
+        bx[k - first] = x
+        if with_var:
+            bc[k - first] = c
+        for r in range(rec_ptr[k], rec_ptr[k + 1]):
+            p = rec_plat[r]
+            for ax in range(dim):
+                b_rows[(r - rec_base) * dim + ax] = c[p * dim + ax]
+
+
+@numba.njit(cache=True, nogil=True)
+def _backward_block(
+    b: int,
+    obs_ptr: IntArray,
+    rec_ptr: IntArray,
+    rec_plat: IntArray,
+    dim: int,
+    block: int,
+    n_epochs: int,
+    with_var: bool,
+    bx: FloatArray,
+    bc: FloatArray,
+    b_rows: FloatArray,
+    b_idx: IntArray,
+    b_val: FloatArray,
+    b_cnt: IntArray,
+    b_gain: FloatArray,
+    b_y: FloatArray,
+    b_s: FloatArray,
+    lam: FloatArray,
+    lam_t: FloatArray,
+    lam_g: FloatArray,
+    col: FloatArray,
+    xs: FloatArray,
+    var: FloatArray,
+) -> None:
+    """The backward pass over block ``b`` (re-run into the given buffers): the smoothed
+    recorded slots of its epochs, and the adjoints carried to the block before."""
+    n = lam.shape[0]
+    first = b * block
+    last = min(first + block, n_epochs)
+    base = obs_ptr[first]
+    rec_base = rec_ptr[first]
+    for k in range(last - 1, first - 1, -1):
+        xf = bx[k - first]
+        for r in range(rec_ptr[k], rec_ptr[k + 1]):  # X_k - C_k lambda, C_k - C_k L C_k
+            p = rec_plat[r]
+            for ax in range(dim):
+                i = p * dim + ax
+                c_row = b_rows[(r - rec_base) * dim + ax]
+                acc = xf[i]
+                for jj in range(n):
+                    acc -= c_row[jj] * lam[jj]
+                xs[r, ax] = acc
+                if not with_var:
+                    continue
+                cf = bc[k - first]
+                for jj in range(n):
+                    s = 0.0
+                    for ll in range(n):
+                        s += lam_t[ll, jj] * cf[ll, i]
+                    col[jj] = s
+                quad = 0.0
+                for jj in range(n):
+                    quad += cf[i, jj] * col[jj]
+                var[r, ax] = cf[i, i] - quad
+        for o in range(obs_ptr[k + 1] - 1, obs_ptr[k] - 1, -1):  # scalar updates, reversed
+            j = o - base
+            cnt = b_cnt[j]
+            g = b_gain[j]
+            g_lam = 0.0
+            for i in range(n):
+                g_lam += g[i] * lam[i]
+            shift = g_lam + b_y[j] / b_s[j]
+            for p in range(cnt):
+                lam[b_idx[j, p]] -= b_val[j, p] * shift
+            # Lambda g: lam_g[i] = sum over jj of Lambda[i, jj] g[jj], jj ascending
+            for i in range(n):
+                lam_g[i] = 0.0
+            for jj in range(n):
+                gj = g[jj]
+                row_t = lam_t[jj]
+                for i in range(n):
+                    lam_g[i] += row_t[i] * gj
+            g_lam_g = 0.0
+            for i in range(n):
+                g_lam_g += g[i] * lam_g[i]
+            for p in range(cnt):  # Lambda[row, :] -= h lam_g (a column of lam_t)
+                row = b_idx[j, p]
+                hv = b_val[j, p]
+                for i in range(n):
+                    lam_t[i, row] -= hv * lam_g[i]
+            for p in range(cnt):  # Lambda[:, column] -= lam_g h (a row of lam_t)
+                column = b_idx[j, p]
+                hv = b_val[j, p]
+                row_t = lam_t[column]
+                for i in range(n):
+                    row_t[i] -= lam_g[i] * hv
+            extra = g_lam_g + 1.0 / b_s[j]
+            for p in range(cnt):
+                for s_ in range(cnt):
+                    lam_t[b_idx[j, s_], b_idx[j, p]] += b_val[j, p] * b_val[j, s_] * extra
+
+
+def _cpu_count() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
 def mbf_backward(
     cp_x: FloatArray,
     cp_c: FloatArray,
@@ -75,16 +325,20 @@ def mbf_backward(
     rec_plat: IntArray,
     block: int,
     with_var: bool = True,
+    threads: int | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """Smoothed states and variances (R, dim) at the recorded slots (see the module doc).
 
     ``cp_x``, ``cp_c``, ``gamma`` come from :func:`~coopproc.stages.fusion.ekf.ekf_forward`
     run with the same inputs and ``block``. ``with_var=False`` gives no variances, an empty
     (0, dim) array (they cost n^2 per recorded value, more than the states; the run's
-    tables do not use them).
+    tables do not use them). ``threads``: 2 re-runs the next block in a second thread
+    while the backward pass takes this one, 1 does both in turn (None: 2 when this
+    process may use two cores or more); the result is the same, bit for bit.
     """
     n_epochs = dt.shape[0]
     n = cp_x.shape[1]
+    n_blocks = cp_x.shape[0]
     n_rec = rec_plat.shape[0]
     xs = np.empty((n_rec, dim))
     var = np.empty((n_rec if with_var else 0, dim))
@@ -94,127 +348,54 @@ def mbf_backward(
     # dot products (Lambda is symmetric only up to rounding, so the transpose is kept
     # exactly rather than assumed).
     lam_t = np.zeros((n, n))
-    max_m = max_epoch_obs(obs_ptr)
-    width = 2 * dim
-    h_idx, h_val, h_cnt, v, d, ph, x_prior = epoch_buffers(max_m, dim, n)
-    most = 0
-    most_rec = 0
-    for b in range(cp_x.shape[0]):
-        lo = b * block
-        hi = min(lo + block, n_epochs)
-        most = max(most, obs_ptr[hi] - obs_ptr[lo])
-        most_rec = max(most_rec, rec_ptr[hi] - rec_ptr[lo])
-    # one block's filtered states and, of its covariances, only what the backward pass
-    # reads: the rows of the recorded platforms (whole matrices when ``with_var``)
-    bx = np.empty((block, n))
-    bc = np.empty((block if with_var else 1, n, n))
-    b_rows = np.empty((max(most_rec, 1) * dim, n))
-    b_idx = np.zeros((max(most, 1), width), dtype=np.int64)
-    b_val = np.zeros((max(most, 1), width))
-    b_cnt = np.zeros(max(most, 1), dtype=np.int64)
-    b_gain = np.zeros((max(most, 1), n))
-    b_y = np.zeros(max(most, 1))
-    b_s = np.zeros(max(most, 1))
     lam_g = np.zeros(n)
     col = np.zeros(n)
+    if n_blocks == 0:
+        return xs, var
+    max_m = max_epoch_obs(obs_ptr)
+    most, most_rec = _block_extent(obs_ptr, rec_ptr, n_blocks, block, n_epochs)
+    pipelined = (threads if threads is not None else min(_cpu_count(), 2)) >= 2 and n_blocks > 1
+    buffers = [
+        _BlockBuffers.allocate(block, n, dim, most, most_rec, max_m, with_var)
+        for _ in range(2 if pipelined else 1)
+    ]
     n_plat = nav_ptr.shape[0] - 1
     cursor = np.full(n_plat, -1, dtype=np.int64)
     nav_prev = np.zeros((n_plat, dim))
     nav_now = np.zeros((n_plat, dim))
-    for b in range(cp_x.shape[0] - 1, -1, -1):
-        first = b * block
-        last = min(first + block, n_epochs)
-        base = obs_ptr[first]
-        rec_base = rec_ptr[first]
-        x = cp_x[b].copy()
-        c = cp_c[b].copy()
-        # the navigation at the epoch before the block (the cursor searches back)
-        nav_at(nav_t, nav_v, nav_ptr, epochs[max(first - 1, 0)], cursor, nav_prev)
-        for k in range(first, last):  # re-run the forward filter over the block
-            if k > 0:
-                nav_at(nav_t, nav_v, nav_ptr, epochs[k], cursor, nav_now)
-                time_update(x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt)
-                nav_prev[:] = nav_now
-            lo = obs_ptr[k]
-            m = obs_ptr[k + 1] - lo
-            epoch_innovations(
-                x, c, lo, m, obs_kind, obs_a, obs_b, obs_anchor, anchor_tab, obs_dz2, z,
-                r_var, dim, h_idx, h_val, h_cnt, v, d,
-            )  # fmt: skip
-            at = lo - base
-            epoch_update(
-                x, c, lo, m, h_idx, h_val, h_cnt, v, gamma, r_var, x_prior, ph,
-                True, b_gain[at : at + m], b_y[at : at + m], b_s[at : at + m],
-            )  # fmt: skip
-            for j in range(m):
-                b_cnt[at + j] = h_cnt[j]
-                for p in range(h_cnt[j]):
-                    b_idx[at + j, p] = h_idx[j, p]
-                    b_val[at + j, p] = h_val[j, p]
-            bx[k - first] = x
-            if with_var:
-                bc[k - first] = c
-            for r in range(rec_ptr[k], rec_ptr[k + 1]):
-                p = rec_plat[r]
-                for ax in range(dim):
-                    b_rows[(r - rec_base) * dim + ax] = c[p * dim + ax]
-        for k in range(last - 1, first - 1, -1):
-            xf = bx[k - first]
-            for r in range(rec_ptr[k], rec_ptr[k + 1]):  # X_k - C_k lambda, C_k - C_k L C_k
-                p = rec_plat[r]
-                for ax in range(dim):
-                    i = p * dim + ax
-                    c_row = b_rows[(r - rec_base) * dim + ax]
-                    acc = xf[i]
-                    for jj in range(n):
-                        acc -= c_row[jj] * lam[jj]
-                    xs[r, ax] = acc
-                    if not with_var:
-                        continue
-                    cf = bc[k - first]
-                    for jj in range(n):
-                        s = 0.0
-                        for ll in range(n):
-                            s += lam_t[ll, jj] * cf[ll, i]
-                        col[jj] = s
-                    quad = 0.0
-                    for jj in range(n):
-                        quad += cf[i, jj] * col[jj]
-                    var[r, ax] = cf[i, i] - quad
-            for o in range(obs_ptr[k + 1] - 1, obs_ptr[k] - 1, -1):  # scalar updates, reversed
-                j = o - base
-                cnt = b_cnt[j]
-                g = b_gain[j]
-                g_lam = 0.0
-                for i in range(n):
-                    g_lam += g[i] * lam[i]
-                shift = g_lam + b_y[j] / b_s[j]
-                for p in range(cnt):
-                    lam[b_idx[j, p]] -= b_val[j, p] * shift
-                # Lambda g: lam_g[i] = sum over jj of Lambda[i, jj] g[jj], jj ascending
-                for i in range(n):
-                    lam_g[i] = 0.0
-                for jj in range(n):
-                    gj = g[jj]
-                    row_t = lam_t[jj]
-                    for i in range(n):
-                        lam_g[i] += row_t[i] * gj
-                g_lam_g = 0.0
-                for i in range(n):
-                    g_lam_g += g[i] * lam_g[i]
-                for p in range(cnt):  # Lambda[row, :] -= h lam_g (a column of lam_t)
-                    row = b_idx[j, p]
-                    hv = b_val[j, p]
-                    for i in range(n):
-                        lam_t[i, row] -= hv * lam_g[i]
-                for p in range(cnt):  # Lambda[:, column] -= lam_g h (a row of lam_t)
-                    column = b_idx[j, p]
-                    hv = b_val[j, p]
-                    row_t = lam_t[column]
-                    for i in range(n):
-                        row_t[i] -= lam_g[i] * hv
-                extra = g_lam_g + 1.0 / b_s[j]
-                for p in range(cnt):
-                    for s_ in range(cnt):
-                        lam_t[b_idx[j, s_], b_idx[j, p]] += b_val[j, p] * b_val[j, s_] * extra
+    inputs = (
+        cp_x, cp_c, epochs, nav_t, nav_v, nav_ptr, q_coef, q_squared, dt, obs_ptr, obs_kind,
+        obs_a, obs_b, obs_anchor, anchor_tab, obs_dz2, z, r_var, gamma, dim, rec_ptr,
+        rec_plat, block, with_var, cursor, nav_prev, nav_now,
+    )  # fmt: skip
+
+    def rerun(b: int) -> None:
+        buf = buffers[b % len(buffers)]
+        _rerun_block(
+            b, *inputs, buf.bx, buf.bc, buf.b_rows, buf.b_idx, buf.b_val, buf.b_cnt,
+            buf.b_gain, buf.b_y, buf.b_s, *buf.work,
+        )  # fmt: skip
+
+    def backward(b: int) -> None:
+        buf = buffers[b % len(buffers)]
+        _backward_block(
+            b, obs_ptr, rec_ptr, rec_plat, dim, block, n_epochs, with_var, buf.bx, buf.bc,
+            buf.b_rows, buf.b_idx, buf.b_val, buf.b_cnt, buf.b_gain, buf.b_y, buf.b_s, lam,
+            lam_t, lam_g, col, xs, var,
+        )  # fmt: skip
+
+    if not pipelined:
+        for b in range(n_blocks - 1, -1, -1):
+            rerun(b)
+            backward(b)
+        return xs, var
+    # the re-runs go one after the other (they share the navigation cursor), each into the
+    # buffers the backward pass is not reading
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="smoother") as pool:
+        rerun(n_blocks - 1)
+        for b in range(n_blocks - 1, -1, -1):
+            ahead = pool.submit(rerun, b - 1) if b > 0 else None
+            backward(b)
+            if ahead is not None:
+                ahead.result()
     return xs, var
