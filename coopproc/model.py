@@ -11,6 +11,7 @@ contract (``shared/design/DATA.md``, mirrored in ``docs/formats.md``); the colum
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -387,6 +388,17 @@ class Session:
     def moving_platforms(self) -> tuple[str, ...]:
         """Ids of platforms that are not anchors, sorted."""
         return tuple(p for p in self.platform_ids if self.platforms[p].role != "anchor")
+
+    def without_samples(self) -> Session:
+        """This session without its recorded samples (nav, reference, range rows, IMU,
+        odometer, GNSS): its name, platforms, files and notes, all that writing a run's
+        outputs reads once the pipeline is done. A day of 10 platforms holds about 1.1 GB
+        of samples; the figures' page workers need not inherit them (issue 11)."""
+        rows = self.ranges.frame.iloc[:0].copy()  # a copy: a view would keep the rows
+        return dataclasses.replace(
+            self, nav={}, reference={}, ranges=RangeTable(rows, self.ranges.source), imu={},
+            odometer={}, gnss={},
+        )  # fmt: skip
 
 
 @dataclass(frozen=True, eq=False)

@@ -39,3 +39,25 @@ def test_interpolate_within_leaves_gaps_empty() -> None:
 def test_pair_names_are_sorted_and_split_back(a: str, b: str, name: str) -> None:
     assert pair_name(a, b) == name
     assert pair_members(name) == tuple(sorted((a, b)))
+
+
+def test_a_session_without_samples_keeps_what_writing_reads() -> None:
+    import gc
+    import weakref
+
+    from coopproc.sim import simulate
+
+    session = simulate("paper-experiment", seed=0, duration_s=30.0).session
+    nav = weakref.ref(next(iter(session.nav.values())))
+    light = session.without_samples()
+    assert (light.name, light.root, light.inputs, light.notes) == (
+        session.name, session.root, session.inputs, session.notes,
+    )  # fmt: skip
+    assert light.platforms is session.platforms and light.config is session.config
+    assert light.origin_llh == session.origin_llh
+    assert not light.nav and not light.reference and len(light.ranges) == 0
+    assert list(light.ranges.frame.columns) == list(session.ranges.frame.columns)
+    assert len(session.ranges) > 50  # the original is untouched
+    del session
+    gc.collect()
+    assert nav() is None  # nothing of the light session holds the samples

@@ -165,6 +165,8 @@ def run(
         summary = summarize(output)
         phases.end()
         before = {k: phases.timings_s[k] for k in ("read", "prepare")}
+        # the samples are spent: the writing (and the figures' forked workers) holds none
+        data = data.without_samples()
         formats = ("png",) + (("pdf",) if pdf else ()) + (("svg",) if svg else ())
         files = write_run(
             output,

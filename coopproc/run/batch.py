@@ -87,6 +87,7 @@ def run_one(
         phases.start("summary")
         facts = summarize(output).facts
         phases.end()
+        session = session.without_samples()  # the samples are spent: writing holds none
         write_run(
             output,
             session,

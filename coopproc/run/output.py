@@ -22,6 +22,7 @@ from coopproc import __version__
 from coopproc.io.injected import session_injected
 from coopproc.io.outdir import atomic_output_dir, write_csv
 from coopproc.io.parquet import require_pyarrow, write_parquet
+from coopproc.memory import release_freed_memory
 from coopproc.model import Session
 from coopproc.report.figures import FigurePage, figure_pages, write_figures
 from coopproc.report.html import write_html
@@ -190,6 +191,9 @@ def write_run(
         if config.run.figures:
             phase("figures")
             since = clock()
+            # the writers' buffers and the samples the caller let go (Session.without_samples)
+            # go back to the system before the page workers are forked
+            release_freed_memory()
             cap_notes: list[str] = []  # what the figures' page cap left out
             pages = list(figure_pages(run, figure_options))  # listed once, for report.html too
             figures = write_figures(
