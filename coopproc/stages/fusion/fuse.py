@@ -199,8 +199,8 @@ def fuse(
         about twice as fast with many platforms; forward sigmas are always given).
     discard : called with the observations table after the forward pass; True means the
         caller will only read that table (a self-calibration round to be refitted), so the
-        smoother is skipped and ``smoothed`` is the forward solution. The forward pass is
-        the same either way.
+        smoother is skipped and ``smoothed`` is the forward solution (empty with
+        ``forward=False``: no states were kept). The forward pass is the same either way.
     inputs : :func:`~coopproc.stages.fusion.inputs.fusion_inputs` of these session,
         ranges, params and output, prepared earlier (another fusion of the same range set
         with other drift scales); None: prepared here.
@@ -234,10 +234,18 @@ def fuse(
         obs["dz2"], obs["z"], obs["var"],
     )  # fmt: skip
     noise = (epochs, nav_t, nav_v, nav_ptr, q_coef, q_squared, dt)
+    # the forward states are read for the forward trajectories, or as the solution when no
+    # smoother pass follows; else the smoother records its own and the forward pass none
+    # (memory, issue 11: four floats per recorded slot, about 0.27 GB per fusion at a day)
+    record_forward = forward or not smooth
+    forward_slots = (
+        (rec_ptr, rec_plat) if record_forward else (np.zeros_like(rec_ptr), rec_plat[:0])
+    )
     xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c = ekf_forward(
         x0, c0, *noise, *kernel_obs, params.dims, params.robust, params.k0, params.k1,
-        params.mad_floor, params.mad_window, rec_ptr, rec_plat, block,
+        params.mad_floor, params.mad_window, *forward_slots, block,
     )  # fmt: skip
+    del forward_slots
     at = obs["at"]  # the range rows' observations, in row (= observation) order
     table = pd.DataFrame(
         {
@@ -253,6 +261,8 @@ def fuse(
     )
     del innov, innov_var, at, from_id, to_id  # memory (issue 11): what the table took is spent
     if smooth and discard is not None and discard(table):
+        if not record_forward:  # the caller reads the table only: no trajectories
+            return FusionOutput(smoothed={}, forward={}, epochs_s=epochs, observations=table)
         smooth = False
     if smooth:
         xs_s, var_s = mbf_backward(

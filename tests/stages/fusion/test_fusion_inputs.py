@@ -118,3 +118,15 @@ def test_without_the_forward_trajectories_the_smoothed_are_the_same() -> None:
     for pid, track in both.smoothed.items():
         assert np.array_equal(track.enu_m, smoothed.smoothed[pid].enu_m)
         assert np.array_equal(track.time_s, smoothed.smoothed[pid].time_s)
+
+
+def test_a_discarded_fusion_without_forward_trajectories_keeps_only_its_table() -> None:
+    # a drift round to be refitted reads the innovations only: no states are kept for it
+    session = simulate("dr-faults", seed=0, duration_s=40.0).session
+    frame = session.ranges.frame[["time", "from", "to", "range", "sigma"]]
+    kept = fuse(session, frame, FusionParams(), discard=lambda table: True)
+    dropped = fuse(session, frame, FusionParams(), discard=lambda table: True, forward=False)
+    assert dropped.smoothed == {} and dropped.forward == {}
+    assert len(kept.smoothed) > 1  # with forward=True it is the forward solution
+    assert dropped.observations.equals(kept.observations)
+    assert np.array_equal(dropped.epochs_s, kept.epochs_s)
