@@ -140,6 +140,7 @@ def run_pipeline(
                     columns[method] = product.values[method]
                     range_sets[method] = ranges_for(base, columns[method], sigma_by_row)
                 cp_product = _drop_spent(steps[done:], range_sets, products, cp_product)
+                release_freed_memory()  # after the old CP product is let go, not before
                 continue
             results = run_concurrently(
                 [
@@ -156,6 +157,7 @@ def run_pipeline(
                     cp_product = position_product
             del results, position_product
             cp_product = _drop_spent(steps[done:], range_sets, products, cp_product)
+            release_freed_memory()
 
     # ranges.csv keeps the config's column order whatever order the steps ran in
     columns = {m: columns[m] for m in pipeline.ranges}
@@ -230,20 +232,21 @@ def _drop_spent(
     MB): a processed range set after its last position step, the CP solution (causal and
     smoothed) after the last range step. Returns the CP product, without ``cp`` then.
 
-    Then the C heap's free pages go back to the system: a step's working arrays are
-    freed when it ends, but glibc keeps most of them (at 10 x 4 h about 470 MB after the
-    fusions, at a day several GB), and the RSS would stay at the fusions' peak."""
+    The caller then gives the C heap's free pages back to the system
+    (:func:`~coopproc.memory.release_freed_memory`) once it has rebound its CP product: a
+    step's working arrays are freed when it ends, but glibc keeps most of them (at 10 x 4 h
+    about 470 MB after the fusions, at a day several GB), and the old CP product is freed
+    only when the caller lets it go (trimmed here, before that, a day's CP solution, about
+    0.43 GB, stayed in the heap through the next fusions)."""
     wanted = {s.range_set for s in later if s.kind == "positions"}
     for name in [n for n in range_sets if n != "observed" and n not in wanted]:
         del range_sets[name]
     if cp_product is None or cp_product.cp is None or any(s.kind == "ranges" for s in later):
-        release_freed_memory()
         return cp_product
     spent = dataclasses.replace(cp_product, cp=None)
     for method, product in products.items():
         if product is cp_product:
             products[method] = spent
-    release_freed_memory()
     return spent
 
 
