@@ -88,6 +88,9 @@ class FusionCalibration:
     platform_nis: Mapping[str, float]  # median NIS / 0.455 of each platform's ranges
     drift_scale: Mapping[str, float]  # factor applied to a platform's drift sigma
     notes: tuple[str, ...] = field(default=())
+    #: :func:`~coopproc.stages.fusion.range_digest.range_rows_digest` of the ranges fused
+    #: ("" when not taken): a range set with the same digest has this fusion
+    range_digest: str = ""
 
 
 def _pair_figures(

@@ -5,6 +5,9 @@
   range set; its positions.csv method is the range set's name (DATA.md: ``observed``,
   ``rn``, ``di``). The processed sets take the observed fusion's per-pair sigmas as floor.
   On the observed ranges it also gives the cooperative solution the ranging stage needs.
+  A processed set that holds the observed ranges (the range processing changed none: same
+  :func:`~coopproc.stages.fusion.range_digest.range_rows_digest`) gets the observed
+  fusion's solution instead of a second, identical fusion.
 - ``lsq``: robust least squares from fixed anchors (paper 003 sec. 2.2,
   :func:`coopproc.stages.fusion.lsq.robust_lsq_positions`), epoch by epoch; method
   ``lsq`` on the observed ranges, ``lsq_<set>`` on a processed set.
@@ -18,15 +21,17 @@ the fusion needs every moving platform's navigation and never sees a tag.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 
 from coopproc.errors import StageError
 from coopproc.model import Session, Trajectory
 from coopproc.stages.base import PositionInput, PositionProduct, PositionStage
-from coopproc.stages.fusion.calibration import calibrated_fuse
-from coopproc.stages.fusion.data import shared_nav
+from coopproc.stages.fusion.calibration import FusionCalibration, calibrated_fuse
+from coopproc.stages.fusion.data import range_sigma_default, shared_nav
 from coopproc.stages.fusion.fuse import FusionParams
 from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
+from coopproc.stages.fusion.range_digest import range_rows_digest
 from coopproc.stages.fusion.uwb_kf import uwb_kf_positions
 
 __all__ = ["FUSION", "LSQ", "LSQ_KF", "LSQ_RTS", "fusion_stage", "lsq_stage"]
@@ -35,8 +40,19 @@ __all__ = ["FUSION", "LSQ", "LSQ_KF", "LSQ_RTS", "fusion_stage", "lsq_stage"]
 def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
     """Fuse one range set (see the module docstring)."""
     floor = None
-    if inp.observed is not None and inp.observed.calibration is not None:
-        floor = inp.observed.calibration.pair_sigma_m
+    observed_cal = inp.observed.calibration if inp.observed is not None else None
+    if isinstance(observed_cal, FusionCalibration):
+        floor = observed_cal.pair_sigma_m
+    digest = range_rows_digest(
+        inp.session, inp.ranges, range_sigma_default(inp.session, params.range_sigma_m)
+    )
+    if (
+        inp.observed is not None
+        and isinstance(observed_cal, FusionCalibration)
+        and observed_cal.range_digest == digest
+        and not inp.want_cp
+    ):
+        return _same_as_observed(inp, inp.observed, observed_cal)
     with shared_nav():  # the calibration's fusions of this range set: the same epochs
         fused, cal = calibrated_fuse(
             inp.session,
@@ -57,7 +73,32 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
                     inp.session, inp.ranges, params, output="ranges", smoothed_sigma=False
                 )
             cp = (at_ranges.forward, at_ranges.smoothed)
+    cal = dataclasses.replace(cal, range_digest=digest)
     return PositionProduct(positions=fused.smoothed, cp=cp, calibration=cal, notes=cal.notes)
+
+
+def _same_as_observed(
+    inp: PositionInput, observed: PositionProduct, cal: FusionCalibration
+) -> PositionProduct:
+    """The observed fusion's product for a range set holding the same ranges
+    (:mod:`~coopproc.stages.fusion.range_digest`): the same self-calibration (its floor,
+    the observed sigmas, is what it computes), so the same solution; its notes named for
+    this range set, and one saying so."""
+    mine = f"fusion ({inp.range_set}): "
+    notes = tuple(
+        mine + note.removeprefix("fusion (observed): ")
+        for note in cal.notes
+        if note.startswith("fusion (observed): ")
+    )
+    notes += (
+        f"{mine}the {inp.range_set} ranges are the observed ones (the range processing "
+        "changed none): its fusion is the observed fusion, reused, not run again",
+    )
+    return PositionProduct(
+        positions=dict(observed.positions),  # the same trajectories, in a dict of its own
+        calibration=dataclasses.replace(cal, notes=notes),
+        notes=notes,
+    )
 
 
 def _product(inp: PositionInput, positions: Mapping[str, Trajectory]) -> PositionProduct:
