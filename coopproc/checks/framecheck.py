@@ -59,6 +59,10 @@ MAX_HALF_SPLIT = 0.35
 #: Ranges used per platform at most (evenly subsampled), and at least.
 MAX_RANGES = 2000
 MIN_RANGES = 30
+#: Ranges of a platform checked for usability at most (evenly subsampled; its usable count
+#: is scaled from them): a day of 10 platforms has 760,000 per platform, and masking every
+#: one of them was 2.3 s of the 4 s check (issue 11), for 2,000 used.
+MAX_CANDIDATES = 50 * MAX_RANGES
 #: Robust loss scale, m: residuals beyond it (NLOS, outliers) weigh as in an L1 fit.
 _F_SCALE_M = 0.5
 # The coarse search for the fit's starts: rotations, shifts per axis, ranges, starts kept.
@@ -74,7 +78,8 @@ class FrameFit:
     """The rigid transform that best explains one platform's range residuals."""
 
     platform: str
-    #: Ranges used (at most MAX_RANGES), ranges usable, and the partners they go to.
+    #: Ranges used (at most MAX_RANGES), ranges usable (scaled from MAX_CANDIDATES evenly
+    #: spaced ones when the platform has more), and the partners they go to.
     n: int
     n_usable: int
     partners: tuple[str, ...]
@@ -161,6 +166,9 @@ def _observations(session: Session, pid: str, known: set[str]) -> _Obs | None:
     rows = session.ranges.rows_of(pid)
     if rows.size < MIN_RANGES:
         return None
+    n_rows = rows.size
+    if n_rows > MAX_CANDIDATES:
+        rows = rows[np.linspace(0, n_rows - 1, MAX_CANDIDATES).round().astype(np.int64)]
     ids, first, second = session.ranges.id_codes  # integer codes, no string compares
     own = int(np.searchsorted(ids, pid))
     other = np.where(first[rows] == own, second[rows], first[rows])
@@ -181,7 +189,7 @@ def _observations(session: Session, pid: str, known: set[str]) -> _Obs | None:
     if ok.sum() < MIN_RANGES:
         return None
     idx = np.flatnonzero(ok)
-    usable = int(idx.size)
+    usable = int(idx.size) if n_rows == rows.size else round(idx.size * n_rows / rows.size)
     if idx.size > MAX_RANGES:
         idx = idx[np.linspace(0, idx.size - 1, MAX_RANGES).round().astype(np.int64)]
     t, other = t[idx], other[idx]

