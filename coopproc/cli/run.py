@@ -160,12 +160,18 @@ def run(
         phases.set_total(total - len(steps) + len(group_steps(steps, together)))
         for text in data.notes:
             note(f"note: {text}")
-        output = run_pipeline(data, config, progress=phases.start)
+
+        def let_go_of_samples() -> None:  # the pipeline's metrics have read them
+            nonlocal data
+            data = data.without_samples()
+
+        output = run_pipeline(data, config, progress=phases.start, samples_spent=let_go_of_samples)
         phases.start("summary")
         summary = summarize(output)
         phases.end()
         before = {k: phases.timings_s[k] for k in ("read", "prepare")}
-        # the samples are spent: the writing (and the figures' forked workers) holds none
+        # the samples are spent (let go of by the pipeline already, unless it ran with
+        # outages): the writing (and the figures' forked workers) holds none
         data = data.without_samples()
         formats = ("png",) + (("pdf",) if pdf else ()) + (("svg",) if svg else ())
         files = write_run(

@@ -83,7 +83,14 @@ def run_one(
         session = read_session(session_path)
         phases.start("prepare")
         session, _ = prepare_run(session)
-        output = run_pipeline(session, config, progress=phases.start)
+
+        def let_go_of_samples() -> None:  # the pipeline's metrics have read them
+            nonlocal session
+            session = session.without_samples()
+
+        output = run_pipeline(
+            session, config, progress=phases.start, samples_spent=let_go_of_samples
+        )
         phases.start("summary")
         facts = summarize(output).facts
         phases.end()

@@ -196,6 +196,9 @@ def write_run(
             release_freed_memory()
             cap_notes: list[str] = []  # what the figures' page cap left out
             pages = list(figure_pages(run, figure_options))  # listed once, for report.html too
+            # building the panels passes through about 1 GB at a day (issue 11): returned
+            # before the workers fork, not inherited by them
+            release_freed_memory()
             figures = write_figures(
                 run,
                 tmp / "figures",
