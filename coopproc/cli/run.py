@@ -108,7 +108,7 @@ def run(
     from coopproc.run.chain import resolve
     from coopproc.run.concurrent_steps import group_steps, workers
     from coopproc.run.config import load_run_config
-    from coopproc.run.output import write_run
+    from coopproc.run.output import hash_inputs, write_run
     from coopproc.run.pipeline import run_pipeline
     from coopproc.run.progress import PhaseProgress
     from coopproc.run.summary import summarize
@@ -148,6 +148,7 @@ def run(
         )  # checked early
         figure_options = dataclasses.replace(figure_options, max_pages=config.run.max_pages)
         check_output_dir(out_dir, force=force, protect=[data.root, *data.inputs])
+        input_sha256 = hash_inputs(data.inputs)  # run.json's digests, in a thread meanwhile
         note(
             f"session {data.name}: {len(data.platforms)} platforms, "
             f"{len(data.ranges.pairs)} pairs, {len(data.ranges)} ranges"
@@ -187,6 +188,7 @@ def run(
             progress=phases.start,
             timings_before=before,
             timings_after={"summary": phases.timings_s["summary"]},
+            input_sha256=input_sha256,
         )
     for text in files.notes:  # e.g. what the figures' page cap left out
         note(f"note: {text.replace('coopproc report OUT', f'coopproc report {out_dir}')}")

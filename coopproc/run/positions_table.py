@@ -20,7 +20,7 @@ row) are not held beside the finished table.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
@@ -91,6 +91,11 @@ class _Platform:
     ref: Trajectory | None
     _rows: dict[str, tuple[FloatArray, NDArray[np.intp] | None]]
     _truth: list[tuple[FloatArray, FloatArray]]
+    #: the pieces made of each solution so far: methods with the same solution (a
+    #: processed set that reused the observed fusion) take its piece, not a new one
+    _made: list[tuple[Trajectory, tuple[FloatArray, FloatArray, FloatArray]]] = field(
+        default_factory=list
+    )
 
     def rows(self, method: str) -> tuple[FloatArray, NDArray[np.intp] | None]:
         """The method's epochs at the platform's own epochs, in the solution's order, and
@@ -118,6 +123,7 @@ class _Platform:
     def forget(self) -> None:
         self._rows.clear()
         self._truth.clear()
+        self._made.clear()
 
     def values(self, method: str) -> tuple[FloatArray, FloatArray, FloatArray]:
         """A piece's time, (n, 3) east/north/up and horizontal error, in solution order."""
@@ -130,14 +136,22 @@ class _Platform:
             t = self.rows(str(self.basis))[0]
             enu = self.session.nav[self.platform].interpolate(t)
         else:
+            solution = self.products[method].positions[self.platform]
+            made = next((piece for traj, piece in self._made if traj is solution), None)
+            if made is not None:
+                return made
             t, drop = self.rows(method)
-            enu = self.products[method].positions[self.platform].enu_m
+            enu = solution.enu_m
             if drop is not None and drop.shape[0]:
                 enu = np.delete(enu, drop, axis=0)
         if self.ref is None:
-            return t, enu, np.full(t.shape[0], np.nan)
-        truth = self.truth(t)
-        return t, enu, np.hypot(enu[:, 0] - truth[:, 0], enu[:, 1] - truth[:, 1])
+            piece = t, enu, np.full(t.shape[0], np.nan)
+        else:
+            truth = self.truth(t)
+            piece = t, enu, np.hypot(enu[:, 0] - truth[:, 0], enu[:, 1] - truth[:, 1])
+        if method != "nav":
+            self._made.append((solution, piece))
+        return piece
 
 
 def _platform_pieces(

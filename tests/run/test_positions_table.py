@@ -131,3 +131,24 @@ def test_missing_rows_by_merge_are_those_not_in_the_own_epochs() -> None:
     for t in (times, times[::-1], np.array([own[3]])):  # merged, searched, one epoch
         np.testing.assert_array_equal(_missing_rows(t, own), np.flatnonzero(~np.isin(t, own)))
     assert _missing_rows(times, own).shape[0] > 0
+
+
+def test_methods_sharing_a_solution_give_the_rows_of_copies(session: Session) -> None:
+    # a processed set that reused the observed fusion holds the same trajectories: its
+    # rows are made once and taken again, the same as rows made from a copy
+    observed = _solution(session, 0.3, shuffle=next(iter(session.nav)))
+    copies = {p: Trajectory(p, t.time_s.copy(), t.enu_m.copy()) for p, t in observed.items()}
+    shared = {
+        "observed": PositionProduct(positions=dict(observed)),
+        "rn": PositionProduct(positions=dict(observed)),
+        "di": PositionProduct(positions=_solution(session, -0.2)),
+    }
+    copied = {
+        "observed": PositionProduct(positions=dict(observed)),
+        "rn": PositionProduct(positions=copies),
+        "di": PositionProduct(positions=_solution(session, -0.2)),
+    }
+    table = positions_table(session, shared, "ranges", release=True)
+    pd.testing.assert_frame_equal(table, positions_table(session, copied, "ranges"))
+    assert set(table["method"].unique()) == {"observed", "rn", "di", "nav", "reference"}
+    assert not shared["rn"].positions  # released as the copies would be
