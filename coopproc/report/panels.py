@@ -172,13 +172,34 @@ def groups(frame: pd.DataFrame, column: str) -> dict[str, pd.DataFrame]:
     of a text column), by the value as text."""
     if not len(frame):
         return {}
-    codes, uniques = pd.factorize(frame[column], sort=False)
+    values = frame[column]
+    if isinstance(values.dtype, pd.CategoricalDtype):  # positions.csv's text columns
+        runs = _category_runs(frame, values)
+        if runs is not None:
+            return runs
+    codes, uniques = pd.factorize(values, sort=False)
     if codes.min() >= 0 and bool(np.all(np.diff(codes) >= 0)):  # each value's rows together
         starts = [0, *(np.flatnonzero(np.diff(codes)) + 1).tolist(), len(frame)]
         # row slices: views of the table, not a copy of it per value (a day: GBs)
         bounds = zip(uniques, starts[:-1], starts[1:], strict=True)
         return {str(k): frame.iloc[a:b] for k, a, b in bounds}
     return {str(k): g for k, g in frame.groupby(column, sort=False, observed=True)}
+
+
+def _category_runs(frame: pd.DataFrame, values: pd.Series) -> dict[str, pd.DataFrame] | None:
+    """:func:`groups` of a categorical column whose values each lie in one run of rows,
+    from its codes (a factorization of a day's 38 M rows was 2.5 s of the figures, issue
+    11); None when a value is missing or its rows are not together."""
+    codes = values.cat.codes.to_numpy()
+    if codes.min() < 0:
+        return None
+    starts = np.concatenate(([0], np.flatnonzero(codes[1:] != codes[:-1]) + 1))
+    first = codes[starts]
+    if np.unique(first).shape[0] != first.shape[0]:  # a value in two runs
+        return None
+    names = values.cat.categories
+    bounds = zip(first.tolist(), starts.tolist(), [*starts[1:].tolist(), len(frame)], strict=True)
+    return {str(names[c]): frame.iloc[a:b] for c, a, b in bounds}
 
 
 def by_method(rows: pd.DataFrame | Mapping[str, pd.DataFrame]) -> Mapping[str, pd.DataFrame]:

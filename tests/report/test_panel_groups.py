@@ -33,3 +33,27 @@ def test_interleaved_or_missing_values_fall_back_to_groupby() -> None:
     got = groups(frame, "p")
     assert {k: v.index.tolist() for k, v in got.items()} == {"B": [0, 2], "A": [1]}
     assert groups(frame.iloc[:0], "p") == {}
+
+
+def test_categorical_runs_are_grouped_from_their_codes_as_groupby_groups_them() -> None:
+    names = ["di", "nav", "observed", "rn"]
+    cases = {
+        "runs": [2, 2, 0, 0, 0, 3, 1, 1],  # each value together, not in category order
+        "split": [2, 2, 0, 2, 1],  # observed in two runs: the general path
+        "missing": [2, -1, -1, 0],  # a missing value: the general path
+    }
+    for name, codes in cases.items():
+        frame = pd.DataFrame(
+            {
+                "method": pd.Categorical.from_codes(codes, categories=names),
+                "x": np.arange(len(codes), dtype=float),
+            }
+        )
+        got = groups(frame, "method")
+        want = {str(k): g for k, g in frame.groupby("method", sort=False, observed=True)}
+        assert list(got) == list(want), name
+        for key in want:
+            pd.testing.assert_frame_equal(got[key], want[key])
+    runs = pd.DataFrame({"method": pd.Categorical.from_codes(cases["runs"], names), "x": 1.0})
+    piece = groups(runs, "method")["observed"]
+    assert np.shares_memory(piece["x"].to_numpy(), runs["x"].to_numpy())  # a slice, no copy
