@@ -13,6 +13,7 @@ drops them. The values are those of :meth:`Trajectory.interpolate` and
 
 from __future__ import annotations
 
+import threading
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import replace
@@ -38,6 +39,7 @@ class PlatformTracks:
         self._left = Counter(p for pair in pairs for p in pair_members(pair))
         self._positions: dict[str, list[FloatArray]] = {}
         self._velocities: dict[str, list[FloatArray]] = {}
+        self._lock = threading.Lock()
 
     def _fixed(self, platform: str) -> bool:
         info = self._session.platforms.get(platform)
@@ -76,9 +78,12 @@ class PlatformTracks:
         return columns_at(traj, columns, time_s)
 
     def done(self, pair: str) -> None:
-        """``pair`` is prepared: its platforms' columns go after their last pair."""
-        for platform in pair_members(pair):
-            self._left[platform] -= 1
-            if self._left[platform] <= 0:
-                self._positions.pop(platform, None)
-                self._velocities.pop(platform, None)
+        """``pair`` is prepared: its platforms' columns go after their last pair (pairs
+        may be prepared in several threads: the count is kept under a lock; a column
+        asked for again after it went is made again, the same numbers)."""
+        with self._lock:
+            for platform in pair_members(pair):
+                self._left[platform] -= 1
+                if self._left[platform] <= 0:
+                    self._positions.pop(platform, None)
+                    self._velocities.pop(platform, None)
