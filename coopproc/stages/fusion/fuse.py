@@ -36,6 +36,7 @@ import numpy as np
 import pandas as pd
 
 from coopproc.configtools import from_table
+from coopproc.memory import release_freed_memory
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.stages.fusion.ekf import (
     block_size,
@@ -275,6 +276,9 @@ def fuse(
     # keeps its inputs for another fusion); free them before the trajectories are built
     del cp_x, cp_c, obs, kernel_obs, gamma, ep_idx, noise
     del nav_t, nav_v, nav_ptr
+    # their pages back to the system before the trajectories take more: glibc keeps the
+    # smoother's freed blocks (below its mmap threshold), ~0.7 GB at a day (issue 11)
+    release_freed_memory()
     slots = (session, moving, epochs, rec_ptr, rec_plat, dim, output)
     solutions = [(xs_s, var_s if smoothed_sigma else None, False)]
     if forward:

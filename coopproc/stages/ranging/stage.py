@@ -30,6 +30,7 @@ estimate ("adaptive", the median over the pair's epochs of the sigma used), else
 from __future__ import annotations
 
 import os
+from collections import deque
 from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
@@ -38,6 +39,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from coopproc.memory import release_freed_memory
 from coopproc.model import (
     DI_COLUMNS,
     NLOS_ESTIMATE_COLUMNS,
@@ -236,6 +238,11 @@ def _event_intervals(
 _PREPARE_THREADS = min(2, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
 
 
+#: Pairs written between two returns of freed pages to the system (about 0.7 MB a pair at a
+#: day of 10 platforms; each return takes about a millisecond).
+_TRIM_EVERY = 8
+
+
 def run_ranging(
     session: Session,
     cp: Mapping[str, Trajectory],
@@ -276,65 +283,115 @@ def run_ranging(
             if mask.any():
                 results[p.name] = _di_method(p, config, mask)
 
-    ranges_parts: list[pd.DataFrame] = []
-    di_parts: list[pd.DataFrame] = []
+    # the first pass's (and the masked pairs' first) working arrays: their pages back to
+    # the system before the output columns take more (glibc keeps freed arrays below its
+    # mmap threshold: a pair's are ~0.7 MB at a day, issue 11); so every few pairs below
+    release_freed_memory()
+    tables = _OutputColumns(pairs, "rn" in methods)
     events: list[tuple[object, ...]] = []
     steps: list[tuple[object, ...]] = []
     sigma_used: dict[str, tuple[float, str]] = {}
-    rn_flags: list[tuple[NDArray[np.int64], FloatArray]] = []
     calibration: dict[tuple[str, str], PairCalibration] = {}
-    for p in pairs:
-        smoothed, di_dr, di_out, di_cal = results[p.name]
+    queue = deque(pairs)
+    del pairs  # each pair's inputs go once its rows are written
+    for i in range(len(queue)):
+        p = queue.popleft()
+        smoothed, di_dr, di_out, di_cal = results.pop(p.name)
         calibration[(p.name, "di")] = di_cal
         outs = {"di": di_out}
         if "rn" in methods:
             outs["rn"], calibration[(p.name, "rn")] = _rn_method(p, config)
-            rn_flags.append((outs["rn"].nlos_flag.astype(np.int64), outs["rn"].nlos_estimate_m))
         sigma = di_cal.white_sigma_m
         if di_cal.source == "adaptive":
             sigma = float(np.nanmedian(di_out.sigma_m))
         sigma_used[p.name] = (sigma, di_cal.source)
-        ranges_parts.append(
-            pd.DataFrame(
-                {
-                    "time": p.time_s,
-                    "pair": p.name,
-                    "observed": p.observed_m,
-                    "rn": _compensated(p.observed_m, outs["rn"]) if "rn" in outs else np.nan,
-                    "di": di_out.distance_m,
-                    "reference": p.reference_m,
-                    "nlos_flag": di_out.nlos_flag.astype(np.int64),
-                    "nlos_estimate": di_out.nlos_estimate_m,
-                },
-                columns=list(RANGES_OUT_COLUMNS),
-            )
-        )
-        di_parts.append(
-            pd.DataFrame(
-                {
-                    "time": p.time_s,
-                    "pair": p.name,
-                    "di_dr": di_dr,
-                    "di_cp": p.di_cp_m,
-                    "di_smoothed": smoothed.di_m,
-                    "di_reference": p.di_ref_m,
-                },
-                columns=list(DI_COLUMNS),
-            )
-        )
+        tables.write(i, p, smoothed, di_dr, outs)
         for method, out in outs.items():
             ev, st = _events(p.name, method, p.time_s, out)
             events.extend(ev)
             steps.extend(st)
+        del p, smoothed, di_dr, di_out, outs
+        if i % _TRIM_EVERY == _TRIM_EVERY - 1:
+            release_freed_memory()
+    ranges, di = tables.frames()
+    release_freed_memory()
     return RangingOutput(
-        ranges=_concat(ranges_parts, RANGES_OUT_COLUMNS),
-        di=_concat(di_parts, DI_COLUMNS),
+        ranges=ranges,
+        di=di,
         nlos_events=pd.DataFrame(events, columns=list(NLOS_EVENT_COLUMNS)),
         nlos_estimates=pd.DataFrame(steps, columns=list(NLOS_ESTIMATE_COLUMNS)),
         sigma=sigma_used,
         calibration=calibration,
-        rn_nlos=_concat_flags(rn_flags) if "rn" in methods else None,
+        rn_nlos=tables.rn_nlos if "rn" in methods else None,
     )
+
+
+class _OutputColumns:
+    """ranges (RANGES_OUT_COLUMNS) and di (DI_COLUMNS) of every pair, in pair order, written
+    pair by pair into preallocated columns (issue 11: per-pair frames concatenated held a
+    day's tables twice, 0.5 GB each, beside every pair's inputs; the values are the same).
+    The two tables share their time column."""
+
+    _RANGE_FLOATS = ("observed", "rn", "di", "reference", "nlos_estimate")
+    _DI_FLOATS = ("di_dr", "di_cp", "di_smoothed", "di_reference")
+
+    def __init__(self, pairs: list[PairInputs], rn: bool) -> None:
+        sizes = np.array([p.time_s.shape[0] for p in pairs], dtype=np.int64)
+        self._start = np.concatenate(([0], np.cumsum(sizes)))
+        n = int(self._start[-1])
+        self._names = [p.name for p in pairs]
+        self._code = np.repeat(np.arange(len(pairs), dtype=np.int64), sizes)
+        self._time = np.empty(n)
+        self._range = {c: np.empty(n) for c in self._RANGE_FLOATS}
+        self._flag = np.empty(n, dtype=np.int64)
+        self._di = {c: np.empty(n) for c in self._DI_FLOATS}
+        self._rn = (np.empty(n, dtype=np.int64), np.empty(n)) if rn else None
+
+    def write(
+        self,
+        i: int,
+        p: PairInputs,
+        smoothed: SmoothedDI,
+        di_dr: FloatArray,
+        outs: Mapping[str, DistanceFilterOutput],
+    ) -> None:
+        rows = slice(int(self._start[i]), int(self._start[i + 1]))
+        di_out = outs["di"]
+        self._time[rows] = p.time_s
+        r = self._range
+        r["observed"][rows] = p.observed_m
+        r["rn"][rows] = _compensated(p.observed_m, outs["rn"]) if "rn" in outs else np.nan
+        r["di"][rows] = di_out.distance_m
+        r["reference"][rows] = p.reference_m
+        self._flag[rows] = di_out.nlos_flag
+        r["nlos_estimate"][rows] = di_out.nlos_estimate_m
+        d = self._di
+        d["di_dr"][rows] = di_dr
+        d["di_cp"][rows] = p.di_cp_m
+        d["di_smoothed"][rows] = smoothed.di_m
+        d["di_reference"][rows] = p.di_ref_m
+        if self._rn is not None and "rn" in outs:
+            self._rn[0][rows] = outs["rn"].nlos_flag
+            self._rn[1][rows] = outs["rn"].nlos_estimate_m
+
+    @property
+    def rn_nlos(self) -> tuple[NDArray[np.int64], FloatArray] | None:
+        return self._rn
+
+    def frames(self) -> tuple[pd.DataFrame, pd.DataFrame]:
+        # the pair column as the per-pair frames gave it: a string array (one take of the
+        # distinct names, issue 11), not categorical
+        pair = pd.array(self._names, dtype="str").take(self._code)
+        self._code = self._code[:0]
+        ranges = pd.DataFrame(
+            {"time": self._time, "pair": pair, **self._range, "nlos_flag": self._flag},
+            columns=list(RANGES_OUT_COLUMNS),
+            copy=False,
+        )
+        di = pd.DataFrame(
+            {"time": self._time, "pair": pair, **self._di}, columns=list(DI_COLUMNS), copy=False
+        )
+        return ranges, di
 
 
 def _rn_method(
@@ -362,17 +419,3 @@ def _compensated(observed_m: FloatArray, out: DistanceFilterOutput) -> FloatArra
     detection (eq. (9)) and the one-shot estimate only.
     """
     return np.asarray(observed_m - np.where(out.nlos_flag == 1, out.nlos_estimate_m, 0.0))
-
-
-def _concat(parts: list[pd.DataFrame], columns: tuple[str, ...]) -> pd.DataFrame:
-    if not parts:
-        return pd.DataFrame({c: [] for c in columns}, columns=list(columns))
-    return pd.concat(parts, ignore_index=True)
-
-
-def _concat_flags(
-    parts: list[tuple[NDArray[np.int64], FloatArray]],
-) -> tuple[NDArray[np.int64], FloatArray]:
-    if not parts:
-        return np.empty(0, dtype=np.int64), np.empty(0)
-    return np.concatenate([f for f, _ in parts]), np.concatenate([e for _, e in parts])
