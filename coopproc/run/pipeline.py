@@ -47,7 +47,7 @@ from coopproc.run.config import RunConfig
 from coopproc.run.gnss_methods import gnss_pipeline
 from coopproc.run.ins import states_table, with_ins
 from coopproc.run.odo_methods import odo_pipeline
-from coopproc.run.positions_table import positions_table
+from coopproc.run.positions_table import PositionSamples, positions_table
 from coopproc.run.range_sets import ranges_for, row_sigma
 from coopproc.run.tags import tag_pipeline, tag_rows, widen, without_tags
 from coopproc.stages.base import PositionInput, PositionProduct, RangeInput, RangeProduct
@@ -181,10 +181,16 @@ def run_pipeline(
         states = states_table(session, products)
         table = _range_table(base, columns, range_products)
         del base  # the table holds its columns
-        positions = positions_table(session, products, output, release=True)
-        if samples_spent is not None:  # the rest reads the tables: no sample is held
+        # positions.csv's table reads the navigation and reference it takes now; the rest
+        # reads the tables: the session lets go of its samples before the table is built,
+        # and the table of each platform's once its rows are written (issue 11)
+        samples = PositionSamples.of(session, output)
+        if samples_spent is not None:
             session = dr_session = session.without_samples()
             samples_spent()
+            release_freed_memory()  # the range rows' pages, before the table's
+        positions = positions_table(samples, products, output, release=True)
+        del samples
         release_freed_memory()  # the trajectories' (and samples') pages, not kept
         sigma = {p: s for prod in range_products for p, s in prod.sigma.items()}
         # true NLOS is labelled against the declared sigma (or, without one, the robust

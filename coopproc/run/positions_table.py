@@ -14,7 +14,10 @@ CSV bytes are the same.
 
 With ``release=True`` each platform's trajectories are taken out of the products'
 ``positions`` dicts once its rows are written, so that the solutions (about 32 bytes per
-row) are not held beside the finished table.
+row) are not held beside the finished table; given :class:`PositionSamples` (the
+navigation and reference it reads, taken from the session before the session let go of
+its samples), its navigation and reference go too (at a day of 10 platforms: 0.8 GB,
+freed as the table's 1.6 GB fill, issue 11).
 """
 
 from __future__ import annotations
@@ -27,10 +30,11 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from coopproc.model import POSITIONS_COLUMNS, FloatArray, Session, Trajectory
+from coopproc.memory import release_freed_memory
+from coopproc.model import POSITIONS_COLUMNS, FloatArray, Platform, Session, Trajectory
 from coopproc.stages.base import PositionProduct
 
-__all__ = ["own_epochs", "positions_table"]
+__all__ = ["PositionSamples", "own_epochs", "positions_table"]
 
 
 def own_epochs(session: Session) -> dict[str, FloatArray]:
@@ -49,6 +53,24 @@ def own_epochs(session: Session) -> dict[str, FloatArray]:
             mine = np.unique(mine)
         out[str(platform)] = mine
     return out
+
+
+@dataclass
+class PositionSamples:
+    """What positions.csv reads of the session's samples: each platform's navigation and
+    reference and its own range epochs (``output`` "ranges"; None: every epoch). Its own
+    dicts: :func:`positions_table` with ``release=True`` empties them as it goes, and the
+    session may let go of its samples once this is taken."""
+
+    platforms: Mapping[str, Platform]
+    nav: dict[str, Trajectory]
+    reference: dict[str, Trajectory]
+    own: dict[str, FloatArray] | None
+
+    @classmethod
+    def of(cls, session: Session, output: str) -> PositionSamples:
+        own = own_epochs(session) if output == "ranges" else None
+        return cls(session.platforms, dict(session.nav), dict(session.reference), own)
 
 
 def _missing_rows(time_s: FloatArray, own: FloatArray) -> NDArray[np.intp]:
@@ -83,7 +105,7 @@ def _found_merged(time_s: FloatArray, own: FloatArray) -> NDArray[np.bool_]:  # 
 class _Platform:
     """What one platform's pieces are made from; epochs and reference computed once."""
 
-    session: Session
+    nav: Trajectory | None  # the platform's own navigation
     products: Mapping[str, PositionProduct]
     own: FloatArray | None  # the platform's own range epochs (None: every epoch)
     platform: str
@@ -134,7 +156,8 @@ class _Platform:
             return t[ok], truth[ok], np.full(int(ok.sum()), np.nan)
         if method == "nav":
             t = self.rows(str(self.basis))[0]
-            enu = self.session.nav[self.platform].interpolate(t)
+            assert self.nav is not None
+            enu = self.nav.interpolate(t)
         else:
             solution = self.products[method].positions[self.platform]
             made = next((piece for traj, piece in self._made if traj is solution), None)
@@ -155,15 +178,14 @@ class _Platform:
 
 
 def _platform_pieces(
-    session: Session,
+    samples: PositionSamples,
     products: Mapping[str, PositionProduct],
-    own: Mapping[str, FloatArray] | None,
     basis: str | None,
     platform: str,
 ) -> tuple[list[str], _Platform, int]:
     """The platform's pieces (methods by name, in row order), where their values come
     from, and an upper bound of their rows."""
-    ref = session.reference.get(platform)
+    ref = samples.reference.get(platform)
     ref = ref if ref is not None and len(ref) >= 2 else None
     lengths = {
         m: len(p.positions[platform]) for m, p in products.items() if platform in p.positions
@@ -171,22 +193,23 @@ def _platform_pieces(
     # the reference and own navigation at the epochs of the basis solution; a tag the
     # basis leaves out has its reference at its first method's epochs
     like = basis if basis in lengths else None
-    if like is None and session.platforms[platform].role == "tag":
+    if like is None and samples.platforms[platform].role == "tag":
         like = next(iter(lengths), None)
-    mine = None if own is None else own.get(platform, np.empty(0))
-    source = _Platform(session, products, mine, platform, like, ref, {}, [])
+    mine = None if samples.own is None else samples.own.get(platform, np.empty(0))
+    nav = samples.nav.get(platform)
+    source = _Platform(nav, products, mine, platform, like, ref, {}, [])
     methods = list(lengths)
     if like is not None:
         if ref is not None:
             methods.append("reference")
-        if like == basis and platform in session.nav:  # a tag: no navigation of its own
+        if like == basis and nav is not None:  # a tag: no navigation of its own
             methods.append("nav")
     bound = sum(lengths.values()) + (len(methods) - len(lengths)) * lengths.get(str(like), 0)
     return sorted(methods), source, bound
 
 
 def positions_table(
-    session: Session,
+    session: Session | PositionSamples,
     products: Mapping[str, PositionProduct],
     output: str,
     *,
@@ -195,8 +218,11 @@ def positions_table(
     """positions.csv: the reference and the own navigation at the epochs of the observed
     fusion (else of the first position method), then every position method; rows by
     platform, method, time (see the module docstring for how it is built; ``release``
-    empties the products' ``positions`` dicts as it goes)."""
-    own = own_epochs(session) if output == "ranges" else None
+    empties the products' ``positions`` dicts as it goes, and the navigation and reference
+    of given :class:`PositionSamples`)."""
+    samples = session
+    if not isinstance(samples, PositionSamples):
+        samples = PositionSamples.of(samples, output)
     methods = list(products)
     # the reference and own navigation at the epochs of the observed fusion, else of the
     # first position method (a method without platforms gives the next one's, as before)
@@ -204,7 +230,7 @@ def positions_table(
     if basis is not None and not products[basis].positions:
         basis = methods[0]
     platforms = sorted({p for product in products.values() for p in product.positions})
-    plan = [_platform_pieces(session, products, own, basis, p) for p in platforms]
+    plan = [_platform_pieces(samples, products, basis, p) for p in platforms]
     names = sorted({m for pieces, _, _ in plan for m in pieces})
     bound = sum(b for _, _, b in plan)
     columns = {name: np.empty(bound) for name in ("time", "east", "north", "up", "error_h")}
@@ -241,6 +267,12 @@ def positions_table(
         source.forget()  # its epochs and reference at them go now
         if release:
             _release(products, platforms[code])
+            samples.nav.pop(platforms[code], None)
+            samples.reference.pop(platforms[code], None)
+            source.nav = source.ref = None
+            # their pages back to the system before the next platform's rows take more
+            # (glibc keeps freed arrays below its mmap threshold, ~20 MB columns at a day)
+            release_freed_memory()
     if start == 0:
         return pd.DataFrame(columns=list(POSITIONS_COLUMNS))
     platform_code, platform_names = _used(platform_code[:start], platforms, used_platforms)

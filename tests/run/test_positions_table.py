@@ -12,7 +12,12 @@ import pytest
 from coopproc.io import read_session
 from coopproc.io.outdir import csv_text
 from coopproc.model import POSITIONS_COLUMNS, Session, Trajectory
-from coopproc.run.positions_table import _missing_rows, own_epochs, positions_table
+from coopproc.run.positions_table import (
+    PositionSamples,
+    _missing_rows,
+    own_epochs,
+    positions_table,
+)
 from coopproc.stages.base import PositionProduct
 
 SAMPLE = Path(__file__).resolve().parents[2] / "sample_logs"
@@ -111,6 +116,21 @@ def test_release_empties_the_solutions_and_gives_the_same_table(session: Session
     released = positions_table(session, given, "ranges", release=True)
     pd.testing.assert_frame_equal(released, kept, check_exact=True)
     assert all(not p.positions for p in given.values())  # trajectories handed over
+
+
+def test_release_empties_the_samples_given_and_leaves_the_session(session: Session) -> None:
+    def products() -> dict[str, PositionProduct]:
+        return {"observed": PositionProduct(positions=_solution(session, 0.1))}
+
+    kept = positions_table(session, products(), "ranges")
+    samples = PositionSamples.of(session, "ranges")
+    assert set(samples.nav) == set(session.nav) and samples.own is not None
+    released = positions_table(samples, products(), "ranges", release=True)
+    pd.testing.assert_frame_equal(released, kept, check_exact=True)
+    # each platform's navigation and reference went once its rows were written; the
+    # session's own dicts are not touched
+    assert samples.nav == {} and samples.reference == {}
+    assert session.nav and session.reference
 
 
 def test_own_epochs_are_the_unique_times_of_each_platforms_ranges(session: Session) -> None:
