@@ -24,7 +24,7 @@ from coopproc.report.evaluation_plots import (
     plot_error_track,
     track_method,
 )
-from coopproc.report.gaps import GapSpans, line_gap_limit_s, pair_gaps, platform_gaps
+from coopproc.report.gaps import GapSpans, line_gap_limit_s, method_gaps, pair_gaps
 from coopproc.report.methods import position_methods, primary_method, range_methods
 from coopproc.report.outage_figure import outage_panels
 from coopproc.report.pages import FigureOptions
@@ -158,19 +158,6 @@ def _platform_rows(
     return out
 
 
-def _epochs(rows: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
-    """The time and horizontal error of every row of ``rows`` (the gap rule's input)."""
-    parts = list(rows.values())
-    return pd.DataFrame(
-        {
-            "time": np.concatenate([r["time"].to_numpy(dtype=np.float64) for r in parts]),
-            "error_h": np.concatenate(
-                [r["error_h"].to_numpy(dtype=np.float64, na_value=np.nan) for r in parts]
-            ),
-        }
-    )
-
-
 def _position_errors(run: RunTables, opts: FigureOptions, g: FigureGroups) -> Panels | None:
     """Paper 000 fig. 12: one panel per platform with a horizontal error."""
     methods = position_methods(run)
@@ -181,8 +168,7 @@ def _position_errors(run: RunTables, opts: FigureOptions, g: FigureGroups) -> Pa
     t0 = run.time_origin_s
 
     def rows_of() -> dict[str, GapSpans]:
-        chosen = _platform_rows(g, opts, methods, error=False)
-        return platform_gaps({p: _epochs(rows) for p, rows in chosen.items()})
+        return method_gaps(_platform_rows(g, opts, methods, error=False))
 
     def draw(ax: Axes, i: int) -> None:
         rows = by_platform[platforms[i]]

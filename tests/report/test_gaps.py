@@ -13,6 +13,8 @@ from coopproc.report.gaps import (
     break_gaps,
     gap_spans,
     line_gap_limit_s,
+    method_gaps,
+    platform_gaps,
     series_gaps,
     shade_gaps,
     shaded_spans,
@@ -222,3 +224,30 @@ def test_a_short_series_with_outages_over_most_of_its_time_keeps_them() -> None:
     t = np.concatenate([np.arange(0.0, 30.0), np.arange(90.0, 120.0), np.arange(180.0, 210.0)])
     assert typical_step_s(t) == pytest.approx(1.0)
     assert gap_spans(t).tolist() == [[29.0, 90.0], [119.0, 180.0]]
+
+
+def test_method_gaps_are_the_platform_gaps_of_the_methods_rows_together() -> None:
+    """method_gaps takes each platform's rows per method, one platform at a time (issue
+    11); its spans are platform_gaps' of the methods' rows concatenated, with the run's
+    bounds over every platform."""
+    rng = np.random.default_rng(3)
+
+    def rows(t: np.ndarray, no_ref: slice) -> pd.DataFrame:
+        err = rng.uniform(0.1, 1.0, t.shape[0])
+        err[no_ref] = np.nan
+        return pd.DataFrame({"time": t, "error_h": err})
+
+    t_a = np.concatenate([bursts(300), bursts(200) + 400.0])  # an outage 300-400 s
+    t_b = bursts(700) + 50.0  # starts later, ends after A: the bounds are the run's
+    given = {
+        "A": {"observed": rows(t_a, slice(100, 160)), "di": rows(t_a, slice(0, 0))},
+        "B": {"observed": rows(t_b, slice(900, 1000))},
+    }
+    together = {p: pd.concat(list(m.values()), ignore_index=True) for p, m in given.items()}
+    got, expected = method_gaps(given), platform_gaps(together)
+    assert set(got) == set(expected) == {"A", "B"}
+    for platform in got:
+        assert np.array_equal(got[platform].outages, expected[platform].outages)
+        assert np.array_equal(got[platform].no_reference, expected[platform].no_reference)
+    assert got["A"].outages.shape[0] >= 2  # the outage and A's end before B's
+    assert got["B"].no_reference.shape[0] == 1

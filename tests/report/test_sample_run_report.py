@@ -117,7 +117,7 @@ def test_gaps_are_computed_when_a_page_draws_them_once_per_run(
     import coopproc.report.figure_builders as figures
 
     calls: list[str] = []
-    for name in ("pair_gaps", "platform_gaps"):
+    for name in ("pair_gaps", "method_gaps"):
         real = getattr(figures, name)
         monkeypatch.setattr(
             figures, name, lambda rows, real=real, name=name: calls.append(name) or real(rows)
