@@ -159,6 +159,7 @@ def _drift_scales(
     smoothed: bool = True,
     inputs: FusionInputs | None = None,
     forward: bool = True,
+    forward_sigma: bool = True,
 ) -> tuple[FusionOutput, dict[str, float], dict[str, float]]:
     """Inflate the drift of platforms whose range innovations are inconsistent (NIS above
     :data:`NIS_LIMIT`) by sqrt(NIS), refusing until none is (at most
@@ -167,7 +168,7 @@ def _drift_scales(
     ``smoothed=False``: the caller reads only the scales (every fusion forward only).
     ``inputs``: :func:`fusion_inputs` of ``ranges`` at the range epochs (None: prepared
     here), shared by every round (they differ only in the drift scales). ``forward``:
-    build the forward trajectories (:func:`fuse`)."""
+    build the forward trajectories (``forward_sigma``: with sigmas; :func:`fuse`)."""
     if inputs is None:
         inputs = fusion_inputs(session, ranges, params, "ranges")
     moving = set(session.moving_platforms()) if only is None else only
@@ -194,6 +195,7 @@ def _drift_scales(
     fused = fuse(
         session, ranges, params, output="ranges", drift_scale=scale,
         smoothed_sigma=smoothed_sigma, discard=refitted, inputs=inputs, forward=forward,
+        forward_sigma=forward_sigma,
     )  # fmt: skip
     nis = platform_nis(fused.observations)
     for done in range(NIS_ROUNDS):
@@ -208,6 +210,7 @@ def _drift_scales(
         fused = fuse(
             session, ranges, params, output="ranges", drift_scale=scale,
             smoothed_sigma=smoothed_sigma, discard=refitted, inputs=inputs, forward=forward,
+            forward_sigma=forward_sigma,
         )  # fmt: skip
         nis = platform_nis(fused.observations)
     return fused, scale, nis
@@ -224,6 +227,7 @@ def calibrated_fuse(
     smoothed_sigma: bool = True,
     max_epochs: int | None = CALIBRATION_EPOCHS,
     forward: bool = True,
+    forward_sigma: bool = True,
 ) -> tuple[FusionOutput, FusionCalibration]:
     """Fuse with per-pair sigmas and drift scales estimated from the data (module docstring).
 
@@ -236,12 +240,12 @@ def calibrated_fuse(
     ``max_epochs``: above this many distinct range times the platform range-bias
     iteration fuses an evenly thinned subset (:func:`calibration_rows`; None: always
     every range). ``forward``: the result's forward trajectories are built (False: the
-    smoothed only, :func:`fuse`).
+    smoothed only, :func:`fuse`); ``forward_sigma``: with their sigmas.
     """
     if not params.self_calibrate:
         plain = fuse(
             session, ranges, params, output=output, smoothed_sigma=smoothed_sigma,
-            forward=forward,
+            forward=forward, forward_sigma=forward_sigma,
         )  # fmt: skip
         return plain, FusionCalibration({}, {}, {}, {}, {})
     # 1. dead reckoning that the ranges contradict, with the given range sigmas; what the
@@ -249,7 +253,7 @@ def calibrated_fuse(
     inputs = fusion_inputs(session, ranges, params, "ranges")
     first, scale, first_nis = _drift_scales(
         session, ranges, params, {}, smoothed_sigma=smoothed_sigma, inputs=inputs,
-        forward=forward,
+        forward=forward, forward_sigma=forward_sigma,
     )  # fmt: skip
     # 2. per-pair ranging sigma from the post-fit residuals
     pairs = pair_codes(ranges["from"], ranges["to"])
@@ -307,6 +311,7 @@ def calibrated_fuse(
         result = fuse(
             session, calibrated, params, output=output, drift_scale=scale,
             smoothed_sigma=smoothed_sigma, inputs=final, forward=forward,
+            forward_sigma=forward_sigma,
         )  # fmt: skip
         del final
         nis = _platform_nis(result.observations)

@@ -64,6 +64,7 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
             smoothed_sigma=False,  # positions.csv and the ranging stage take positions only
             # the forward solution is the CP solution's increments only (memory, issue 11)
             forward=inp.want_cp and inp.output == "ranges",
+            forward_sigma=False,  # the ranging stage reads the CP solution's positions
         )
         cp = None
         if inp.want_cp:

@@ -184,6 +184,7 @@ def fuse(
     discard: Callable[[pd.DataFrame], bool] | None = None,
     inputs: FusionInputs | None = None,
     forward: bool = True,
+    forward_sigma: bool = True,
 ) -> FusionOutput:
     """Fuse every moving platform's navigation with the ranges.
 
@@ -207,6 +208,8 @@ def fuse(
         with other drift scales); None: prepared here.
     forward : build the forward trajectories (False: ``forward`` is empty; a caller that
         reads the smoothed solution only saves their time and memory, issue 11).
+    forward_sigma : the forward trajectories' sigmas (False: None; a caller that reads
+        their positions only, the ranging stage's CP solution, saves 24 bytes a slot).
     """
     if inputs is None:
         inputs = fusion_inputs(session, ranges, params, output)
@@ -261,6 +264,7 @@ def fuse(
         copy=False,  # memory (issue 11): fresh arrays and immutable id columns, not copied
     )
     del innov, innov_var, at, from_id, to_id  # memory (issue 11): what the table took is spent
+    release_freed_memory()  # the forward pass's working arrays, before the smoother's
     if smooth and discard is not None and discard(table):
         if not record_forward:  # the caller reads the table only: no trajectories
             return FusionOutput(smoothed={}, forward={}, epochs_s=epochs, observations=table)
@@ -282,7 +286,7 @@ def fuse(
     slots = (session, moving, epochs, rec_ptr, rec_plat, dim, output)
     solutions = [(xs_s, var_s if smoothed_sigma else None, False)]
     if forward:
-        solutions.insert(0, (xs_f, var_f, True))
+        solutions.insert(0, (xs_f, var_f if forward_sigma else None, True))
     del xs_f, var_f, xs_s, var_s  # the forward states go once their trajectories are built
     built = solutions_from_slots(*slots, solutions)
     held = built.pop(0) if forward else {}

@@ -120,6 +120,26 @@ def test_without_the_forward_trajectories_the_smoothed_are_the_same() -> None:
         assert np.array_equal(track.time_s, smoothed.smoothed[pid].time_s)
 
 
+def test_forward_trajectories_without_sigmas_have_the_same_positions() -> None:
+    # the ranging stage reads the CP solution's positions only (issue 11: 24 bytes a slot)
+    from coopproc.stages.fusion.calibration import calibrated_fuse
+
+    session = simulate("dr-faults", seed=0, duration_s=40.0).session
+    frame = session.ranges.frame[["time", "from", "to", "range", "sigma"]]
+    full, _ = calibrated_fuse(session, frame, FusionParams(), smoothed_sigma=False)
+    lean, _ = calibrated_fuse(
+        session, frame, FusionParams(), smoothed_sigma=False, forward_sigma=False
+    )
+    assert set(lean.forward) == set(full.forward) and len(full.forward) > 1
+    for pid, track in full.forward.items():
+        assert track.sigma_enu_m is not None and np.isfinite(track.sigma_enu_m[:, :2]).all()
+        assert lean.forward[pid].sigma_enu_m is None
+        assert np.array_equal(track.enu_m, lean.forward[pid].enu_m)
+        assert np.array_equal(track.time_s, lean.forward[pid].time_s)
+    for pid, track in full.smoothed.items():
+        assert np.array_equal(track.enu_m, lean.smoothed[pid].enu_m)
+
+
 def test_a_discarded_fusion_without_forward_trajectories_keeps_only_its_table() -> None:
     # a drift round to be refitted reads the innovations only: no states are kept for it
     session = simulate("dr-faults", seed=0, duration_s=40.0).session
