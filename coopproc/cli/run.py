@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import datetime as dt
 import sys
+import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -93,6 +94,7 @@ def run(
     from coopproc.io.outdir import check_output_dir
 
     started = dt.datetime.now(dt.UTC)
+    started_clock = time.perf_counter()
     windows = _outage_windows(outages)  # a mistyped window fails before the work
     # before the imports and the work: a read-only or mistyped OUT fails at once
     check_output_dir(out_dir, force=force, protect=[session])
@@ -183,6 +185,7 @@ def run(
             force=force,
             figure_formats=formats,
             started=started,
+            started_clock=started_clock,
             summary=summary.facts,
             figure_options=figure_options,
             progress=phases.start,

@@ -20,6 +20,7 @@ from __future__ import annotations
 import asyncio
 import datetime as dt
 import socket
+import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -77,6 +78,7 @@ def run_one(
     from coopproc.run.summary import summarize
 
     started = dt.datetime.now(dt.UTC)
+    started_clock = time.perf_counter()
     phases = PhaseProgress(0, bar=False, log=None)  # timings only: a worker shows nothing
     try:
         phases.start("read")
@@ -103,6 +105,7 @@ def run_one(
             force=force,
             figure_formats=formats,
             started=started,
+            started_clock=started_clock,
             summary=facts,
             timings_before={k: phases.timings_s[k] for k in ("read", "prepare")},
             timings_after={"summary": phases.timings_s["summary"]},

@@ -113,6 +113,7 @@ def write_run(
     force: bool = False,
     figure_formats: Sequence[str] = ("png",),
     started: dt.datetime,
+    started_clock: float | None = None,
     summary: Mapping[str, Any] | None = None,
     figure_options: FigureOptions | None = None,
     progress: Callable[[str], None] | None = None,
@@ -127,8 +128,11 @@ def write_run(
     "html"). run.json ``timings_s``: ``timings_before`` (e.g. reading), the chain's
     steps, ``timings_after`` (e.g. the summary), the writing phases, and ``other`` (the
     rest of the wall time since ``started``: imports, checks, run.json), so that they add
-    up to ``duration_s``. ``input_sha256``: :func:`hash_inputs` of ``session.inputs``
-    begun earlier (None: hashed here).
+    up to ``duration_s``. ``started_clock``: ``time.perf_counter()`` read with
+    ``started``: ``duration_s`` is then measured on that monotonic clock, like the phases
+    (the system clock may be stepped during a long run: a VM's was, by 9 s, in a day's
+    run); None: from the system clock. ``input_sha256``: :func:`hash_inputs` of
+    ``session.inputs`` begun earlier (None: hashed here).
     """
     phase = progress or (lambda label: None)
     digests = {} if input_sha256 is None else input_sha256.result()
@@ -240,8 +244,10 @@ def write_run(
         )
         timings["html"] = clock() - since
         info["figures"] = [str(p.relative_to(tmp)) for p in figures]
-        finished = dt.datetime.now(dt.UTC)
-        info["duration_s"] = round((finished - started).total_seconds(), 3)
+        if started_clock is not None:
+            info["duration_s"] = round(clock() - started_clock, 3)
+        else:
+            info["duration_s"] = round((dt.datetime.now(dt.UTC) - started).total_seconds(), 3)
         timings["other"] = max(info["duration_s"] - sum(timings.values()), 0.0)
         info["timings_s"] = {k: round(v, 3) for k, v in timings.items()}
         run_json = tmp / "run.json"

@@ -120,6 +120,33 @@ def test_config_command_round_trips(tmp_path: Path, session: Path) -> None:
     assert code == 0, output
 
 
+def test_duration_is_measured_on_a_monotonic_clock(
+    session: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The system clock stepped an hour forward while the run wrote its outputs (a VM's
+    clock was stepped 9 s in a day's run): duration_s and the timings are not."""
+    import datetime as real_dt
+    import types
+
+    import coopproc.run.output as output
+
+    class Stepped(real_dt.datetime):
+        @classmethod
+        def now(cls, tz: real_dt.tzinfo | None = None) -> real_dt.datetime:  # type: ignore[override]
+            return real_dt.datetime.now(tz) + real_dt.timedelta(hours=1)
+
+    fake = types.SimpleNamespace(**{k: getattr(real_dt, k) for k in dir(real_dt) if k[0] != "_"})
+    fake.datetime = Stepped
+    monkeypatch.setattr(output, "dt", fake)
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["run", str(session), "-o", str(out), "--no-figures"])
+    assert res.exit_code == 0, res.output
+    info = json.loads((out / "run.json").read_text())
+    assert 0 < info["duration_s"] < 600
+    assert sum(info["timings_s"].values()) == pytest.approx(info["duration_s"], abs=0.01)
+    assert info["timings_s"]["other"] < 60
+
+
 def test_phases_are_logged_and_timings_add_up_to_the_wall_time(
     session: Path, tmp_path: Path
 ) -> None:
