@@ -41,10 +41,8 @@ from numpy.typing import NDArray
 
 from coopproc.memory import release_freed_memory
 from coopproc.model import (
-    DI_COLUMNS,
     NLOS_ESTIMATE_COLUMNS,
     NLOS_EVENT_COLUMNS,
-    RANGES_OUT_COLUMNS,
     FloatArray,
     Session,
     Trajectory,
@@ -63,6 +61,7 @@ from coopproc.stages.ranging.di import (
     smooth_di,
 )
 from coopproc.stages.ranging.nlos import DistanceFilterOutput, KernelParams, filter_distance
+from coopproc.stages.ranging.output_columns import OutputColumns, compensated
 from coopproc.stages.ranging.pair import PairInputs, kernel_params, prepare_pair
 from coopproc.stages.ranging.tracks import PlatformTracks
 from coopproc.stages.ranging.twoway import filter_distance_two_way
@@ -211,7 +210,7 @@ def _di_method(
     if cal.passthrough:
         # the DI would smooth the white noise by less than 1 - gain of its variance, and
         # any error of its model would cost more: the ranges pass through
-        out = replace(out, distance_m=_compensated(p.observed_m, out))
+        out = replace(out, distance_m=compensated(p.observed_m, out))
     return smoothed, di_dr, out, cal
 
 
@@ -287,7 +286,7 @@ def run_ranging(
     # the system before the output columns take more (glibc keeps freed arrays below its
     # mmap threshold: a pair's are ~0.7 MB at a day, issue 11); so every few pairs below
     release_freed_memory()
-    tables = _OutputColumns(pairs, "rn" in methods)
+    tables = OutputColumns(pairs, "rn" in methods)
     events: list[tuple[object, ...]] = []
     steps: list[tuple[object, ...]] = []
     sigma_used: dict[str, tuple[float, str]] = {}
@@ -326,74 +325,6 @@ def run_ranging(
     )
 
 
-class _OutputColumns:
-    """ranges (RANGES_OUT_COLUMNS) and di (DI_COLUMNS) of every pair, in pair order, written
-    pair by pair into preallocated columns (issue 11: per-pair frames concatenated held a
-    day's tables twice, 0.5 GB each, beside every pair's inputs; the values are the same).
-    The two tables share their time column."""
-
-    _RANGE_FLOATS = ("observed", "rn", "di", "reference", "nlos_estimate")
-    _DI_FLOATS = ("di_dr", "di_cp", "di_smoothed", "di_reference")
-
-    def __init__(self, pairs: list[PairInputs], rn: bool) -> None:
-        sizes = np.array([p.time_s.shape[0] for p in pairs], dtype=np.int64)
-        self._start = np.concatenate(([0], np.cumsum(sizes)))
-        n = int(self._start[-1])
-        self._names = [p.name for p in pairs]
-        self._code = np.repeat(np.arange(len(pairs), dtype=np.int64), sizes)
-        self._time = np.empty(n)
-        self._range = {c: np.empty(n) for c in self._RANGE_FLOATS}
-        self._flag = np.empty(n, dtype=np.int64)
-        self._di = {c: np.empty(n) for c in self._DI_FLOATS}
-        self._rn = (np.empty(n, dtype=np.int64), np.empty(n)) if rn else None
-
-    def write(
-        self,
-        i: int,
-        p: PairInputs,
-        smoothed: SmoothedDI,
-        di_dr: FloatArray,
-        outs: Mapping[str, DistanceFilterOutput],
-    ) -> None:
-        rows = slice(int(self._start[i]), int(self._start[i + 1]))
-        di_out = outs["di"]
-        self._time[rows] = p.time_s
-        r = self._range
-        r["observed"][rows] = p.observed_m
-        r["rn"][rows] = _compensated(p.observed_m, outs["rn"]) if "rn" in outs else np.nan
-        r["di"][rows] = di_out.distance_m
-        r["reference"][rows] = p.reference_m
-        self._flag[rows] = di_out.nlos_flag
-        r["nlos_estimate"][rows] = di_out.nlos_estimate_m
-        d = self._di
-        d["di_dr"][rows] = di_dr
-        d["di_cp"][rows] = p.di_cp_m
-        d["di_smoothed"][rows] = smoothed.di_m
-        d["di_reference"][rows] = p.di_ref_m
-        if self._rn is not None and "rn" in outs:
-            self._rn[0][rows] = outs["rn"].nlos_flag
-            self._rn[1][rows] = outs["rn"].nlos_estimate_m
-
-    @property
-    def rn_nlos(self) -> tuple[NDArray[np.int64], FloatArray] | None:
-        return self._rn
-
-    def frames(self) -> tuple[pd.DataFrame, pd.DataFrame]:
-        # the pair column as the per-pair frames gave it: a string array (one take of the
-        # distinct names, issue 11), not categorical
-        pair = pd.array(self._names, dtype="str").take(self._code)
-        self._code = self._code[:0]
-        ranges = pd.DataFrame(
-            {"time": self._time, "pair": pair, **self._range, "nlos_flag": self._flag},
-            columns=list(RANGES_OUT_COLUMNS),
-            copy=False,
-        )
-        di = pd.DataFrame(
-            {"time": self._time, "pair": pair, **self._di}, columns=list(DI_COLUMNS), copy=False
-        )
-        return ranges, di
-
-
 def _rn_method(
     p: PairInputs, config: RangingConfig
 ) -> tuple[DistanceFilterOutput, PairCalibration]:
@@ -408,14 +339,3 @@ def _rn_method(
     else:
         rn_out = filter_distance(p.time_s, p.observed_m, p.rn_m, rn_var, rn_params)
     return rn_out, rn_cal
-
-
-def _compensated(observed_m: FloatArray, out: DistanceFilterOutput) -> FloatArray:
-    """RN-Based output: the observed range, minus the held NLOS estimate where flagged.
-
-    Paper 000 Table 2 shows RN-Based leaving the line-of-sight pair A-C unchanged (RMSE
-    0.0639 against 0.0641 m observed): the reference method compensates NLOS ranges and
-    passes the others through; it does not smooth. Its relative-velocity filter serves the
-    detection (eq. (9)) and the one-shot estimate only.
-    """
-    return np.asarray(observed_m - np.where(out.nlos_flag == 1, out.nlos_estimate_m, 0.0))
