@@ -4,6 +4,8 @@ one."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -103,16 +105,21 @@ def test_recorded_slots_one_search() -> None:
         assert np.array_equal(ptr, want_ptr) and np.array_equal(plat, want_plat)
 
 
-def test_without_the_forward_trajectories_the_smoothed_are_the_same() -> None:
-    # fusion (rn) / (di) read the smoothed solution only: the forward one is not built
+def _fused_twice(**lean: bool) -> tuple[Any, Any, Any, Any]:
+    """calibrated_fuse of the dr-faults session as the run's tables take it (no smoothed
+    sigmas), then with the options ``lean``: both results and calibrations."""
     from coopproc.stages.fusion.calibration import calibrated_fuse
 
     session = simulate("dr-faults", seed=0, duration_s=40.0).session
     frame = session.ranges.frame[["time", "from", "to", "range", "sigma"]]
-    both, cal_both = calibrated_fuse(session, frame, FusionParams(), smoothed_sigma=False)
-    smoothed, cal = calibrated_fuse(
-        session, frame, FusionParams(), smoothed_sigma=False, forward=False
-    )
+    full, cal_full = calibrated_fuse(session, frame, FusionParams(), smoothed_sigma=False)
+    less, cal_less = calibrated_fuse(session, frame, FusionParams(), smoothed_sigma=False, **lean)
+    return full, cal_full, less, cal_less
+
+
+def test_without_the_forward_trajectories_the_smoothed_are_the_same() -> None:
+    # fusion (rn) / (di) read the smoothed solution only: the forward one is not built
+    both, cal_both, smoothed, cal = _fused_twice(forward=False)
     assert smoothed.forward == {} and len(both.forward) == len(both.smoothed) > 1
     assert cal == cal_both
     for pid, track in both.smoothed.items():
@@ -122,14 +129,7 @@ def test_without_the_forward_trajectories_the_smoothed_are_the_same() -> None:
 
 def test_forward_trajectories_without_sigmas_have_the_same_positions() -> None:
     # the ranging stage reads the CP solution's positions only (issue 11: 24 bytes a slot)
-    from coopproc.stages.fusion.calibration import calibrated_fuse
-
-    session = simulate("dr-faults", seed=0, duration_s=40.0).session
-    frame = session.ranges.frame[["time", "from", "to", "range", "sigma"]]
-    full, _ = calibrated_fuse(session, frame, FusionParams(), smoothed_sigma=False)
-    lean, _ = calibrated_fuse(
-        session, frame, FusionParams(), smoothed_sigma=False, forward_sigma=False
-    )
+    full, _, lean, _ = _fused_twice(forward_sigma=False)
     assert set(lean.forward) == set(full.forward) and len(full.forward) > 1
     for pid, track in full.forward.items():
         assert track.sigma_enu_m is not None and np.isfinite(track.sigma_enu_m[:, :2]).all()
