@@ -136,12 +136,13 @@ def test_compiled_epoch_update_equals_batch_ekf_update() -> None:
     b = np.array([1, -1, 1], dtype=np.int64)
     z = np.array([10.6, 9.5, 0.3])
     r = np.array([0.02, 0.05, 0.01])
-    xs, var, gamma, innov, _, cp_x, cp_c = ekf_forward(
+    xs, var, gamma, innov, _, cp_x, cp_c, *_ = ekf_forward(
         x0, c0, np.zeros(1), np.zeros(2), np.zeros((2, 2)), np.array([0, 1, 2]), np.zeros(2),
         False, np.zeros(1),
         np.array([0, 3], dtype=np.int64), kind, a, b, np.arange(3, dtype=np.int32), anchor,
         np.zeros(3), z, r, 2, False,
         3.0, 4.0, 1.0, 0, np.array([0, 2], dtype=np.int64), np.array([0, 1]), 16,
+        np.full(2, -1, dtype=np.int64), np.zeros((2, 3)), np.zeros(0, dtype=np.int64),
     )  # fmt: skip
     # the checkpoint before epoch 0 is the prior; the recorded slots are both platforms
     assert cp_x[0] == pytest.approx(x0) and cp_c[0] == pytest.approx(c0)

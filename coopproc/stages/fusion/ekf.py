@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 
 from coopproc.model import FloatArray
 from coopproc.stages.filters import MAD_SCALE, igg3_scalar, mad_sigma_nb
+from coopproc.stages.fusion.dr_model import DR_STATES, dr_predict
 from coopproc.stages.fusion.mad_window import union_median, window_push
 from coopproc.stages.fusion.nav_kernel import nav_at
 
@@ -126,12 +127,19 @@ def time_update(
     q_coef: FloatArray,
     q_squared: bool,
     dt: FloatArray,
+    dr_idx: IntArray,
+    dr_q: FloatArray,
+    f_out: FloatArray,
 ) -> None:
-    """Paper 002 eq. (12)-(13) with F = I: X += u_k, C += Q_k (diagonal), in place.
+    """Paper 002 eq. (12)-(13): X += u_k, C += Q_k, in place; with DR states
+    (:mod:`~coopproc.stages.fusion.dr_model`) X = f(X, u_k), C = F C F^T + Q_k.
 
     u_k is each platform's dead-reckoning increment ``nav_now[p] - nav_prev[p]`` (its
-    navigation at epochs k and k - 1, :func:`nav_at`); the process noise per axis is
-    ``q_coef[p] * dt[k]`` (``q_squared``: ``(q_coef[p] * dt[k]) ** 2``).
+    navigation at epochs k and k - 1, :func:`nav_at`); the position process noise per
+    axis is ``q_coef[p] * dt[k]`` (``q_squared``: ``(q_coef[p] * dt[k]) ** 2``).
+    ``dr_idx[p]``: the index of platform p's heading correction (-1: no DR states, F = I
+    for it); ``dr_q[p]``: the heading, heading-rate and scale random walks' variance per
+    second; ``f_out[p]``: E's epoch entries (:func:`~coopproc.stages.fusion.dr_model.dr_predict`).
     """
     for p in range(nav_now.shape[0]):
         if q_squared:
@@ -139,6 +147,20 @@ def time_update(
             qp = t * t
         else:
             qp = q_coef[p] * dt[k]
+        e = dr_idx[p]
+        if e >= 0:
+            i0 = p * dim
+            dr_predict(
+                x, c, i0, e, nav_now[p, 0] - nav_prev[p, 0], nav_now[p, 1] - nav_prev[p, 1],
+                dt[k], f_out[p],
+            )  # fmt: skip
+            for ax in range(2, dim):  # up: the increment as it is
+                x[i0 + ax] += nav_now[p, ax] - nav_prev[p, ax]
+            for ax in range(dim):
+                c[i0 + ax, i0 + ax] += qp
+            for j in range(DR_STATES):
+                c[e + j, e + j] += dr_q[p, j] * dt[k]
+            continue
         for ax in range(dim):
             i = p * dim + ax
             x[i] += nav_now[p, ax] - nav_prev[p, ax]
@@ -297,7 +319,13 @@ def ekf_forward(
     rec_ptr: IntArray,
     rec_plat: IntArray,
     block: int,
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    dr_idx: IntArray,
+    dr_q: FloatArray,
+    dr_rec: IntArray,
+) -> tuple[
+    FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
+    FloatArray, FloatArray,
+]:  # fmt: skip
     """Forward EKF over K epochs (K = ``dt.shape[0]``; each platform's navigation samples
     ``nav_t``/``nav_v``/``nav_ptr`` as :func:`nav_at` reads them, ``nav_v`` (S, dim)).
 
@@ -312,7 +340,10 @@ def ekf_forward(
     platform ``rec_plat[r]`` at the epoch whose ``rec_ptr`` range holds r), the robust
     factor of every observation (M,), its innovation at the prior (M,) and that
     innovation's variance H C H^T + R (M,), and the smoother checkpoints: state (B, n) and
-    covariance (B, n, n) before epoch ``b * block`` (``block <= 0``: none kept).
+    covariance (B, n, n) before epoch ``b * block`` (``block <= 0``: none kept); then the
+    DR states (every state after the positions, ``n - P dim``) and their variances at the
+    epochs ``dr_rec`` (ascending), (len(dr_rec), n - P dim) each. ``dr_idx``, ``dr_q``: see
+    :func:`time_update` (all -1: the position-only filter).
     """
     n_epochs = dt.shape[0]
     n = x0.shape[0]
@@ -341,6 +372,11 @@ def ekf_forward(
     cursor = np.full(n_plat, -1, dtype=np.int64)
     nav_prev = np.zeros((n_plat, dim))
     nav_now = np.zeros((n_plat, dim))
+    f_out = np.zeros((n_plat, 4))
+    n_pos = n_plat * dim
+    dr_x = np.empty((dr_rec.shape[0], n - n_pos))
+    dr_var = np.empty((dr_rec.shape[0], n - n_pos))
+    dr_next = 0
     if n_epochs > 0:
         nav_at(nav_t, nav_v, nav_ptr, epochs[0], cursor, nav_prev)
     for k in range(n_epochs):
@@ -349,7 +385,7 @@ def ekf_forward(
             cp_c[k // block] = c
         if k > 0:
             nav_at(nav_t, nav_v, nav_ptr, epochs[k], cursor, nav_now)
-            time_update(x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt)
+            time_update(x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt, dr_idx, dr_q, f_out)
             nav_prev[:] = nav_now
         lo = obs_ptr[k]
         m = obs_ptr[k + 1] - lo
@@ -392,4 +428,9 @@ def ekf_forward(
             for ax in range(dim):
                 xs[r, ax] = x[p * dim + ax]
                 var[r, ax] = c[p * dim + ax, p * dim + ax]
-    return xs, var, gamma, innov, innov_var, cp_x, cp_c
+        if dr_next < dr_rec.shape[0] and dr_rec[dr_next] == k:
+            for j in range(n - n_pos):
+                dr_x[dr_next, j] = x[n_pos + j]
+                dr_var[dr_next, j] = c[n_pos + j, n_pos + j]
+            dr_next += 1
+    return xs, var, gamma, innov, innov_var, cp_x, cp_c, dr_x, dr_var

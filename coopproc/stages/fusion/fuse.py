@@ -38,6 +38,7 @@ import pandas as pd
 from coopproc.configtools import from_table
 from coopproc.memory import release_freed_memory
 from coopproc.model import FloatArray, Session, Trajectory
+from coopproc.stages.fusion.dr_states import dr_layout, dr_states_table
 from coopproc.stages.fusion.ekf import (
     block_size,
     ekf_forward,
@@ -126,6 +127,50 @@ class FusionParams:
             "or 'nav' (once per nav sample; cheaper with many pairs, see docs/methods-fusion.md)"
         },
     )
+    state: str = field(
+        default="dr",
+        metadata={
+            "help": "'dr': each follower's state carries its dead reckoning's heading "
+            "correction, heading rate and odometer scale (docs/methods-fusion.md); "
+            "'position': positions only, paper 000's own fusion"
+        },
+    )
+    dr_position_sigma_mps: float = field(
+        default=0.05,
+        metadata={
+            "help": "state 'dr': a follower's residual DR velocity noise, 1-sigma (m/s, "
+            "white: q = sigma^2 dt per axis); its declared drift_sigma is the total drift "
+            "that the DR states now explain"
+        },
+    )
+    heading_sigma_deg: float = field(
+        default=2.0,
+        metadata={"help": "state 'dr': 1-sigma of the initial heading correction (deg)"},
+    )
+    heading_rate_sigma_dph: float = field(
+        default=30.0,
+        metadata={"help": "state 'dr': 1-sigma of the initial heading rate, gyro bias (deg/h)"},
+    )
+    heading_walk_dpsh: float = field(
+        default=2.0,
+        metadata={"help": "state 'dr': heading random walk (deg/sqrt(h))"},
+    )
+    heading_rate_walk_dphpsh: float = field(
+        default=10.0,
+        metadata={"help": "state 'dr': heading-rate random walk (deg/h per sqrt(h))"},
+    )
+    scale_sigma: float = field(
+        default=0.01,
+        metadata={"help": "state 'dr': 1-sigma of the initial odometer scale error (0.01 = 1 %)"},
+    )
+    scale_walk_psh: float = field(
+        default=0.001,
+        metadata={"help": "state 'dr': odometer scale random walk (per sqrt(h))"},
+    )
+    dr_states_every_s: float = field(
+        default=1.0,
+        metadata={"help": "state 'dr': the DR states are reported (dr_states.csv) this often (s)"},
+    )
     lsq: LsqParams = field(
         default_factory=LsqParams,
         metadata={"help": "robust LSQ from anchors ([fusion.lsq])"},
@@ -141,6 +186,16 @@ class FusionParams:
         for name in ("range_sigma_m", "drift_sigma_mps", "leader_sigma_m", "initial_sigma_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} = {getattr(self, name)}, expected > 0")
+        if self.state not in ("dr", "position"):
+            raise ValueError(f"state = {self.state!r}, expected 'dr' or 'position'")
+        for name in (
+            "dr_position_sigma_mps", "heading_sigma_deg", "heading_rate_sigma_dph",
+            "heading_walk_dpsh", "heading_rate_walk_dphpsh", "scale_sigma", "scale_walk_psh",
+        ):  # fmt: skip
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} = {getattr(self, name)}, expected >= 0")
+        if not self.dr_states_every_s > 0:
+            raise ValueError(f"dr_states_every_s = {self.dr_states_every_s}, expected > 0")
         if self.leader_fix not in ("epoch", "nav"):
             raise ValueError(f"leader_fix = {self.leader_fix!r}, expected 'epoch' or 'nav'")
         if self.mad_window < 0:
@@ -171,6 +226,10 @@ class FusionOutput:
     forward: Mapping[str, Trajectory]
     epochs_s: FloatArray
     observations: pd.DataFrame
+    #: The followers' DR states (state "dr"): platform, time, heading correction (deg),
+    #: heading rate (deg/h), scale correction and their 1-sigma, forward and smoothed
+    #: (:func:`dr_states_table`); None with state "position".
+    dr_states: pd.DataFrame | None = None
 
 
 def fuse(
@@ -226,10 +285,20 @@ def fuse(
     drift = np.array([_drift(session, p, params) * scale.get(p, 1.0) for p in moving])
     if params.drift_correlation_s > 0:  # 2 sigma^2 tau dt, see the module docstring
         q_coef = 2.0 * drift**2 * params.drift_correlation_s
+        q_squared = False
     else:  # (sigma dt)^2
         q_coef = drift.astype(np.float64)
-    q_squared = params.drift_correlation_s <= 0
-    x0, c0 = inputs.x0, inputs.c0
+        q_squared = True
+    dr = dr_layout(session, moving, epochs, params, scale)
+    if dr.idx.max(initial=-1) >= 0:  # positions first, each follower's DR states after
+        n_pos = inputs.x0.shape[0]
+        x0 = np.concatenate((inputs.x0, np.zeros(dr.prior.shape[0])))
+        c0 = np.zeros((x0.shape[0], x0.shape[0]))
+        c0[:n_pos, :n_pos] = inputs.c0
+        c0[n_pos:, n_pos:] = np.diag(dr.prior)
+        q_coef = np.where(dr.idx >= 0, dr.position_q, q_coef)
+    else:
+        x0, c0 = inputs.x0, inputs.c0
     del inputs  # memory (issue 11): a caller that keeps none frees them as they are spent
     smooth = params.smoother and n_ep > 1
     block = block_size(n_ep) if smooth else 0
@@ -237,7 +306,6 @@ def fuse(
         obs["ptr"], obs["kind"], obs["a"], obs["b"], obs["anchor"], obs["anchor_table"],
         obs["dz2"], obs["z"], obs["var"],
     )  # fmt: skip
-    noise = (epochs, nav_t, nav_v, nav_ptr, q_coef, q_squared, dt)
     # the forward states are read for the forward trajectories, or as the solution when no
     # smoother pass follows; else the smoother records its own and the forward pass none
     # (memory, issue 11: four floats per recorded slot, about 0.27 GB per fusion at a day)
@@ -245,9 +313,12 @@ def fuse(
     forward_slots = (
         (rec_ptr, rec_plat) if record_forward else (np.zeros_like(rec_ptr), rec_plat[:0])
     )
-    xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c = ekf_forward(
+    if q_squared and dr.idx.max(initial=-1) >= 0:  # the kernel squares every q_coef
+        q_coef = np.where(dr.idx >= 0, np.sqrt(dr.position_q), q_coef)
+    noise = (epochs, nav_t, nav_v, nav_ptr, q_coef, q_squared, dt)
+    xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c, dr_xf, dr_vf = ekf_forward(
         x0, c0, *noise, *kernel_obs, params.dims, params.robust, params.k0, params.k1,
-        params.mad_floor, params.mad_window, *forward_slots, block,
+        params.mad_floor, params.mad_window, *forward_slots, block, dr.idx, dr.q, dr.rec,
     )  # fmt: skip
     del forward_slots
     at = obs["at"]  # the range rows' observations, in row (= observation) order
@@ -270,12 +341,17 @@ def fuse(
             return FusionOutput(smoothed={}, forward={}, epochs_s=epochs, observations=table)
         smooth = False
     if smooth:
-        xs_s, var_s = mbf_backward(
+        xs_s, var_s, dr_xs, dr_vs = mbf_backward(
             cp_x, cp_c, *noise, *kernel_obs, gamma, dim, rec_ptr, rec_plat, block,
-            smoothed_sigma,
+            smoothed_sigma, dr_idx=dr.idx, dr_q=dr.q, dr_rec=dr.rec,
         )  # fmt: skip
     else:
-        xs_s, var_s = xs_f, var_f
+        xs_s, var_s, dr_xs, dr_vs = xs_f, var_f, dr_xf, dr_vf
+    dr_table = (
+        dr_states_table(moving, epochs, dr, (dr_xf, dr_vf), (dr_xs, dr_vs))
+        if dr.idx.max(initial=-1) >= 0
+        else None
+    )
     # memory (issue 11): the observations and the range rows are spent (unless the caller
     # keeps its inputs for another fusion); free them before the trajectories are built
     del cp_x, cp_c, obs, kernel_obs, gamma, ep_idx, noise
@@ -290,7 +366,9 @@ def fuse(
     del xs_f, var_f, xs_s, var_s  # the forward states go once their trajectories are built
     built = solutions_from_slots(*slots, solutions)
     held = built.pop(0) if forward else {}
-    return FusionOutput(smoothed=built[0], forward=held, epochs_s=epochs, observations=table)
+    return FusionOutput(
+        smoothed=built[0], forward=held, epochs_s=epochs, observations=table, dr_states=dr_table
+    )
 
 
 def _drift(session: Session, pid: str, params: FusionParams) -> float:

@@ -46,6 +46,7 @@ import numba
 import numpy as np
 
 from coopproc.model import FloatArray
+from coopproc.stages.fusion.dr_model import adjoint_step
 from coopproc.stages.fusion.ekf import (
     IntArray,
     epoch_buffers,
@@ -61,17 +62,26 @@ __all__ = ["mbf_backward"]
 
 @numba.njit(cache=True, nogil=True)
 def _block_extent(
-    obs_ptr: IntArray, rec_ptr: IntArray, n_blocks: int, block: int, n_epochs: int
-) -> tuple[int, int]:
-    """The most observations and the most recorded slots of any block."""
+    obs_ptr: IntArray,
+    rec_ptr: IntArray,
+    dr_rec: IntArray,
+    n_blocks: int,
+    block: int,
+    n_epochs: int,
+) -> tuple[int, int, int]:
+    """The most observations, recorded slots and DR-recorded epochs of any block."""
     most = 0
     most_rec = 0
+    most_dr = 0
     for b in range(n_blocks):
         lo = b * block
         hi = min(lo + block, n_epochs)
         most = max(most, obs_ptr[hi] - obs_ptr[lo])
         most_rec = max(most_rec, rec_ptr[hi] - rec_ptr[lo])
-    return most, most_rec
+        dr_lo = int(np.searchsorted(dr_rec, lo))
+        dr_hi = int(np.searchsorted(dr_rec, hi))
+        most_dr = max(most_dr, dr_hi - dr_lo)
+    return most, most_rec, most_dr
 
 
 @dataclass(frozen=True)
@@ -89,11 +99,22 @@ class _BlockBuffers:
     b_gain: FloatArray
     b_y: FloatArray
     b_s: FloatArray
+    b_f: FloatArray
+    b_dr_rows: FloatArray
     work: tuple[IntArray, FloatArray, IntArray, FloatArray, FloatArray, FloatArray, FloatArray]
 
     @classmethod
     def allocate(
-        cls, block: int, n: int, dim: int, most: int, most_rec: int, max_m: int, with_var: bool
+        cls,
+        block: int,
+        n: int,
+        dim: int,
+        most: int,
+        most_rec: int,
+        max_m: int,
+        with_var: bool,
+        n_plat: int,
+        most_dr: int,
     ) -> _BlockBuffers:
         width = 2 * dim
         rows = max(most, 1)
@@ -107,6 +128,8 @@ class _BlockBuffers:
             b_gain=np.zeros((rows, n)),
             b_y=np.zeros(rows),
             b_s=np.zeros(rows),
+            b_f=np.zeros((block, n_plat, 4)),
+            b_dr_rows=np.empty((max(most_dr, 1) * (n - n_plat * dim), n)),
             work=epoch_buffers(max_m, dim, n),
         )
 
@@ -138,6 +161,9 @@ def _rerun_block(
     rec_plat: IntArray,
     block: int,
     with_var: bool,
+    dr_idx: IntArray,
+    dr_q: FloatArray,
+    dr_rec: IntArray,
     cursor: IntArray,
     nav_prev: FloatArray,
     nav_now: FloatArray,
@@ -150,6 +176,8 @@ def _rerun_block(
     b_gain: FloatArray,
     b_y: FloatArray,
     b_s: FloatArray,
+    b_f: FloatArray,
+    b_dr_rows: FloatArray,
     h_idx: IntArray,
     h_val: FloatArray,
     h_cnt: IntArray,
@@ -167,12 +195,20 @@ def _rerun_block(
     rec_base = rec_ptr[first]
     x = cp_x[b].copy()
     c = cp_c[b].copy()
+    n = x.shape[0]
+    n_pos = (nav_ptr.shape[0] - 1) * dim
+    n_dr = n - n_pos
+    dr_next = np.searchsorted(dr_rec, first)
+    dr_base = dr_next
     # the navigation at the epoch before the block (the cursor searches back)
     nav_at(nav_t, nav_v, nav_ptr, epochs[max(first - 1, 0)], cursor, nav_prev)
     for k in range(first, last):
         if k > 0:
             nav_at(nav_t, nav_v, nav_ptr, epochs[k], cursor, nav_now)
-            time_update(x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt)
+            time_update(
+                x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt, dr_idx, dr_q,
+                b_f[k - first],
+            )  # fmt: skip
             nav_prev[:] = nav_now
         lo = obs_ptr[k]
         m = obs_ptr[k + 1] - lo
@@ -197,6 +233,10 @@ def _rerun_block(
             p = rec_plat[r]
             for ax in range(dim):
                 b_rows[(r - rec_base) * dim + ax] = c[p * dim + ax]
+        if dr_next < dr_rec.shape[0] and dr_rec[dr_next] == k:
+            for j in range(n_dr):
+                b_dr_rows[(dr_next - dr_base) * n_dr + j] = c[n_pos + j]
+            dr_next += 1
 
 
 @numba.njit(cache=True, nogil=True)
@@ -218,12 +258,19 @@ def _backward_block(
     b_gain: FloatArray,
     b_y: FloatArray,
     b_s: FloatArray,
+    b_f: FloatArray,
+    b_dr_rows: FloatArray,
+    dr_idx: IntArray,
+    dr_rec: IntArray,
+    dt: FloatArray,
     lam: FloatArray,
     lam_t: FloatArray,
     lam_g: FloatArray,
     col: FloatArray,
     xs: FloatArray,
     var: FloatArray,
+    dr_xs: FloatArray,
+    dr_var: FloatArray,
 ) -> None:
     """The backward pass over block ``b`` (re-run into the given buffers): the smoothed
     recorded slots of its epochs, and the adjoints carried to the block before."""
@@ -232,8 +279,28 @@ def _backward_block(
     last = min(first + block, n_epochs)
     base = obs_ptr[first]
     rec_base = rec_ptr[first]
+    n_plat = dr_idx.shape[0]
+    n_pos = n_plat * dim
+    n_dr = n - n_pos
+    dr_base = np.searchsorted(dr_rec, first)
+    dr_next = np.searchsorted(dr_rec, last) - 1
     for k in range(last - 1, first - 1, -1):
         xf = bx[k - first]
+        if dr_next >= dr_base and dr_rec[dr_next] == k:  # the DR states, as the positions
+            for j in range(n_dr):
+                c_row = b_dr_rows[(dr_next - dr_base) * n_dr + j]
+                acc = xf[n_pos + j]
+                for jj in range(n):
+                    acc -= c_row[jj] * lam[jj]
+                dr_xs[dr_next, j] = acc
+                quad = 0.0
+                for jj in range(n):
+                    s = 0.0
+                    for ll in range(n):
+                        s += lam_t[ll, jj] * c_row[ll]
+                    quad += c_row[jj] * s
+                dr_var[dr_next, j] = c_row[n_pos + j] - quad
+            dr_next -= 1
         for r in range(rec_ptr[k], rec_ptr[k + 1]):  # X_k - C_k lambda, C_k - C_k L C_k
             p = rec_plat[r]
             for ax in range(dim):
@@ -291,6 +358,12 @@ def _backward_block(
             for p in range(cnt):
                 for s_ in range(cnt):
                     lam_t[b_idx[j, s_], b_idx[j, p]] += b_val[j, p] * b_val[j, s_] * extra
+        if k > 0:  # back through the transition into epoch k: F^T lambda, F^T Lambda F
+            for p in range(n_plat):
+                e = dr_idx[p]
+                if e >= 0:
+                    f = b_f[k - first, p]
+                    adjoint_step(lam, lam_t, p * dim, e, f[0], f[1], f[2], f[3], dt[k])
 
 
 def _cpu_count() -> int:
@@ -326,7 +399,10 @@ def mbf_backward(
     block: int,
     with_var: bool = True,
     threads: int | None = None,
-) -> tuple[FloatArray, FloatArray]:
+    dr_idx: IntArray | None = None,
+    dr_q: FloatArray | None = None,
+    dr_rec: IntArray | None = None,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Smoothed states and variances (R, dim) at the recorded slots (see the module doc).
 
     ``cp_x``, ``cp_c``, ``gamma`` come from :func:`~coopproc.stages.fusion.ekf.ekf_forward`
@@ -335,11 +411,24 @@ def mbf_backward(
     tables do not use them). ``threads``: 2 re-runs the next block in a second thread
     while the backward pass takes this one, 1 does both in turn (None: 2 when this
     process may use two cores or more); the result is the same, bit for bit.
+    ``dr_idx``, ``dr_q``, ``dr_rec``: as given to ``ekf_forward`` (None: no DR states);
+    the smoothed DR states and their variances at the epochs ``dr_rec`` are returned after
+    the positions' (always with variances: a few per second).
     """
     n_epochs = dt.shape[0]
     n = cp_x.shape[1]
     n_blocks = cp_x.shape[0]
     n_rec = rec_plat.shape[0]
+    n_plat = nav_ptr.shape[0] - 1
+    if dr_idx is None:
+        dr_idx = np.full(n_plat, -1, dtype=np.int64)
+    if dr_q is None:
+        dr_q = np.zeros((n_plat, 3))
+    if dr_rec is None:
+        dr_rec = np.zeros(0, dtype=np.int64)
+    n_dr = n - n_plat * dim
+    dr_xs = np.empty((dr_rec.shape[0], n_dr))
+    dr_var = np.empty((dr_rec.shape[0], n_dr))
     xs = np.empty((n_rec, dim))
     var = np.empty((n_rec if with_var else 0, dim))
     lam = np.zeros(n)
@@ -351,44 +440,44 @@ def mbf_backward(
     lam_g = np.zeros(n)
     col = np.zeros(n)
     if n_blocks == 0:
-        return xs, var
+        return xs, var, dr_xs, dr_var
     max_m = max_epoch_obs(obs_ptr)
-    most, most_rec = _block_extent(obs_ptr, rec_ptr, n_blocks, block, n_epochs)
+    most, most_rec, most_dr = _block_extent(obs_ptr, rec_ptr, dr_rec, n_blocks, block, n_epochs)
     pipelined = (threads if threads is not None else min(_cpu_count(), 2)) >= 2 and n_blocks > 1
     buffers = [
-        _BlockBuffers.allocate(block, n, dim, most, most_rec, max_m, with_var)
+        _BlockBuffers.allocate(block, n, dim, most, most_rec, max_m, with_var, n_plat, most_dr)
         for _ in range(2 if pipelined else 1)
     ]
-    n_plat = nav_ptr.shape[0] - 1
     cursor = np.full(n_plat, -1, dtype=np.int64)
     nav_prev = np.zeros((n_plat, dim))
     nav_now = np.zeros((n_plat, dim))
     inputs = (
         cp_x, cp_c, epochs, nav_t, nav_v, nav_ptr, q_coef, q_squared, dt, obs_ptr, obs_kind,
         obs_a, obs_b, obs_anchor, anchor_tab, obs_dz2, z, r_var, gamma, dim, rec_ptr,
-        rec_plat, block, with_var, cursor, nav_prev, nav_now,
+        rec_plat, block, with_var, dr_idx, dr_q, dr_rec, cursor, nav_prev, nav_now,
     )  # fmt: skip
 
     def rerun(b: int) -> None:
         buf = buffers[b % len(buffers)]
         _rerun_block(
             b, *inputs, buf.bx, buf.bc, buf.b_rows, buf.b_idx, buf.b_val, buf.b_cnt,
-            buf.b_gain, buf.b_y, buf.b_s, *buf.work,
+            buf.b_gain, buf.b_y, buf.b_s, buf.b_f, buf.b_dr_rows, *buf.work,
         )  # fmt: skip
 
     def backward(b: int) -> None:
         buf = buffers[b % len(buffers)]
         _backward_block(
             b, obs_ptr, rec_ptr, rec_plat, dim, block, n_epochs, with_var, buf.bx, buf.bc,
-            buf.b_rows, buf.b_idx, buf.b_val, buf.b_cnt, buf.b_gain, buf.b_y, buf.b_s, lam,
-            lam_t, lam_g, col, xs, var,
+            buf.b_rows, buf.b_idx, buf.b_val, buf.b_cnt, buf.b_gain, buf.b_y, buf.b_s,
+            buf.b_f, buf.b_dr_rows, dr_idx, dr_rec, dt, lam, lam_t, lam_g, col, xs, var,
+            dr_xs, dr_var,
         )  # fmt: skip
 
     if not pipelined:
         for b in range(n_blocks - 1, -1, -1):
             rerun(b)
             backward(b)
-        return xs, var
+        return xs, var, dr_xs, dr_var
     # the re-runs go one after the other (they share the navigation cursor), each into the
     # buffers the backward pass is not reading
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="smoother") as pool:
@@ -398,4 +487,4 @@ def mbf_backward(
             backward(b)
             if ahead is not None:
                 ahead.result()
-    return xs, var
+    return xs, var, dr_xs, dr_var

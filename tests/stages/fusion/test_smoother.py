@@ -81,8 +81,13 @@ def _forward(pb: dict[str, np.ndarray], rec_ptr: np.ndarray, rec_plat: np.ndarra
     return ekf_forward(
         pb["x0"], pb["c0"], *_nav(pb), pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"],
         pb["a"], pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"], pb["z"], pb["var"], DIM,
-        True, 3.0, 4.0, 1.0, 20, rec_ptr, rec_plat, block,
+        True, 3.0, 4.0, 1.0, 20, rec_ptr, rec_plat, block, *_no_dr(pb),
     )  # fmt: skip
+
+
+def _no_dr(pb: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    n_plat = pb["nav_ptr"].shape[0] - 1
+    return np.full(n_plat, -1, dtype=np.int64), np.zeros((n_plat, 3)), np.zeros(0, np.int64)
 
 
 def _nav(pb: dict[str, np.ndarray]) -> tuple[np.ndarray, ...]:
@@ -98,7 +103,7 @@ def _dense_rts(pb: dict[str, np.ndarray], n_plat: int) -> tuple[np.ndarray, np.n
     """States and variances of the dense RTS recursion (filters.rts_step) at every epoch
     but the last, from the forward pass's posteriors (checkpoints with block = 1)."""
     n_ep = pb["dt"].shape[0]
-    xs_f, _, _, _, _, _, cp_c = _forward(pb, *_all_slots(n_ep, n_plat), 1)
+    xs_f, _, _, _, _, _, cp_c, *_ = _forward(pb, *_all_slots(n_ep, n_plat), 1)
     xs_f = xs_f.reshape(n_ep, n_plat * DIM)
     post = cp_c[1:]  # posterior covariance of epochs 0 .. K - 2
     q = (pb["q_coef"] * pb["dt"][:, None]).repeat(DIM, axis=1)
@@ -123,9 +128,9 @@ def test_mbf_smoother_equals_dense_rts(seed: int, block: int) -> None:
     pb = _problem(seed, n_plat)
     n_ep = pb["dt"].shape[0]
     rec = _all_slots(n_ep, n_plat)
-    _, _, gamma, _, _, cp_x, cp_c = _forward(pb, *rec, block)
+    _, _, gamma, _, _, cp_x, cp_c, *_ = _forward(pb, *rec, block)
     assert (gamma < 1e-6).sum() >= 1  # the outlier was rejected, and the smoother knows it
-    xs, var = mbf_backward(
+    xs, var, *_ = mbf_backward(
         cp_x, cp_c, *_nav(pb), pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"], pb["a"],
         pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"], pb["z"], pb["var"], gamma, DIM,
         *rec, block,
@@ -153,8 +158,8 @@ def test_recorded_subset_gives_the_same_slots() -> None:
     sub = (sub_ptr.astype(np.int64), full[1][keep])
     outs = []
     for rec in (full, sub):
-        xs_f, var_f, gamma, _, _, cp_x, cp_c = _forward(pb, *rec, 8)
-        xs, var = mbf_backward(
+        xs_f, var_f, gamma, _, _, cp_x, cp_c, *_ = _forward(pb, *rec, 8)
+        xs, var, *_ = mbf_backward(
             cp_x, cp_c, *_nav(pb), pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"],
             pb["a"], pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"], pb["z"], pb["var"],
             gamma, DIM, *rec, 8,
@@ -194,7 +199,7 @@ def test_pipelined_smoother_is_the_sequential_one_bit_for_bit(with_var: bool) ->
     pb = _problem(6, n_plat)
     n_ep = pb["dt"].shape[0]
     rec = _all_slots(n_ep, n_plat)
-    _, _, gamma, _, _, cp_x, cp_c = _forward(pb, *rec, 5)
+    _, _, gamma, _, _, cp_x, cp_c, *_ = _forward(pb, *rec, 5)
     assert cp_x.shape[0] >= 3  # several blocks, so the pipeline has work to overlap
     results = []
     for threads in (1, 2):
