@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 from coopproc.names import (
     DI_COLUMNS,
+    DR_STATES_COLUMNS,
     METHODS,
     METRICS_COLUMNS,
     NLOS_ESTIMATE_COLUMNS,
@@ -42,6 +43,7 @@ if TYPE_CHECKING:  # coopproc.sensors imports this module
 
 __all__ = [
     "DI_COLUMNS",
+    "DR_STATES_COLUMNS",
     "GAP_FACTOR",
     "METHODS",
     "METRICS_COLUMNS",
@@ -413,3 +415,5 @@ class Result:
     metrics: pd.DataFrame  # METRICS_COLUMNS -> metrics.csv
     position_metrics: pd.DataFrame  # POSITION_METRICS_COLUMNS -> position_metrics.csv
     states: pd.DataFrame | None = None  # STATES_COLUMNS -> states.csv (INS methods)
+    #: DR_STATES_COLUMNS -> dr_states.csv (the fusion's DR-error states, [fusion] state "dr")
+    dr_states: pd.DataFrame | None = None

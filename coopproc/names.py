@@ -8,6 +8,7 @@ from __future__ import annotations
 
 __all__ = [
     "DI_COLUMNS",
+    "DR_STATES_COLUMNS",
     "METHODS",
     "METRICS_COLUMNS",
     "NLOS_ESTIMATE_COLUMNS",
@@ -67,6 +68,14 @@ POSITION_METRICS_COLUMNS: tuple[str, ...] = ("platform", "method", "max", "mean"
 _STATE_VALUES = ("vel_east", "vel_north", "vel_up", "roll", "pitch", "yaw")
 STATES_COLUMNS: tuple[str, ...] = ("time", "platform", "method", *_STATE_VALUES)
 STATES_COLUMNS += tuple(f"sigma_{c}" for c in _STATE_VALUES)
+#: dr_states.csv (docs/outputs.md): the cooperative fusion's estimate of each follower's
+#: dead-reckoning errors ([fusion] state = "dr"): heading error (deg, clockwise from north
+#: like states.csv's yaw: DR heading minus true), heading-rate error (deg/h, the gyro bias
+#: as the heading sees it) and odometer scale error (0.01 = the DR steps 1 % too long),
+#: with their 1-sigma, of the smoothed solution.
+_DR_VALUES = ("heading_error", "heading_rate_error", "scale_error")
+DR_STATES_COLUMNS: tuple[str, ...] = ("time", "platform", "method", *_DR_VALUES)
+DR_STATES_COLUMNS += tuple(f"sigma_{c}" for c in _DR_VALUES)
 
 
 def pair_name(a: str, b: str) -> str:

@@ -27,6 +27,7 @@ import pandas as pd
 from coopproc.errors import InputError
 from coopproc.model import (
     DI_COLUMNS,
+    DR_STATES_COLUMNS,
     METRICS_COLUMNS,
     NLOS_ESTIMATE_COLUMNS,
     NLOS_EVENT_COLUMNS,
@@ -97,6 +98,7 @@ RUN_EXTENSION_FILES: tuple[tuple[str, str, tuple[str, ...], bool], ...] = (
     ("evaluation.csv", "evaluation", ("platform", "method", "alignment"), False),
     ("rpe.csv", "rpe", ("platform", "method", "alignment", "segment_m"), False),
     ("states.csv", "states", STATES_COLUMNS, False),
+    ("dr_states.csv", "dr_states", DR_STATES_COLUMNS, False),
     ("outages.csv", "outages", OUTAGE_COLUMNS, False),
 )
 
@@ -126,6 +128,8 @@ class RunTables:
     states: pd.DataFrame | None = None
     #: outages.csv: drift inside the [run] outages windows (coopproc/report/outage.py)
     outages: pd.DataFrame | None = None
+    #: dr_states.csv: the fusion's estimate of the followers' dead-reckoning errors
+    dr_states: pd.DataFrame | None = None
 
     @property
     def time_origin_s(self) -> float:

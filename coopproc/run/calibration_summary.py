@@ -13,6 +13,7 @@ import math
 from typing import Any
 
 from coopproc.run.pipeline import PipelineOutput
+from coopproc.stages.fusion.dr_states import dr_summary
 
 __all__ = ["calibration_facts", "calibration_lines"]
 
@@ -56,6 +57,15 @@ def calibration_facts(output: PipelineOutput) -> dict[str, Any]:
         }
         for p, q in sorted(output.dr_quality.items())
     }
+    for p, d in dr_summary(output.result.dr_states).items():  # the fusion's DR states
+        facts: dict[str, Any] = platforms.setdefault(p, {})
+        facts["fusion_dr_states"] = {  # dr_states.csv's convention: clockwise
+            "heading_error_max_deg": _num(d.heading_error_max_deg, 3),
+            "heading_rate_error_dph": _num(d.heading_rate_error_dph, 3),
+            "heading_rate_sigma_dph": _num(d.heading_rate_sigma_dph, 3),
+            "scale_error": _num(d.scale_error, 5),
+            "scale_sigma": _num(d.scale_sigma, 5),
+        }
     return {
         "ranging": pairs,
         "fusion": fusion,
@@ -103,6 +113,7 @@ def calibration_lines(output: PipelineOutput) -> list[str]:
                 text += f", ranges read {bias:+.3f} m long"
             parts.append(text)
         lines.append(f"  {pair}: " + "; ".join(parts))
+    states = dr_summary(output.result.dr_states)
     for platform, q in sorted(output.dr_quality.items()):
         declared = f" [{q.declared_drift_mps:.4f}]" if math.isfinite(q.declared_drift_mps) else ""
         scale = observed.drift_scale.get(platform) if observed is not None else None
@@ -112,5 +123,16 @@ def calibration_lines(output: PipelineOutput) -> list[str]:
             f"heading drift {_fmt(q.heading_drift_dpm, '+.2f')} deg/min, scale "
             f"{_fmt(100.0 * q.scale, '+.2f', ' %')}{inflated}"
         )
+        d = states.get(platform)
+        if d is not None:  # what the fusion's DR states estimated (dr_states.csv), in the
+            # line above's units and sign (counter-clockwise; dr_states.csv is clockwise)
+            lines.append(
+                f"  {platform}: fusion DR states: heading drift "
+                f"{_fmt(-d.heading_rate_error_dph / 60.0, '+.3f')} +- "
+                f"{_fmt(d.heading_rate_sigma_dph / 60.0, '.3f')} deg/min, scale "
+                f"{_fmt(100.0 * d.scale_error, '+.2f')} +- "
+                f"{_fmt(100.0 * d.scale_sigma, '.2f', ' %')}, heading error up to "
+                f"{_fmt(-d.heading_error_max_deg, '+.2f')} deg"
+            )
     lines.extend(f"note: {note}" for note in output.notes)
     return lines

@@ -100,6 +100,7 @@ def run_tables(
         evaluation=evaluated,
         rpe=relative,
         states=r.states,
+        dr_states=r.dr_states,
         outages=outages.table if (outages := _outage_report(output)) is not None else None,
     )
 

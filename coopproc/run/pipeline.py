@@ -52,6 +52,7 @@ from coopproc.run.range_sets import ranges_for, row_sigma
 from coopproc.run.tags import tag_pipeline, tag_rows, widen, without_tags
 from coopproc.stages.base import PositionInput, PositionProduct, RangeInput, RangeProduct
 from coopproc.stages.fusion.dr_quality import DeadReckoningQuality, dead_reckoning_quality
+from coopproc.stages.fusion.dr_states import dr_states_of
 from coopproc.stages.ranging.table import observed_table
 from coopproc.stages.registry import POSITION_STAGES, RANGE_STAGES
 
@@ -179,6 +180,7 @@ def run_pipeline(
         )
         del cp_positions
         states = states_table(session, products)
+        dr_states = dr_states_of(products)
         table = _range_table(base, columns, range_products)
         del base  # the table holds its columns
         # positions.csv's table reads the navigation and reference it takes now; the rest
@@ -215,6 +217,7 @@ def run_pipeline(
             metrics=distance_metrics(table, methods=("observed", *columns)),
             position_metrics=position_metrics(positions, methods=tuple(products)),
             states=states,
+            dr_states=dr_states,
         )
     return PipelineOutput(
         result=result,

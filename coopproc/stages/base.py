@@ -145,6 +145,9 @@ class PositionProduct:
     notes: tuple[str, ...] = ()
     #: platform -> velocity and attitude, for estimators that have them (states.csv)
     states: Mapping[str, NavStates] = field(default_factory=dict)
+    #: the followers' dead-reckoning errors, for estimators that estimate them
+    #: (DR_STATES_COLUMNS with an empty method; dr_states.csv)
+    dr_states: pd.DataFrame | None = None
 
 
 @dataclass(frozen=True)

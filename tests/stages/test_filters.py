@@ -142,7 +142,7 @@ def test_compiled_epoch_update_equals_batch_ekf_update() -> None:
         np.array([0, 3], dtype=np.int64), kind, a, b, np.arange(3, dtype=np.int32), anchor,
         np.zeros(3), z, r, 2, False,
         3.0, 4.0, 1.0, 0, np.array([0, 2], dtype=np.int64), np.array([0, 1]), 16,
-        np.full(2, -1, dtype=np.int64), np.zeros((2, 3)), np.zeros(0, dtype=np.int64),
+        np.full(2, -1, dtype=np.int64), np.zeros((2, 5)), np.zeros(0, dtype=np.int64), np.zeros(0),
     )  # fmt: skip
     # the checkpoint before epoch 0 is the prior; the recorded slots are both platforms
     assert cp_x[0] == pytest.approx(x0) and cp_c[0] == pytest.approx(c0)

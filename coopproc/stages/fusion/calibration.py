@@ -59,7 +59,9 @@ from coopproc.stages.fusion.calibration_bias import (
     postfit_residuals,
     residuals_by_row,
 )
+from coopproc.stages.fusion.calibration_dr import dr_noise_factor
 from coopproc.stages.fusion.calibration_subset import CALIBRATION_EPOCHS, calibration_rows
+from coopproc.stages.fusion.dr_states import dr_layout
 from coopproc.stages.fusion.fuse import FusionOutput, FusionParams, fuse
 from coopproc.stages.fusion.inputs import FusionInputs, fusion_inputs
 from coopproc.stages.ranging.calibration import MAD_SCALE, posterior_sigma
@@ -88,6 +90,11 @@ class FusionCalibration:
     platform_nis: Mapping[str, float]  # median NIS / 0.455 of each platform's ranges
     drift_scale: Mapping[str, float]  # factor applied to a platform's drift sigma
     notes: tuple[str, ...] = field(default=())
+    #: the followers' DR noise factor chosen by the innovations' likelihood (state "dr",
+    #: :mod:`~coopproc.stages.fusion.calibration_dr`; in ``drift_scale`` too) and the
+    #: score of every factor tried
+    dr_noise_factor: float = 1.0
+    dr_noise_scores: Mapping[float, float] = field(default_factory=dict)
     #: :func:`~coopproc.stages.fusion.range_digest.range_rows_digest` of the ranges fused
     #: ("" when not taken): a range set with the same digest has this fusion
     range_digest: str = ""
@@ -251,8 +258,16 @@ def calibrated_fuse(
     # 1. dead reckoning that the ranges contradict, with the given range sigmas; what the
     # fusions of this range set share is prepared once (fusion_inputs)
     inputs = fusion_inputs(session, ranges, params, "ranges")
+    # 0. the followers' DR noise level by the innovations' likelihood (state "dr")
+    dr_factor, dr_scores = dr_noise_factor(session, ranges, params, inputs)
+    layout = dr_layout(session, inputs.moving, inputs.epochs[:1], params)
+    start = {
+        p: dr_factor
+        for p, i in zip(inputs.moving, layout.idx, strict=True)
+        if i >= 0 and dr_factor != 1.0
+    }
     first, scale, first_nis = _drift_scales(
-        session, ranges, params, {}, smoothed_sigma=smoothed_sigma, inputs=inputs,
+        session, ranges, params, start, smoothed_sigma=smoothed_sigma, inputs=inputs,
         forward=forward, forward_sigma=forward_sigma,
     )  # fmt: skip
     # 2. per-pair ranging sigma from the post-fit residuals
@@ -284,6 +299,7 @@ def calibrated_fuse(
     platform_factor = biased_platform(sigma_used, resid, ranges, given)
     if platform_factor:
         unscaled = {p: v for p, v in scale.items() if p not in platform_factor}
+        unscaled |= {p: v for p, v in start.items() if p in platform_factor}
         rows = calibration_rows(ranges["time"].to_numpy(dtype=np.float64), max_epochs)
         calibrated, found = platform_bias(session, calibrated, params, platform_factor, rows)
         platform_factor = {p: f for p, f in platform_factor.items() if p in found}
@@ -315,7 +331,15 @@ def calibrated_fuse(
         )  # fmt: skip
         del final
         nis = _platform_nis(result.observations)
-    for platform, factor in sorted(scale.items()):
+    if dr_factor != 1.0:
+        notes.append(
+            f"fusion ({label}): the followers' dead-reckoning noise is {dr_factor:g} x the "
+            "[fusion] figures (the factor of the most likely range innovations)"
+        )
+    for platform, total in sorted(scale.items()):
+        factor = total / start.get(platform, 1.0)  # the NIS rounds' part
+        if factor == 1.0:
+            continue
         notes.append(
             f"fusion ({label}): {platform}'s dead reckoning drifts more than declared (its "
             f"range innovations were inconsistent); its drift sigma is scaled by {factor:.1f}"
@@ -327,4 +351,6 @@ def calibrated_fuse(
         platform_nis=nis,
         drift_scale=scale,
         notes=tuple(notes),
+        dr_noise_factor=dr_factor,
+        dr_noise_scores=dr_scores,
     )

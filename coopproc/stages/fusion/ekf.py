@@ -139,7 +139,9 @@ def time_update(
     axis is ``q_coef[p] * dt[k]`` (``q_squared``: ``(q_coef[p] * dt[k]) ** 2``).
     ``dr_idx[p]``: the index of platform p's heading correction (-1: no DR states, F = I
     for it); ``dr_q[p]``: the heading, heading-rate and scale random walks' variance per
-    second; ``f_out[p]``: E's epoch entries (:func:`~coopproc.stages.fusion.dr_model.dr_predict`).
+    second, then the position's and the heading's variance per metre travelled (the
+    odometer's noise grows with the distance, :mod:`~coopproc.stages.fusion.dr_model`);
+    ``f_out[p]``: E's epoch entries (:func:`~coopproc.stages.fusion.dr_model.dr_predict`).
     """
     for p in range(nav_now.shape[0]):
         if q_squared:
@@ -150,16 +152,17 @@ def time_update(
         e = dr_idx[p]
         if e >= 0:
             i0 = p * dim
-            dr_predict(
-                x, c, i0, e, nav_now[p, 0] - nav_prev[p, 0], nav_now[p, 1] - nav_prev[p, 1],
-                dt[k], f_out[p],
-            )  # fmt: skip
+            ue = nav_now[p, 0] - nav_prev[p, 0]
+            un = nav_now[p, 1] - nav_prev[p, 1]
+            dr_predict(x, c, i0, e, ue, un, dt[k], f_out[p])
             for ax in range(2, dim):  # up: the increment as it is
                 x[i0 + ax] += nav_now[p, ax] - nav_prev[p, ax]
+            travel = np.sqrt(ue * ue + un * un)
             for ax in range(dim):
-                c[i0 + ax, i0 + ax] += qp
+                c[i0 + ax, i0 + ax] += qp + dr_q[p, DR_STATES] * travel
             for j in range(DR_STATES):
                 c[e + j, e + j] += dr_q[p, j] * dt[k]
+            c[e, e] += dr_q[p, DR_STATES + 1] * travel
             continue
         for ax in range(dim):
             i = p * dim + ax
@@ -322,6 +325,7 @@ def ekf_forward(
     dr_idx: IntArray,
     dr_q: FloatArray,
     dr_rec: IntArray,
+    gamma_in: FloatArray,
 ) -> tuple[
     FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
     FloatArray, FloatArray,
@@ -343,7 +347,10 @@ def ekf_forward(
     covariance (B, n, n) before epoch ``b * block`` (``block <= 0``: none kept); then the
     DR states (every state after the positions, ``n - P dim``) and their variances at the
     epochs ``dr_rec`` (ascending), (len(dr_rec), n - P dim) each. ``dr_idx``, ``dr_q``: see
-    :func:`time_update` (all -1: the position-only filter).
+    :func:`time_update` (all -1: the position-only filter). ``gamma_in``: every
+    observation's robust factor, given (an iteration of the robust smoother,
+    :mod:`~coopproc.stages.fusion.robust_refit`), instead of eq. (18)-(20) at the prior
+    (empty: computed here).
     """
     n_epochs = dt.shape[0]
     n = x0.shape[0]
@@ -355,6 +362,10 @@ def ekf_forward(
     cp_x = np.empty((n_blocks, n))
     cp_c = np.empty((n_blocks, n, n))
     gamma = np.ones(n_obs)
+    given = gamma_in.shape[0] == n_obs and n_obs > 0
+    if given:
+        gamma[:] = gamma_in
+        robust = False
     innov = np.zeros(n_obs)
     innov_var = np.zeros(n_obs)
     x = x0.copy()

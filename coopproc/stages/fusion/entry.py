@@ -75,7 +75,13 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
                 )
             cp = (at_ranges.forward, at_ranges.smoothed)
     cal = dataclasses.replace(cal, range_digest=digest)
-    return PositionProduct(positions=fused.smoothed, cp=cp, calibration=cal, notes=cal.notes)
+    return PositionProduct(
+        positions=fused.smoothed,
+        cp=cp,
+        calibration=cal,
+        notes=cal.notes,
+        dr_states=fused.dr_states,
+    )
 
 
 def _same_as_observed(
@@ -99,6 +105,7 @@ def _same_as_observed(
         positions=dict(observed.positions),  # the same trajectories, in a dict of its own
         calibration=dataclasses.replace(cal, notes=notes),
         notes=notes,
+        dr_states=observed.dr_states,
     )
 
 

@@ -46,6 +46,7 @@ from coopproc.stages.fusion.ekf import (
 from coopproc.stages.fusion.inputs import FusionInputs, fusion_inputs
 from coopproc.stages.fusion.lsq import LsqParams
 from coopproc.stages.fusion.output import solutions_from_slots
+from coopproc.stages.fusion.robust_refit import smoothed_gammas
 from coopproc.stages.fusion.smoother import mbf_backward
 
 __all__ = ["FusionOutput", "FusionParams", "fuse", "fusion_params_from_toml"]
@@ -136,11 +137,25 @@ class FusionParams:
         },
     )
     dr_position_sigma_mps: float = field(
-        default=0.05,
+        default=0.005,
         metadata={
             "help": "state 'dr': a follower's residual DR velocity noise, 1-sigma (m/s, "
             "white: q = sigma^2 dt per axis); its declared drift_sigma is the total drift "
             "that the DR states now explain"
+        },
+    )
+    dr_distance_noise_m: float = field(
+        default=0.02,
+        metadata={
+            "help": "state 'dr': a follower's odometer distance noise (m per sqrt(m) "
+            "travelled, per axis)"
+        },
+    )
+    dr_heading_noise_deg: float = field(
+        default=0.2,
+        metadata={
+            "help": "state 'dr': a follower's heading noise (deg per sqrt(m) travelled: "
+            "wheel slip, turns)"
         },
     )
     heading_sigma_deg: float = field(
@@ -167,6 +182,21 @@ class FusionParams:
         default=0.001,
         metadata={"help": "state 'dr': odometer scale random walk (per sqrt(h))"},
     )
+    dr_noise_search: bool = field(
+        default=False,
+        metadata={
+            "help": "state 'dr': scale the followers' DR noise figures by the factor whose "
+            "range innovations are the most likely (calibration_dr.py)"
+        },
+    )
+    robust_smoother_iterations: int = field(
+        default=1,
+        metadata={
+            "help": "times the IGG-III factors are taken afresh from the smoothed solution "
+            "and the filter and smoother rerun with them (robust_refit.py; 0: the forward "
+            "pass's factors, as papers 002/003 write it)"
+        },
+    )
     dr_states_every_s: float = field(
         default=1.0,
         metadata={"help": "state 'dr': the DR states are reported (dr_states.csv) this often (s)"},
@@ -189,11 +219,16 @@ class FusionParams:
         if self.state not in ("dr", "position"):
             raise ValueError(f"state = {self.state!r}, expected 'dr' or 'position'")
         for name in (
-            "dr_position_sigma_mps", "heading_sigma_deg", "heading_rate_sigma_dph",
+            "dr_position_sigma_mps", "dr_distance_noise_m", "dr_heading_noise_deg",
+            "heading_sigma_deg", "heading_rate_sigma_dph",
             "heading_walk_dpsh", "heading_rate_walk_dphpsh", "scale_sigma", "scale_walk_psh",
         ):  # fmt: skip
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} = {getattr(self, name)}, expected >= 0")
+        if self.robust_smoother_iterations < 0:
+            raise ValueError(
+                f"robust_smoother_iterations = {self.robust_smoother_iterations}, expected >= 0"
+            )
         if not self.dr_states_every_s > 0:
             raise ValueError(f"dr_states_every_s = {self.dr_states_every_s}, expected > 0")
         if self.leader_fix not in ("epoch", "nav"):
@@ -226,9 +261,10 @@ class FusionOutput:
     forward: Mapping[str, Trajectory]
     epochs_s: FloatArray
     observations: pd.DataFrame
-    #: The followers' DR states (state "dr"): platform, time, heading correction (deg),
-    #: heading rate (deg/h), scale correction and their 1-sigma, forward and smoothed
-    #: (:func:`dr_states_table`); None with state "position".
+    #: The followers' dead-reckoning errors as the smoothed solution (the forward one
+    #: without a smoother) estimates them, DR_STATES_COLUMNS with an empty method
+    #: (:func:`~coopproc.stages.fusion.dr_states.dr_states_table`); None with state
+    #: "position".
     dr_states: pd.DataFrame | None = None
 
 
@@ -319,6 +355,7 @@ def fuse(
     xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c, dr_xf, dr_vf = ekf_forward(
         x0, c0, *noise, *kernel_obs, params.dims, params.robust, params.k0, params.k1,
         params.mad_floor, params.mad_window, *forward_slots, block, dr.idx, dr.q, dr.rec,
+        np.zeros(0),
     )  # fmt: skip
     del forward_slots
     at = obs["at"]  # the range rows' observations, in row (= observation) order
@@ -345,13 +382,30 @@ def fuse(
             cp_x, cp_c, *noise, *kernel_obs, gamma, dim, rec_ptr, rec_plat, block,
             smoothed_sigma, dr_idx=dr.idx, dr_q=dr.q, dr_rec=dr.rec,
         )  # fmt: skip
+        for _ in range(params.robust_smoother_iterations if params.robust else 0):
+            # the robust factors against the smoothed solution, then the filter and the
+            # smoother again with them (robust_refit.py); the forward trajectories stay
+            # the causal filter's
+            gamma = smoothed_gammas(
+                obs, rec_ptr, rec_plat, xs_s, len(moving), dim, gamma, params.k0,
+                params.k1, params.mad_floor,
+            )  # fmt: skip
+            del xs_s, var_s, dr_xs, dr_vs, cp_x, cp_c
+            *_, cp_x, cp_c, _, _ = ekf_forward(
+                x0, c0, *noise, *kernel_obs, params.dims, params.robust, params.k0,
+                params.k1, params.mad_floor, params.mad_window, np.zeros_like(rec_ptr),
+                rec_plat[:0], block, dr.idx, dr.q, dr.rec[:0], gamma,
+            )  # fmt: skip
+            xs_s, var_s, dr_xs, dr_vs = mbf_backward(
+                cp_x, cp_c, *noise, *kernel_obs, gamma, dim, rec_ptr, rec_plat, block,
+                smoothed_sigma, dr_idx=dr.idx, dr_q=dr.q, dr_rec=dr.rec,
+            )  # fmt: skip
     else:
         xs_s, var_s, dr_xs, dr_vs = xs_f, var_f, dr_xf, dr_vf
     dr_table = (
-        dr_states_table(moving, epochs, dr, (dr_xf, dr_vf), (dr_xs, dr_vs))
-        if dr.idx.max(initial=-1) >= 0
-        else None
+        dr_states_table(moving, epochs, dr, (dr_xs, dr_vs)) if dr.idx.max(initial=-1) >= 0 else None
     )
+    del dr_xf, dr_vf, dr_xs, dr_vs
     # memory (issue 11): the observations and the range rows are spent (unless the caller
     # keeps its inputs for another fusion); free them before the trajectories are built
     del cp_x, cp_c, obs, kernel_obs, gamma, ep_idx, noise

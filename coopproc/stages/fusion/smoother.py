@@ -423,7 +423,7 @@ def mbf_backward(
     if dr_idx is None:
         dr_idx = np.full(n_plat, -1, dtype=np.int64)
     if dr_q is None:
-        dr_q = np.zeros((n_plat, 3))
+        dr_q = np.zeros((n_plat, 5))
     if dr_rec is None:
         dr_rec = np.zeros(0, dtype=np.int64)
     n_dr = n - n_plat * dim

@@ -81,13 +81,13 @@ def _forward(pb: dict[str, np.ndarray], rec_ptr: np.ndarray, rec_plat: np.ndarra
     return ekf_forward(
         pb["x0"], pb["c0"], *_nav(pb), pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"],
         pb["a"], pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"], pb["z"], pb["var"], DIM,
-        True, 3.0, 4.0, 1.0, 20, rec_ptr, rec_plat, block, *_no_dr(pb),
+        True, 3.0, 4.0, 1.0, 20, rec_ptr, rec_plat, block, *_no_dr(pb), np.zeros(0),
     )  # fmt: skip
 
 
 def _no_dr(pb: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     n_plat = pb["nav_ptr"].shape[0] - 1
-    return np.full(n_plat, -1, dtype=np.int64), np.zeros((n_plat, 3)), np.zeros(0, np.int64)
+    return np.full(n_plat, -1, dtype=np.int64), np.zeros((n_plat, 5)), np.zeros(0, np.int64)
 
 
 def _nav(pb: dict[str, np.ndarray]) -> tuple[np.ndarray, ...]:
@@ -212,3 +212,115 @@ def test_pipelined_smoother_is_the_sequential_one_bit_for_bit(with_var: bool) ->
     for one, two in zip(results[0], results[1], strict=True):
         assert one.tobytes() == two.tobytes()
     assert np.isfinite(results[0][0]).all() and results[0][0].shape == (rec[1].shape[0], DIM)
+
+
+def _with_dr(pb: dict[str, np.ndarray], dr_plats: tuple[int, ...]) -> dict[str, np.ndarray]:
+    """The problem with heading/heading-rate/scale states for ``dr_plats`` (after the
+    positions), their priors wide enough for the linearization to matter."""
+    n_plat = pb["nav_ptr"].shape[0] - 1
+    n_pos = n_plat * DIM
+    idx = np.full(n_plat, -1, dtype=np.int64)
+    for j, p in enumerate(dr_plats):
+        idx[p] = n_pos + 3 * j
+    n = n_pos + 3 * len(dr_plats)
+    x0 = np.zeros(n)
+    x0[:n_pos] = pb["x0"]
+    x0[n_pos:] = np.tile([0.05, 0.002, 0.01], len(dr_plats))  # a linearization off zero
+    c0 = np.zeros((n, n))
+    c0[:n_pos, :n_pos] = pb["c0"]
+    c0[n_pos:, n_pos:] = np.diag(np.tile([0.05**2, 0.002**2, 0.02**2], len(dr_plats)))
+    q = np.zeros((n_plat, 5))
+    q[list(dr_plats)] = [1e-4, 1e-7, 1e-6, 1e-3, 1e-4]  # per second; per metre
+    return dict(pb, x0=x0, c0=c0, dr_idx=idx, dr_q=q)
+
+
+def _dr_transition(
+    pb: dict[str, np.ndarray], x_post: np.ndarray, k: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The model of coopproc.stages.fusion.dr_model written densely: x_k = f(x_{k-1}),
+    its Jacobian F (by central finite differences of f) and Q_k."""
+    n_plat = pb["nav_ptr"].shape[0] - 1
+    u = pb["nav"][:, k, :DIM] - pb["nav"][:, k - 1, :DIM]
+    dt = pb["dt"][k]
+
+    def f(x: np.ndarray) -> np.ndarray:
+        out = x.copy()
+        for p in range(n_plat):
+            e = pb["dr_idx"][p]
+            if e < 0:
+                out[p * DIM : p * DIM + DIM] += u[p]
+                continue
+            th, om, s = x[e], x[e + 1], x[e + 2]
+            rot = np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]])
+            out[p * DIM : p * DIM + DIM] += (1 + s) * rot @ u[p]
+            out[e] = th + om * dt
+        return out
+
+    n = x_post.shape[0]
+    jac = np.zeros((n, n))
+    for j in range(n):
+        step = np.zeros(n)
+        step[j] = 1e-6
+        jac[:, j] = (f(x_post + step) - f(x_post - step)) / 2e-6
+    q = np.zeros(n)
+    for p in range(n_plat):
+        q[p * DIM : p * DIM + DIM] = pb["q_coef"][p] * dt
+        e = pb["dr_idx"][p]
+        if e >= 0:
+            travel = np.linalg.norm(u[p])
+            q[p * DIM : p * DIM + DIM] += pb["dr_q"][p, 3] * travel
+            q[e : e + 3] = pb["dr_q"][p, :3] * dt
+            q[e] += pb["dr_q"][p, 4] * travel
+    return f(x_post), jac, np.diag(q)
+
+
+@pytest.mark.parametrize(("seed", "block"), [(0, 7), (1, 1), (2, 200)])
+def test_mbf_smoother_with_dr_states_equals_dense_extended_rts(seed: int, block: int) -> None:
+    """With DR states the transition is nonlinear (F = I + E): the filter's prediction and
+    the smoother's adjoint steps match the dense EKF/RTS recursion with F written out."""
+    n_plat = 3
+    pb = _with_dr(_problem(seed, n_plat), (0, 2))
+    n_ep = pb["dt"].shape[0]
+    rec = _all_slots(n_ep, n_plat)
+    dr_rec = np.arange(n_ep, dtype=np.int64)
+    dr = (pb["dr_idx"], pb["dr_q"], dr_rec)
+
+    def forward(block_: int) -> tuple[np.ndarray, ...]:
+        return ekf_forward(
+            pb["x0"], pb["c0"], *_nav(pb), pb["q_coef"], False, pb["dt"], pb["ptr"],
+            pb["kind"], pb["a"], pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"],
+            pb["z"], pb["var"], DIM, True, 3.0, 4.0, 1.0, 20, *rec, block_, *dr, np.zeros(0),
+        )  # fmt: skip
+
+    # with block 1 the checkpoint before epoch k + 1 is epoch k's posterior
+    *_, cp_x1, cp_c1, _, _ = forward(1)
+    post_x = cp_x1[1:]  # posteriors of epochs 0 .. K - 2 (the last epoch observes nothing)
+    post_c = cp_c1[1:]
+    last = n_ep - 2
+    xs_ref = [post_x[last]]
+    cs_ref = [post_c[last]]
+    for k in range(last - 1, -1, -1):
+        x_pred, jac, q = _dr_transition(pb, post_x[k], k + 1)
+        c_pred = jac @ post_c[k] @ jac.T + q
+        gain = post_c[k] @ jac.T @ np.linalg.inv(c_pred)
+        xs_ref.append(post_x[k] + gain @ (xs_ref[-1] - x_pred))
+        cs_ref.append(post_c[k] + gain @ (cs_ref[-1] - c_pred) @ gain.T)
+    ref_x = np.array(xs_ref[::-1])
+    ref_var = np.array([np.diag(c) for c in cs_ref[::-1]])
+    # the last epoch has no observation: the filter's prediction to it is the dense one
+    x_pred, jac, q = _dr_transition(pb, post_x[last], last + 1)
+    _, _, gamma, _, _, cp_x, cp_c, dr_xf, dr_vf = forward(block)
+    assert dr_xf[-1] == pytest.approx(x_pred[n_plat * DIM :], abs=1e-9)
+    assert dr_vf[-1] == pytest.approx(np.diag(jac @ post_c[last] @ jac.T + q)[n_plat * DIM :])
+    xs, var, dr_xs, dr_vs = mbf_backward(
+        cp_x, cp_c, *_nav(pb), pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"], pb["a"],
+        pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"], pb["z"], pb["var"], gamma, DIM,
+        *rec, block, dr_idx=dr[0], dr_q=dr[1], dr_rec=dr[2],
+    )  # fmt: skip
+    n_pos = n_plat * DIM
+    assert xs.reshape(n_ep, -1)[:-1] == pytest.approx(ref_x[:, :n_pos], abs=1e-7)
+    assert var.reshape(n_ep, -1)[:-1] == pytest.approx(ref_var[:, :n_pos], rel=1e-6, abs=1e-10)
+    assert dr_xs[:-1] == pytest.approx(ref_x[:, n_pos:], abs=1e-7)
+    assert dr_vs[:-1] == pytest.approx(ref_var[:, n_pos:], rel=1e-6, abs=1e-12)
+    # the heading states moved off their prior: the test exercises the coupling
+    assert np.abs(dr_xs[:, 0] - pb["x0"][n_pos]).max() > 1e-3
