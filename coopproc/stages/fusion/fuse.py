@@ -145,14 +145,14 @@ class FusionParams:
         },
     )
     dr_distance_noise_m: float = field(
-        default=0.02,
+        default=0.012,
         metadata={
             "help": "state 'dr': a follower's odometer distance noise (m per sqrt(m) "
             "travelled, per axis)"
         },
     )
     dr_heading_noise_deg: float = field(
-        default=0.2,
+        default=0.0,
         metadata={
             "help": "state 'dr': a follower's heading noise (deg per sqrt(m) travelled: "
             "wheel slip, turns)"
