@@ -29,12 +29,13 @@ from coopproc.stages.fusion.data import (
     clean_range_rows_indexed,
     epoch_groups,
     id_column,
-    nav_at_epochs,
+    nav_points,
     nav_samples,
     range_sigma_default,
     row_sigmas,
 )
 from coopproc.stages.fusion.lsq import robust_lsq_positions
+from coopproc.stages.fusion.nav_span import covered_rows, epoch_bounds, span_clip
 from coopproc.stages.fusion.observations import build_observations, nav_sigma
 from coopproc.stages.fusion.output import recorded_slots
 
@@ -142,9 +143,9 @@ def fusion_inputs(
     rows, source = clean_range_rows_indexed(
         session, ranges, range_sigma_default(session, params.range_sigma_m)
     )
-    start = max(session.nav[p].time_s[0] for p in moving)
-    stop = min(session.nav[p].time_s[-1] for p in moving)
-    inside = (rows.time >= start) & (rows.time <= stop)
+    # each range only where each of its moving ends has navigation (issue 29: one
+    # platform's shorter navigation leaves out its own ranges, not the others' epochs)
+    inside = covered_rows(session, rows, moving)
     if not inside.all():  # (a copy of every row only when some are outside)
         at = np.flatnonzero(inside)
         rows, source = rows.take(at), source[at]
@@ -153,9 +154,17 @@ def fusion_inputs(
     epochs, ep_idx = epoch_groups(rows.time, params.epoch_merge_s)
     if epochs.shape[0] == 0:
         raise StageError(
-            f"fusion: no range epoch inside the span every platform has navigation "
-            f"({start:.3f} .. {stop:.3f} s)"
+            "fusion: no range epoch with navigation at every moving end of a range "
+            "(each range is outside an end's navigation span, or there is none)"
         )
+    k_lo, k_hi = epoch_bounds(session, moving, epochs)
+    for p, pid in enumerate(moving):
+        if k_lo[p] >= k_hi[p]:
+            traj = session.nav[pid]
+            raise StageError(
+                f"fusion: platform '{pid}' has no range epoch inside its navigation "
+                f"({traj.time_s[0]:.3f} .. {traj.time_s[-1]:.3f} s)"
+            )
     window = max(params.lsq.epoch_merge_s, 0.0)
     head = rows.take(np.flatnonzero(rows.time <= epochs[0] + window))
     x0, c0 = _initial_state(session, head, epochs, moving, params)
@@ -192,18 +201,26 @@ def _initial_state(
     moving: list[str],
     params: FusionParams,
 ) -> tuple[FloatArray, FloatArray]:
-    """First nav position of each platform; a robust LSQ fix where anchors give one.
+    """Each platform's navigation at the first epoch; a robust LSQ fix where anchors give
+    one. A platform whose navigation starts later: its first sample (its state is carried
+    unchanged until it enters, :mod:`~coopproc.stages.fusion.nav_span`), with that
+    sample's sigma.
 
     ``head``: the range rows up to the first epoch plus ``[fusion.lsq] epoch_merge_s``.
     """
     dim = params.dims
-    # memory (issue 11): the navigation at the first epoch only, not at every epoch
-    nav = nav_at_epochs(session, moving, epochs[:1], dim)
-    x0 = nav[:, 0, :dim].reshape(-1).copy()
+    # memory (issue 11): the navigation at the first epoch only, not at every epoch;
+    # each platform's at the first epoch clipped to its span (issue 29): the same value
+    # where it has navigation then
+    start = [span_clip(session, pid, epochs[:1]) for pid in moving]
+    nav0 = np.array(
+        [nav_points(session, pid, t, range(dim))[0] for pid, t in zip(moving, start, strict=True)]
+    )
+    x0 = nav0.reshape(-1).copy()
     sig = np.full(x0.shape[0], params.initial_sigma_m)
     for p, pid in enumerate(moving):
         default = params.leader_sigma_m if session.platforms[pid].role == "leader" else None
-        sig[p * dim : (p + 1) * dim] = nav_sigma(session, pid, epochs[:1], default or sig[p * dim])[
+        sig[p * dim : (p + 1) * dim] = nav_sigma(session, pid, start[p], default or sig[p * dim])[
             0, :dim
         ]
     has_anchor = any(pl.role == "anchor" for pl in session.platforms.values())
@@ -214,8 +231,9 @@ def _initial_state(
             fix = fixes.get(pid)
             if fix is None or session.platforms[pid].role == "leader":
                 continue
-            # the first fix, carried back to the first epoch by the platform's own DR
-            back = session.nav[pid].interpolate(fix.time_s[:1])[0, :dim] - nav[p, 0, :dim]
+            # the first fix (at a time inside the platform's span: the head rows are),
+            # carried back to the initial state's time by the platform's own DR
+            back = session.nav[pid].interpolate(fix.time_s[:1])[0, :dim] - nav0[p]
             x0[p * dim : (p + 1) * dim] = fix.enu_m[0, :dim] - back
             assert fix.sigma_enu_m is not None
             sig[p * dim : (p + 1) * dim] = np.maximum(fix.sigma_enu_m[0, :dim], 1e-3)

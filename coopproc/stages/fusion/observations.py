@@ -12,6 +12,9 @@ A leader's own navigation enters as a fix of its position (``[fusion] leader_fix
 - ``"nav"``: once per navigation sample, at the first epoch at or after each nav time (and
   at the first epoch); where the nav is at least as fast as the ranges this is every epoch.
 
+Either way only at the epochs inside the leader's navigation span (issue 29, module
+:mod:`~coopproc.stages.fusion.nav_span`): "the first epoch" is the first one inside it.
+
 ``"nav"`` is the consistent model and about 3x cheaper with many pairs, but the drift
 self-calibration (NIS per platform, :mod:`coopproc.stages.fusion.calibration`) was tuned
 with a pinned leader: with ``"nav"`` part of each follower's innovation is attributed to the
@@ -30,6 +33,7 @@ import numpy as np
 from coopproc.model import FloatArray, Session
 from coopproc.stages.fusion.data import RangeRows, nav_points
 from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_POSITION, OBS_RANGE
+from coopproc.stages.fusion.nav_span import epoch_bounds, span_clip
 
 if TYPE_CHECKING:
     from coopproc.stages.fusion.fuse import FusionParams
@@ -40,14 +44,19 @@ __all__ = ["build_observations", "leader_fix_epochs", "nav_sigma"]
 def leader_fix_epochs(
     session: Session, leaders: list[str], epochs: FloatArray, every_epoch: bool
 ) -> np.ndarray:
-    """(L, K) bool: the epochs at which each leader's own fix is an observation."""
-    if every_epoch:
-        return np.ones((len(leaders), epochs.shape[0]), dtype=bool)
+    """(L, K) bool: the epochs at which each leader's own fix is an observation, all
+    inside the leader's navigation span (issue 29: none outside it)."""
+    k_lo, k_hi = epoch_bounds(session, leaders, epochs)
     out = np.zeros((len(leaders), epochs.shape[0]), dtype=bool)
     for j, pid in enumerate(leaders):
+        if k_lo[j] >= k_hi[j]:
+            continue
+        if every_epoch:
+            out[j, k_lo[j] : k_hi[j]] = True
+            continue
         at = np.searchsorted(epochs, session.nav[pid].time_s, side="left")
-        out[j, at[at < epochs.shape[0]]] = True
-        out[j, 0] = True
+        out[j, at[at < k_hi[j]]] = True
+        out[j, k_lo[j]] = True  # the first epoch inside its span
     return out
 
 
@@ -78,8 +87,9 @@ def _row_heights(
     out = np.zeros(plat.shape[0])
     for p, pid in enumerate(moving):
         sel = np.flatnonzero(plat == p)
-        if sel.size:
-            out[sel] = nav_points(session, pid, epochs[ep_idx[sel]], range(2, 3))[:, 0]
+        if sel.size:  # (a merged epoch may open before the platform's span: its first sample)
+            at = span_clip(session, pid, epochs[ep_idx[sel]])
+            out[sel] = nav_points(session, pid, at, range(2, 3))[:, 0]
     return out
 
 
@@ -124,9 +134,10 @@ def build_observations(
                 sel = late[ids[late] == p]
                 if sel.size:
                     at_row = session.nav[pid].interpolate(row_t[sel])
-                    motion[sel, end] = at_row - nav_points(
-                        session, pid, epochs[ep_idx[sel]], range(3)
-                    )
+                    # from the navigation the state carries at the epoch: a merged epoch
+                    # before the platform's span carries its first sample (nav_span.py)
+                    at_epoch = span_clip(session, pid, epochs[ep_idx[sel]])
+                    motion[sel, end] = at_row - nav_points(session, pid, at_epoch, range(3))
         # OBS_RANGE: |X_a + m_a - X_b - m_b| = |X_a - X_b - (m_b - m_a)|;
         # OBS_ANCHOR: |X_a + m_a - anchor| = |X_a - (anchor - m_a)|
         anchor = np.where(both[:, None], motion[:, 1] - motion[:, 0], anchor - motion[:, 0])

@@ -8,6 +8,11 @@ ranges in the session and in the fused range set (dropouts included), the epochs
 side of any such time that falls between epochs, and the first and last epoch, so that
 linear interpolation at those times gives exactly what the full trajectory would. That is
 about 2/P of the states of P platforms at every epoch.
+
+A platform is recorded, so reported, only at the epochs inside its own navigation span
+(issue 29, :mod:`~coopproc.stages.fusion.nav_span`): "the first and last epoch" are its
+first and last there, and at the nav rate its trajectory spans its navigation times
+between them.
 """
 
 from __future__ import annotations
@@ -17,12 +22,13 @@ import pandas as pd
 
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.stages.fusion.data import nav_points, platform_codes
+from coopproc.stages.fusion.nav_span import epoch_bounds
 
 __all__ = [
     "recorded_slots",
     "solutions_from_slots",
     "trajectories_from_slots",
-    "trajectories_from_states",
+    "trajectory_at_nav_rate",
 ]
 
 
@@ -38,14 +44,24 @@ def recorded_slots(
     Returns ``rec_ptr`` (K + 1) and ``rec_plat`` (R): epoch k's slots are
     ``rec_plat[rec_ptr[k]:rec_ptr[k + 1]]``, platform indices into ``moving``, ascending.
     ``record_all``: every platform at every epoch (nav-rate output, merged epochs).
+    Either way a platform only at the epochs inside its navigation span (issue 29,
+    :mod:`~coopproc.stages.fusion.nav_span`): its first and last epoch are those inside it.
     """
     n_ep, n_plat = epochs.shape[0], len(moving)
-    if record_all:
+    k_lo, k_hi = epoch_bounds(session, moving, epochs)
+    everywhere = bool(np.all(k_lo <= 0) and np.all(k_hi >= n_ep))
+    if record_all and everywhere:
         ptr = np.arange(n_ep + 1, dtype=np.int64) * n_plat
         return ptr, np.tile(np.arange(n_plat, dtype=np.int64), n_ep)
     wanted = np.zeros(n_ep * n_plat, dtype=bool)  # slot k * P + p
-    wanted[:n_plat] = True
-    wanted[(n_ep - 1) * n_plat :] = True
+    if record_all:
+        wanted[:] = True
+        _outside_spans(wanted, k_lo, k_hi, n_ep)
+        return _csr(wanted, n_ep, n_plat)
+    for p in range(n_plat):  # each platform's first and last epoch inside its span
+        if k_lo[p] < k_hi[p]:
+            wanted[k_lo[p] * n_plat + p] = True
+            wanted[(k_hi[p] - 1) * n_plat + p] = True
     frames = [session.ranges.frame]
     if not _same_rows(session.ranges.frame, ranges):  # (the observed set: the same slots)
         frames.append(ranges)
@@ -66,6 +82,23 @@ def recorded_slots(
             sel = good & (code >= 0)
             wanted[right[sel] * n_plat + code[sel]] = True
             wanted[left[sel] * n_plat + code[sel]] = True
+    if not everywhere:  # a platform is recorded inside its navigation span only
+        _outside_spans(wanted, k_lo, k_hi, n_ep)
+    return _csr(wanted, n_ep, n_plat)
+
+
+def _outside_spans(wanted: np.ndarray, k_lo: np.ndarray, k_hi: np.ndarray, n_ep: int) -> None:
+    """Clear each platform's slots before its first and after its last epoch inside its
+    navigation span (slot k * P + p), in place."""
+    n_plat = k_lo.shape[0]
+    for p in range(n_plat):
+        lo, hi = min(int(k_lo[p]), n_ep), max(int(k_hi[p]), 0)
+        wanted[p : lo * n_plat : n_plat] = False
+        wanted[hi * n_plat + p :: n_plat] = False
+
+
+def _csr(wanted: np.ndarray, n_ep: int, n_plat: int) -> tuple[np.ndarray, np.ndarray]:
+    """The wanted slots (k * P + p) as CSR by epoch: ``rec_ptr``, ``rec_plat``."""
     unique = np.flatnonzero(wanted)
     counts = np.bincount(unique // n_plat, minlength=n_ep)
     ptr = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
@@ -101,7 +134,7 @@ def trajectories_from_slots(
     """One Trajectory per platform from the recorded slots' states and variances (R, dim).
 
     ``output="ranges"``: each platform at its recorded epochs; ``"nav"`` (every slot
-    recorded): :func:`trajectories_from_states`. ``var`` None: no sigmas.
+    recorded): :func:`trajectory_at_nav_rate`. ``var`` None: no sigmas.
     """
     slots = (session, moving, epochs, rec_ptr, rec_plat, dim, output)
     return solutions_from_slots(*slots, [(xs, var, hold)])[0]
@@ -121,21 +154,13 @@ def solutions_from_slots(
     the same slots (the forward and the smoothed): each platform's slots, epochs and
     navigation heights found once for all of them. ``solutions`` is consumed: each
     solution's arrays are let go as soon as its trajectories are built (memory, issue 11:
-    the smoothed trajectories are built after the forward states are freed)."""
+    the smoothed trajectories are built after the forward states are freed).
+
+    Each platform's trajectory is made of its own slots only, so it spans the epochs
+    inside its navigation span (:func:`recorded_slots`); ``output="nav"``: every slot of
+    the platform there is recorded, :func:`trajectory_at_nav_rate`."""
     n_ep, n_plat = epochs.shape[0], len(moving)
     out: list[dict[str, Trajectory]] = []
-    if output != "ranges":
-        full = (n_ep, n_plat * dim)
-        while solutions:
-            xs, var, hold = solutions.pop(0)
-            var_full = (np.full(xs.shape, np.nan) if var is None else var).reshape(full)
-            out.append(
-                trajectories_from_states(
-                    session, moving, epochs, xs.reshape(full), var_full, dim, output, hold=hold
-                )
-            )
-            del xs, var, var_full
-        return out
     epoch_of: np.ndarray | None = np.repeat(np.arange(n_ep), np.diff(rec_ptr))
     # each platform's slots, ascending: a stable sort of small codes (radix sort)
     code = rec_plat.astype(np.int16 if n_plat < 2**15 else np.int64)
@@ -145,16 +170,27 @@ def solutions_from_slots(
     times_of: list[FloatArray] = []  # each platform's epochs and heights, from the first
     heights: list[FloatArray | None] = []
     while solutions:
-        xs, var, _ = solutions.pop(0)
+        xs, var, hold = solutions.pop(0)
         found: dict[str, Trajectory] = {}
         for p, pid in enumerate(moving):
             slots = by_plat[bounds[p] : bounds[p + 1]]
             if epoch_of is not None:
                 times = epochs[epoch_of[slots]]
                 times_of.append(times)
-                heights.append(nav_points(session, pid, times, range(dim, 3)) if dim < 3 else None)
+                at_epochs = output == "ranges" and dim < 3 and slots.shape[0] > 0
+                heights.append(
+                    nav_points(session, pid, times, range(dim, 3)) if at_epochs else None
+                )
             else:
                 times = times_of[p].copy()
+            if slots.shape[0] == 0:  # no epoch inside its navigation span: no trajectory
+                continue
+            if output != "ranges":
+                sig_var = np.full((slots.shape[0], dim), np.nan) if var is None else var[slots]
+                found[pid] = trajectory_at_nav_rate(
+                    session, pid, times, xs[slots], sig_var, dim, hold=hold
+                )
+                continue
             enu = np.empty((slots.shape[0], 3))
             enu[:, :dim] = xs[slots]
             up = heights[p]
@@ -171,47 +207,37 @@ def solutions_from_slots(
     return out
 
 
-def trajectories_from_states(
+def trajectory_at_nav_rate(
     session: Session,
-    moving: list[str],
+    pid: str,
     epochs: FloatArray,
-    xs: FloatArray,
+    est: FloatArray,
     var: FloatArray,
     dim: int,
-    output: str,
     *,
     hold: bool,
-) -> dict[str, Trajectory]:
-    """One Trajectory per platform at the epochs, or at its nav times (``output="nav"``).
+) -> Trajectory:
+    """``pid``'s trajectory at its navigation times between its first and last epoch
+    (``epochs``, inside its navigation span; ``est`` / ``var`` its states and variances
+    there, (n, dim)).
 
-    At nav rate the correction (fused minus nav) is carried between epochs: held from the
-    last epoch for the causal ``forward`` solution, linearly interpolated for the smoothed.
+    The correction (fused minus nav) is carried between epochs: held from the last epoch
+    for the causal ``forward`` solution, linearly interpolated for the smoothed.
     """
-    out: dict[str, Trajectory] = {}
-    for p, pid in enumerate(moving):
-        est = xs[:, p * dim : (p + 1) * dim]
-        sig = np.full((epochs.shape[0], 3), np.nan)
-        sig[:, :dim] = np.sqrt(np.maximum(var[:, p * dim : (p + 1) * dim], 0.0))
-        if output == "ranges":
-            enu = np.empty((epochs.shape[0], 3))
-            enu[:, :dim] = est
-            if dim < 3:  # the height: the platform's own navigation at the epochs
-                enu[:, dim:] = nav_points(session, pid, epochs, range(dim, 3))
-            out[pid] = Trajectory(pid, epochs.copy(), enu, sigma_enu_m=sig, source="fusion")
-            continue
-        traj = session.nav[pid]
-        sel = (traj.time_s >= epochs[0]) & (traj.time_s <= epochs[-1])
-        times = traj.time_s[sel]
-        enu = traj.enu_m[sel].copy()
-        corr = est - nav_points(session, pid, epochs, range(dim))
-        if hold:
-            k = np.clip(np.searchsorted(epochs, times, side="right") - 1, 0, None)
-            enu[:, :dim] += corr[k]
-            sig_t = sig[k]
-        else:
-            sig_t = np.full((times.shape[0], 3), np.nan)
-            for axis in range(dim):
-                enu[:, axis] += np.interp(times, epochs, corr[:, axis])
-                sig_t[:, axis] = np.interp(times, epochs, sig[:, axis])
-        out[pid] = Trajectory(pid, times, enu, sigma_enu_m=sig_t, source="fusion")
-    return out
+    sig = np.full((epochs.shape[0], 3), np.nan)
+    sig[:, :dim] = np.sqrt(np.maximum(var, 0.0))
+    traj = session.nav[pid]
+    sel = (traj.time_s >= epochs[0]) & (traj.time_s <= epochs[-1])
+    times = traj.time_s[sel]
+    enu = traj.enu_m[sel].copy()
+    corr = est - nav_points(session, pid, epochs, range(dim))
+    if hold:
+        k = np.clip(np.searchsorted(epochs, times, side="right") - 1, 0, None)
+        enu[:, :dim] += corr[k]
+        sig_t = sig[k]
+    else:
+        sig_t = np.full((times.shape[0], 3), np.nan)
+        for axis in range(dim):
+            enu[:, axis] += np.interp(times, epochs, corr[:, axis])
+            sig_t[:, axis] = np.interp(times, epochs, sig[:, axis])
+    return Trajectory(pid, times, enu, sigma_enu_m=sig_t, source="fusion")

@@ -26,9 +26,21 @@ def test_nav_rate_fix_at_the_first_epoch_at_or_after_each_nav_sample() -> None:
     session = _session({"B": [0.0, 0.1, 0.2, 0.3], "L": [0.05, 0.21]})
     fixes = leader_fix_epochs(session, ["B", "L"], epochs, every_epoch=False)
     assert fixes[0].tolist() == [True, False, False, True, False, True, False]
-    # the first epoch always; 0.05 -> 0.06, 0.21 -> 0.25
-    assert fixes[1].tolist() == [True, False, True, False, False, False, True]
+    # inside its navigation (0.05-0.21 s) only (issue 29): the first epoch there, 0.06, is
+    # also where 0.05 goes; 0.21 -> 0.25 is after its navigation ends: no fix
+    assert fixes[1].tolist() == [False, False, True, False, False, False, False]
     assert leader_fix_epochs(session, ["B"], epochs, every_epoch=True).all()
+
+
+def test_every_epoch_fix_only_inside_the_leaders_navigation() -> None:
+    epochs = np.array([0.0, 0.03, 0.06, 0.1, 0.13, 0.2, 0.25])
+    session = _session({"B": [0.0, 0.3], "L": [0.05, 0.2]})
+    fixes = leader_fix_epochs(session, ["B", "L"], epochs, every_epoch=True)
+    assert fixes[0].all()
+    assert fixes[1].tolist() == [False, False, True, True, True, True, False]
+    # a leader whose navigation holds no epoch: never a fix
+    late = _session({"L": [0.3, 0.4]})
+    assert not leader_fix_epochs(late, ["L"], epochs, every_epoch=False).any()
 
 
 def test_leader_fix_must_be_epoch_or_nav() -> None:
