@@ -23,7 +23,7 @@ from coopproc.stages.fusion.dr_model import DR_STATES
 
 if TYPE_CHECKING:
     from coopproc.stages.base import PositionProduct
-    from coopproc.stages.fusion.fuse import FusionParams
+    from coopproc.stages.fusion.params import FusionParams
 
 __all__ = ["DrLayout", "DrSummary", "dr_layout", "dr_states_of", "dr_states_table", "dr_summary"]
 

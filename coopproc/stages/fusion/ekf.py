@@ -38,11 +38,20 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from numpy.typing import NDArray
 
 from coopproc.model import FloatArray
 from coopproc.stages.filters import MAD_SCALE, igg3_scalar, mad_sigma_nb
 from coopproc.stages.fusion.dr_model import DR_STATES, dr_predict
+from coopproc.stages.fusion.ekf_update import (
+    OBS_ANCHOR,
+    OBS_POSITION,
+    OBS_RANGE,
+    IntArray,
+    epoch_buffers,
+    epoch_innovations,
+    epoch_update,
+    max_epoch_obs,
+)
 from coopproc.stages.fusion.mad_window import union_median, window_push
 from coopproc.stages.fusion.nav_kernel import nav_at
 
@@ -62,52 +71,6 @@ __all__ = [
 #: Epochs with this many observations or more take eq. (20)'s MAD over their own
 #: innovations; fewer are pooled with the last ``mad_window`` ones.
 MAD_EPOCH_MIN = 8
-
-OBS_RANGE = 0
-OBS_ANCHOR = 1
-OBS_POSITION = 2
-
-IntArray = NDArray[np.int64]
-
-
-@numba.njit(cache=True)
-def _observe(
-    x: FloatArray,
-    kind: int,
-    a: int,
-    b: int,
-    anchor: FloatArray,
-    dz2: float,
-    dim: int,
-    idx: IntArray,
-    val: FloatArray,
-) -> tuple[float, int]:
-    """Predicted observation h(X) and its sparse Jacobian row (indices, values, count)."""
-    if kind == OBS_POSITION:
-        idx[0] = a * dim + b
-        val[0] = 1.0
-        return x[a * dim + b], 1
-    sq = dz2
-    for ax in range(dim):
-        if kind == OBS_RANGE:
-            diff = x[a * dim + ax] - x[b * dim + ax] - anchor[ax]
-        else:
-            diff = x[a * dim + ax] - anchor[ax]
-        val[ax] = diff
-        sq += diff * diff
-    rho = np.sqrt(max(sq, 1e-12))
-    count = 0
-    for ax in range(dim):
-        unit = val[ax] / rho  # d rho / d x_a = (x_a - x_b) / rho
-        idx[count] = a * dim + ax
-        val[count] = unit
-        count += 1
-    if kind == OBS_RANGE:
-        for ax in range(dim):
-            idx[count] = b * dim + ax
-            val[count] = -val[ax]
-            count += 1
-    return rho, count
 
 
 def block_size(n_epochs: int) -> int:
@@ -168,129 +131,6 @@ def time_update(
             i = p * dim + ax
             x[i] += nav_now[p, ax] - nav_prev[p, ax]
             c[i, i] += qp
-
-
-@numba.njit(cache=True)
-def epoch_innovations(
-    x: FloatArray,
-    c: FloatArray,
-    lo: int,
-    m: int,
-    obs_kind: IntArray,
-    obs_a: IntArray,
-    obs_b: IntArray,
-    obs_anchor: IntArray,
-    anchor_tab: FloatArray,
-    obs_dz2: FloatArray,
-    z: FloatArray,
-    r_var: FloatArray,
-    dim: int,
-    h_idx: IntArray,
-    h_val: FloatArray,
-    h_cnt: IntArray,
-    v: FloatArray,
-    d: FloatArray,
-) -> None:
-    """Innovations at the prior and their variances d = H C H^T + R, eq. (14), (19)."""
-    for j in range(m):
-        o = lo + j
-        pred, cnt = _observe(
-            x, obs_kind[o], obs_a[o], obs_b[o], anchor_tab[obs_anchor[o]], obs_dz2[o], dim,
-            h_idx[j], h_val[j],
-        )  # fmt: skip
-        h_cnt[j] = cnt
-        v[j] = z[o] - pred
-        hch = 0.0
-        for p in range(cnt):
-            for s in range(cnt):
-                hch += h_val[j, p] * c[h_idx[j, p], h_idx[j, s]] * h_val[j, s]
-        d[j] = hch + r_var[o]
-
-
-@numba.njit(cache=True)
-def epoch_update(
-    x: FloatArray,
-    c: FloatArray,
-    lo: int,
-    m: int,
-    h_idx: IntArray,
-    h_val: FloatArray,
-    h_cnt: IntArray,
-    v: FloatArray,
-    gamma: FloatArray,
-    r_var: FloatArray,
-    x_prior: FloatArray,
-    ph: FloatArray,
-    keep: bool,
-    gains: FloatArray,
-    y: FloatArray,
-    s_out: FloatArray,
-) -> None:
-    """Batch update eq. (15)-(17) of one epoch as corrected scalar updates, in place.
-
-    With ``keep``, scalar update j's gain C h / s (row j of ``gains``), its corrected
-    innovation (``y[j]``) and variance s (``s_out[j]``) are kept for the smoother.
-    """
-    n = x.shape[0]
-    for i in range(n):
-        x_prior[i] = x[i]
-    for j in range(m):
-        o = lo + j
-        cnt = h_cnt[j]
-        vj = v[j]
-        for p in range(cnt):
-            vj -= h_val[j, p] * (x[h_idx[j, p]] - x_prior[h_idx[j, p]])
-        for i in range(n):
-            acc = 0.0
-            for p in range(cnt):
-                acc += c[i, h_idx[j, p]] * h_val[j, p]
-            ph[i] = acc
-        s_var = r_var[o] / gamma[o]  # R / gamma, eq. (16)
-        for p in range(cnt):
-            s_var += h_val[j, p] * ph[h_idx[j, p]]
-        for i in range(n):
-            x[i] += ph[i] / s_var * vj
-        for i in range(n):
-            gi = ph[i] / s_var
-            for jj in range(n):
-                c[i, jj] -= gi * ph[jj]
-        if keep:
-            for i in range(n):
-                gains[j, i] = ph[i] / s_var
-            y[j] = vj
-            s_out[j] = s_var
-    for i in range(n):
-        for jj in range(i + 1, n):
-            sym = 0.5 * (c[i, jj] + c[jj, i])
-            c[i, jj] = sym
-            c[jj, i] = sym
-
-
-@numba.njit(cache=True)
-def max_epoch_obs(obs_ptr: IntArray) -> int:
-    """The most observations of any epoch (at least 1, for buffer sizes)."""
-    max_m = 1
-    for k in range(obs_ptr.shape[0] - 1):
-        max_m = max(max_m, obs_ptr[k + 1] - obs_ptr[k])
-    return max_m
-
-
-@numba.njit(cache=True)
-def epoch_buffers(
-    max_m: int, dim: int, n: int
-) -> tuple[IntArray, FloatArray, IntArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Work arrays of one epoch for :func:`epoch_innovations` and :func:`epoch_update`:
-    Jacobian rows (indices, values, counts), innovations, their variances, C h, the prior."""
-    width = 2 * dim
-    return (
-        np.zeros((max_m, width), dtype=np.int64),
-        np.zeros((max_m, width)),
-        np.zeros(max_m, dtype=np.int64),
-        np.zeros(max_m),
-        np.zeros(max_m),
-        np.zeros(n),
-        np.zeros(n),
-    )
 
 
 @numba.njit(cache=True)

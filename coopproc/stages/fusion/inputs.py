@@ -40,7 +40,7 @@ from coopproc.stages.fusion.observations import build_observations, nav_sigma
 from coopproc.stages.fusion.output import recorded_slots
 
 if TYPE_CHECKING:
-    from coopproc.stages.fusion.fuse import FusionParams
+    from coopproc.stages.fusion.params import FusionParams
 
 __all__ = ["FusionInputs", "fusion_inputs"]
 

@@ -1,0 +1,209 @@
+"""The smoother's re-run of one block of epochs from its checkpoint.
+
+:mod:`coopproc.stages.fusion.smoother` does not store the K filtered covariances: each
+block of about sqrt(K) epochs is filtered again from the checkpoint the forward pass kept,
+with the forward pass's own code and robust factors (so bit for bit its covariances), and
+what the backward pass reads is kept in a :class:`BlockBuffers`: the block's filtered
+states (and covariances, or the recorded platforms' rows of them), every scalar update's
+Jacobian row, gain, innovation and variance, the DR transition's epoch entries
+(:mod:`~coopproc.stages.fusion.dr_model`) and the DR states' covariance rows at the
+epochs they are reported.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from coopproc.model import FloatArray
+from coopproc.stages.fusion.ekf import (
+    IntArray,
+    epoch_buffers,
+    epoch_innovations,
+    epoch_update,
+    nav_at,
+    time_update,
+)
+
+__all__ = ["BlockBuffers", "block_extent", "rerun_block"]
+
+
+@numba.njit(cache=True, nogil=True)
+def block_extent(
+    obs_ptr: IntArray,
+    rec_ptr: IntArray,
+    dr_rec: IntArray,
+    n_blocks: int,
+    block: int,
+    n_epochs: int,
+) -> tuple[int, int, int]:
+    """The most observations, recorded slots and DR-recorded epochs of any block."""
+    most = 0
+    most_rec = 0
+    most_dr = 0
+    for b in range(n_blocks):
+        lo = b * block
+        hi = min(lo + block, n_epochs)
+        most = max(most, obs_ptr[hi] - obs_ptr[lo])
+        most_rec = max(most_rec, rec_ptr[hi] - rec_ptr[lo])
+        dr_lo = int(np.searchsorted(dr_rec, lo))
+        dr_hi = int(np.searchsorted(dr_rec, hi))
+        most_dr = max(most_dr, dr_hi - dr_lo)
+    return most, most_rec, most_dr
+
+
+@dataclass(frozen=True)
+class BlockBuffers:
+    """One block's re-run: its filtered states, covariances (or the recorded platforms'
+    rows of them), and every scalar update's Jacobian row, gain, innovation and variance;
+    with the per-epoch work arrays of the re-run."""
+
+    bx: FloatArray
+    bc: FloatArray
+    b_rows: FloatArray
+    b_idx: IntArray
+    b_val: FloatArray
+    b_cnt: IntArray
+    b_gain: FloatArray
+    b_y: FloatArray
+    b_s: FloatArray
+    b_f: FloatArray
+    b_dr_rows: FloatArray
+    work: tuple[IntArray, FloatArray, IntArray, FloatArray, FloatArray, FloatArray, FloatArray]
+
+    @classmethod
+    def allocate(
+        cls,
+        block: int,
+        n: int,
+        dim: int,
+        most: int,
+        most_rec: int,
+        max_m: int,
+        with_var: bool,
+        n_plat: int,
+        most_dr: int,
+    ) -> BlockBuffers:
+        width = 2 * dim
+        rows = max(most, 1)
+        return cls(
+            bx=np.empty((block, n)),
+            bc=np.empty((block if with_var else 1, n, n)),
+            b_rows=np.empty((max(most_rec, 1) * dim, n)),
+            b_idx=np.zeros((rows, width), dtype=np.int64),
+            b_val=np.zeros((rows, width)),
+            b_cnt=np.zeros(rows, dtype=np.int64),
+            b_gain=np.zeros((rows, n)),
+            b_y=np.zeros(rows),
+            b_s=np.zeros(rows),
+            b_f=np.zeros((block, n_plat, 4)),
+            b_dr_rows=np.empty((max(most_dr, 1) * (n - n_plat * dim), n)),
+            work=epoch_buffers(max_m, dim, n),
+        )
+
+
+@numba.njit(cache=True, nogil=True)
+def rerun_block(
+    b: int,
+    cp_x: FloatArray,
+    cp_c: FloatArray,
+    epochs: FloatArray,
+    nav_t: FloatArray,
+    nav_v: FloatArray,
+    nav_ptr: IntArray,
+    q_coef: FloatArray,
+    q_squared: bool,
+    dt: FloatArray,
+    obs_ptr: IntArray,
+    obs_kind: IntArray,
+    obs_a: IntArray,
+    obs_b: IntArray,
+    obs_anchor: IntArray,
+    anchor_tab: FloatArray,
+    obs_dz2: FloatArray,
+    z: FloatArray,
+    r_var: FloatArray,
+    gamma: FloatArray,
+    dim: int,
+    rec_ptr: IntArray,
+    rec_plat: IntArray,
+    block: int,
+    with_var: bool,
+    dr_idx: IntArray,
+    dr_q: FloatArray,
+    dr_rec: IntArray,
+    cursor: IntArray,
+    nav_prev: FloatArray,
+    nav_now: FloatArray,
+    bx: FloatArray,
+    bc: FloatArray,
+    b_rows: FloatArray,
+    b_idx: IntArray,
+    b_val: FloatArray,
+    b_cnt: IntArray,
+    b_gain: FloatArray,
+    b_y: FloatArray,
+    b_s: FloatArray,
+    b_f: FloatArray,
+    b_dr_rows: FloatArray,
+    h_idx: IntArray,
+    h_val: FloatArray,
+    h_cnt: IntArray,
+    v: FloatArray,
+    d: FloatArray,
+    ph: FloatArray,
+    x_prior: FloatArray,
+) -> None:
+    """Re-run the forward filter over block ``b`` from its checkpoint, keeping what the
+    backward pass reads (the forward pass's own code and robust factors: the same bits)."""
+    n_epochs = dt.shape[0]
+    first = b * block
+    last = min(first + block, n_epochs)
+    base = obs_ptr[first]
+    rec_base = rec_ptr[first]
+    x = cp_x[b].copy()
+    c = cp_c[b].copy()
+    n = x.shape[0]
+    n_pos = (nav_ptr.shape[0] - 1) * dim
+    n_dr = n - n_pos
+    dr_next = np.searchsorted(dr_rec, first)
+    dr_base = dr_next
+    # the navigation at the epoch before the block (the cursor searches back)
+    nav_at(nav_t, nav_v, nav_ptr, epochs[max(first - 1, 0)], cursor, nav_prev)
+    for k in range(first, last):
+        if k > 0:
+            nav_at(nav_t, nav_v, nav_ptr, epochs[k], cursor, nav_now)
+            time_update(
+                x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt, dr_idx, dr_q,
+                b_f[k - first],
+            )  # fmt: skip
+            nav_prev[:] = nav_now
+        lo = obs_ptr[k]
+        m = obs_ptr[k + 1] - lo
+        epoch_innovations(
+            x, c, lo, m, obs_kind, obs_a, obs_b, obs_anchor, anchor_tab, obs_dz2, z,
+            r_var, dim, h_idx, h_val, h_cnt, v, d,
+        )  # fmt: skip
+        at = lo - base
+        epoch_update(
+            x, c, lo, m, h_idx, h_val, h_cnt, v, gamma, r_var, x_prior, ph,
+            True, b_gain[at : at + m], b_y[at : at + m], b_s[at : at + m],
+        )  # fmt: skip
+        for j in range(m):
+            b_cnt[at + j] = h_cnt[j]
+            for p in range(h_cnt[j]):
+                b_idx[at + j, p] = h_idx[j, p]
+                b_val[at + j, p] = h_val[j, p]
+        bx[k - first] = x
+        if with_var:
+            bc[k - first] = c
+        for r in range(rec_ptr[k], rec_ptr[k + 1]):
+            p = rec_plat[r]
+            for ax in range(dim):
+                b_rows[(r - rec_base) * dim + ax] = c[p * dim + ax]
+        if dr_next < dr_rec.shape[0] and dr_rec[dr_next] == k:
+            for j in range(n_dr):
+                b_dr_rows[(dr_next - dr_base) * n_dr + j] = c[n_pos + j]
+            dr_next += 1
