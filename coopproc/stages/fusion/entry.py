@@ -63,16 +63,20 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
             sigma_floor=floor,
             smoothed_sigma=False,  # positions.csv and the ranging stage take positions only
             # the forward solution is the CP solution's increments only (memory, issue 11)
-            forward=inp.want_cp and inp.output == "ranges",
+            forward=inp.want_cp and inp.output == "ranges" and params.state == "position",
             forward_sigma=False,  # the ranging stage reads the CP solution's positions
         )
         cp = None
         if inp.want_cp:
+            # the ranging stage's cooperative solution is paper 000's fusion (position
+            # state), the DI method's own input: with the DR states' forward solution DI
+            # flags 22 % of TIERS tb3-tb4's clean epochs (0-5 % with it; docs/methods-fusion.md)
             at_ranges = fused
-            if inp.output != "ranges":
+            if inp.output != "ranges" or params.state != "position":
                 at_ranges, _ = calibrated_fuse(
-                    inp.session, inp.ranges, params, output="ranges", smoothed_sigma=False
-                )
+                    inp.session, inp.ranges, dataclasses.replace(params, state="position"),
+                    output="ranges", smoothed_sigma=False,
+                )  # fmt: skip
             cp = (at_ranges.forward, at_ranges.smoothed)
     cal = dataclasses.replace(cal, range_digest=digest)
     return PositionProduct(

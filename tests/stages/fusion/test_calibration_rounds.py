@@ -36,13 +36,13 @@ def test_drift_rounds_smooth_only_the_fusion_returned(monkeypatch) -> None:
     # the drifts over several rounds
     session = simulate("dr-faults", seed=0, duration_s=60.0).session
     frame = session.ranges.frame[["time", "from", "to", "range", "sigma"]]
-    params = FusionParams()
+    params = FusionParams(state="position")  # with DR states the heading is in the state
     calls = {"smoother": 0, "fusions": 0}
     real_smoother, real_fuse = fuse_module.mbf_backward, calibration.fuse
 
-    def counting_smoother(*args):
+    def counting_smoother(*args, **kwargs):
         calls["smoother"] += 1
-        return real_smoother(*args)
+        return real_smoother(*args, **kwargs)
 
     def counting_fuse(*args, **kwargs):
         calls["fusions"] += 1

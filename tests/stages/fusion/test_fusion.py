@@ -100,17 +100,26 @@ def base() -> tuple[Session, dict[str, np.ndarray], np.ndarray]:
     return make_session()
 
 
-def test_fusion_beats_dead_reckoning_and_rts_beats_forward(base) -> None:
+@pytest.mark.parametrize("state", ["position", "dr"])
+def test_fusion_beats_dead_reckoning_and_rts_beats_forward(base, state: str) -> None:
+    """This DR's error is an offset, a constant velocity bias and a random walk, not a
+    heading or scale error: the position state models it (smoothed RMS 0.13 m against the
+    forward 0.20 m), the DR states mostly do not (forward 0.10 m, smoothed 0.12 m: the
+    smoother's model is the wrong one, so it helps where the filter lags, not overall)."""
     session, truth, epochs = base
-    out = fuse(session, session.ranges.frame, FusionParams())
+    out = fuse(session, session.ranges.frame, FusionParams(state=state))
     assert set(out.smoothed) == {"A", "B", "C"}
     assert out.epochs_s == pytest.approx(epochs)
     for pid in ("A", "C"):
         dr = dr_error(session, pid, truth[pid], epochs)
         fwd = horizontal_error(out.forward[pid], truth[pid])
         smo = horizontal_error(out.smoothed[pid], truth[pid])
-        assert fwd.mean() < 0.5 * dr.mean()  # measured: 0.19 vs 0.50 m
-        assert np.sqrt((smo**2).mean()) < 0.8 * np.sqrt((fwd**2).mean())  # 0.135 vs 0.21 m
+        assert fwd.mean() < 0.5 * dr.mean()  # measured: 0.18 (dr: 0.08) vs 0.50 m
+        if state == "position":
+            assert np.sqrt((smo**2).mean()) < 0.8 * np.sqrt((fwd**2).mean())  # 0.13 vs 0.20
+        else:
+            assert np.sqrt((smo**2).mean()) < 0.14  # measured 0.124 m
+            assert smo.mean() < 0.3 * dr.mean()
         sig_s, sig_f = out.smoothed[pid].sigma_enu_m, out.forward[pid].sigma_enu_m
         assert sig_s is not None and sig_f is not None
         assert np.all(sig_s[:, :2] <= sig_f[:, :2] + 1e-12)

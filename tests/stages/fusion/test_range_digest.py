@@ -57,7 +57,7 @@ def test_digest_is_of_the_ranges_not_of_their_listing(session) -> None:
 
 
 def test_a_set_with_the_observed_ranges_gets_the_observed_fusion(session) -> None:
-    params = FusionParams()
+    params = FusionParams(state="position")  # the NIS rounds inflate: notes to relabel
     frame = _observed(session)
     observed = fusion_stage(
         PositionInput(session, "observed", frame, "ranges", want_cp=True), params
