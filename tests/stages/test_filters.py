@@ -19,7 +19,8 @@ from coopproc.stages.filters import (
     robust_factors,
     rts_step,
 )
-from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_RANGE, _observe, ekf_forward
+from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_RANGE, ekf_forward
+from coopproc.stages.fusion.ekf_update import _observe
 
 
 @pytest.mark.parametrize(("k0", "k1"), [(3.0, 4.0), (2.5, 4.5), (3.5, 3.8)])
