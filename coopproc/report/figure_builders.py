@@ -18,6 +18,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from coopproc.report.convergence import convergence_panels
+from coopproc.report.dr_states_figure import dr_states_panels
 from coopproc.report.evaluation_plots import (
     error_norm,
     plot_error_cdf,
@@ -273,4 +274,5 @@ BUILDERS: dict[str, Callable[[RunTables, FigureOptions, FigureGroups], Panels | 
     "error_cdf": _error_cdf,
     "error_track": _error_track,
     "outage_drift": outage_panels,  # runs with [run] outages only (report/outage_figure.py)
+    "dr_states": dr_states_panels,  # runs whose fusion has DR states (dr_states_figure.py)
 }

@@ -36,6 +36,7 @@ import matplotlib as mpl
 from matplotlib.figure import Figure
 
 from coopproc.errors import ConfigError
+from coopproc.report.dr_states_figure import DR_FIGURE_NAMES
 from coopproc.report.figure_builders import BUILDERS, FigureGroups
 from coopproc.report.outage_figure import OUTAGE_FIGURE_NAMES
 from coopproc.report.page_workers import save_pages
@@ -63,7 +64,9 @@ _METADATA: dict[str, dict[str, Any]] = {
 #: PNG text chunk with the keys of a page's panels, separated by ``PANEL_SEPARATOR``.
 PANELS_KEY = "Panels"
 PANEL_SEPARATOR = "; "
-FIGURE_NAMES: tuple[str, ...] = tuple(n for n in BUILDERS if n not in OUTAGE_FIGURE_NAMES)
+FIGURE_NAMES: tuple[str, ...] = tuple(
+    n for n in BUILDERS if n not in OUTAGE_FIGURE_NAMES and n not in DR_FIGURE_NAMES
+)
 
 
 @dataclass(frozen=True)
@@ -147,7 +150,7 @@ def make_figures(run: RunTables, options: FigureOptions | None = None) -> dict[s
 def _stale_pages(fig_dir: Path, fmt: str, keep: set[str]) -> list[Path]:
     """Further pages of our figures left by an earlier call (``name_<n>.fmt``)."""
     out = []
-    for name in (*FIGURE_NAMES, *OUTAGE_FIGURE_NAMES):
+    for name in (*FIGURE_NAMES, *OUTAGE_FIGURE_NAMES, *DR_FIGURE_NAMES):
         for path in fig_dir.glob(f"{name}_*.{fmt}"):
             suffix = path.stem[len(name) + 1 :]
             if suffix.isdigit() and path.stem not in keep:

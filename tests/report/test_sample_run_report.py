@@ -131,3 +131,34 @@ def test_gaps_are_computed_when_a_page_draws_them_once_per_run(
             if page.name in ("distance_errors", "di_errors"):
                 page.draw()
     assert calls == ["pair_gaps"]
+
+
+def test_dr_states_figure_has_two_panels_per_follower(sample_run: Path) -> None:
+    """figures/dr_states.png: per follower its DR heading error and its odometer scale error,
+    one line per fusion method; the leader (no DR states) has none."""
+    from coopproc.report.dr_states_figure import dr_states_panels
+    from coopproc.report.pages import FigureOptions
+
+    run = load_run(sample_run)
+    assert run.dr_states is not None
+    assert set(run.dr_states["platform"]) == {"A", "C"}
+    assert set(run.dr_states["method"]) == {"observed", "rn", "di"}
+    panels = dr_states_panels(run, FigureOptions())
+    assert panels is not None
+    assert list(panels.keys) == [
+        "A:heading_error",
+        "A:scale_error",
+        "C:heading_error",
+        "C:scale_error",
+    ]
+    with mpl.rc_context(RC):
+        fig = panels.page(range(len(panels.keys)))
+    axes = fig.get_axes()
+    assert len(axes) == 4
+    assert len(axes[0].get_lines()) == 4  # three methods and the zero line
+    # the scale panel in percent: the simulator's A reads 0.36 % short
+    observed = run.dr_states[(run.dr_states["platform"] == "A") & (run.dr_states["method"] == "di")]
+    assert float(observed["scale_error"].median()) == pytest.approx(-0.0036, abs=0.002)
+    ydata = axes[1].get_lines()[0].get_ydata()  # DI-Based, the first method in name order
+    assert float(np.median(ydata)) == pytest.approx(100 * float(observed["scale_error"].median()))
+    fig.clear()

@@ -4,7 +4,10 @@ The processing centre of paper 000 section 3.1.1 fuses each platform's own navig
 with the ranges between platforms. Model (see ``fusion_ekf`` for the compiled loops):
 
 - state: the ENU positions of all moving platforms, horizontal by default (``dims = 2``,
-  heights taken from each platform's own navigation), or 3D;
+  heights taken from each platform's own navigation), or 3D; with ``state = "dr"`` each
+  follower's heading correction, heading rate and odometer scale after them
+  (:mod:`~coopproc.stages.fusion.dr_model`: the prediction rotates and scales its DR
+  increment, and its position noise is a residual one);
 - prediction: each platform's dead-reckoning increment between epochs (its own ``nav``
   interpolated to the epochs) with process noise from its drift sigma (paper 000
   eq. (7): sigma_k, the position drift in a given interval). The drift sigma (m/s) is
@@ -22,8 +25,10 @@ with the ranges between platforms. Model (see ``fusion_ekf`` for the compiled lo
   default because coopproc post-processes recorded logs: every epoch may use the whole
   record.
 
-Epochs are the distinct range times (optionally merged, ``epoch_merge_s``) inside the
-span where every moving platform has navigation.
+Epochs are the distinct range times (optionally merged, ``epoch_merge_s``) of the
+ranges whose moving ends both have navigation at that time (``nav_span.py``). With
+``state = "dr"`` (default) each follower also carries its dead reckoning's heading,
+heading rate and scale (``dr_model.py``).
 """
 
 from __future__ import annotations

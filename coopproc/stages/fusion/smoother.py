@@ -9,9 +9,11 @@ with the equivalent modified Bryson-Frazier form (Bierman 1977), which for our m
 (F = I, control input u, additive Q, observations processed as scalar updates) is
 
 - backward adjoints, starting from lambda = 0, Lambda = 0 after the last epoch; the time
-  update leaves them unchanged (F = I), and each scalar update j (gain g = C h / s,
-  corrected innovation y, variance s = h C h^T + R / gamma, eq. (15)-(17)), taken in
-  reverse order, maps them by
+  update leaves them unchanged where F = I, and maps them by lambda <- F^T lambda,
+  Lambda <- F^T Lambda F where a follower carries DR states (F = I + E, O(n) per
+  follower: :func:`~coopproc.stages.fusion.dr_model.adjoint_step`); each scalar update
+  j (gain g = C h / s, corrected innovation y, variance s = h C h^T + R / gamma,
+  eq. (15)-(17)), taken in reverse order, maps them by
   lambda <- (I - g h^T)^T lambda - h y / s,
   Lambda <- (I - g h^T)^T Lambda (I - g h^T) + h h^T / s;
 - smoothed epoch k from its filtered (posterior) X_k, C_k and the adjoints of the later
