@@ -179,12 +179,18 @@ def main() -> None:
                 print(f"  {name + ' kernel':<30} {k:7.2f} s  {n_epochs / k:10,.0f} epochs/s")
     rts = kernels.get("mbf_backward")
     n_fp = min(args.filterpy_epochs, n_epochs)
-    fp = filterpy_rts(n_state, n_fp, args.repeat)
-    fp_rate = n_fp / fp
-    print(f"filterpy rts_smoother (n = {n_state}):  {fp_rate:10,.0f} epochs/s on {n_fp:,} epochs")
-    if rts:
-        ours = n_epochs / float(np.median(rts[1:] or rts))
-        print(f"  smoother kernel / filterpy rts_smoother: {ours / fp_rate:.1f}x")
+    try:
+        fp = filterpy_rts(n_state, n_fp, args.repeat)
+    except ImportError:  # the bench extra: pip install -e ".[bench]"
+        print("filterpy rts_smoother: not installed (pip install -e '.[bench]'), skipped")
+    else:
+        fp_rate = n_fp / fp
+        print(
+            f"filterpy rts_smoother (n = {n_state}): {fp_rate:10,.0f} epochs/s on {n_fp:,} epochs"
+        )
+        if rts:
+            ours = n_epochs / float(np.median(rts[1:] or rts))
+            print(f"  smoother kernel / filterpy rts_smoother: {ours / fp_rate:.1f}x")
 
     day = 24.0 / args.hours
     print(f"projected to {args.platforms} x 24 h (x {day:g}, linear in duration):")
