@@ -124,3 +124,17 @@ def test_real_dead_reckoning_in_the_state(tmp_path: Path, name: str, ceiling: fl
         assert rate_dpm > 5.0, rate_dpm  # clockwise positive in dr_states.csv
         # about 120 deg of heading drift over the 6.8 minutes (the session's README)
         assert 100.0 < float(observed["heading_error"].abs().max()) < 140.0
+
+
+def test_an_unknown_state_is_one_line(tmp_path: Path) -> None:
+    config = tmp_path / "bad.toml"
+    config.write_text('[fusion]\nstate = "heading"\n')
+    sample = Path(__file__).resolve().parents[2] / "sample_logs"
+    res = CliRunner().invoke(
+        main, ["run", str(sample), "-o", str(tmp_path / "out"), "--config", str(config)]
+    )
+    assert res.exit_code != 0
+    assert res.output.strip().splitlines()[-1] == (
+        f"error: {config} [fusion]: state = 'heading', expected 'dr' or 'position'"
+    )
+    assert not (tmp_path / "out").exists()
