@@ -187,12 +187,15 @@ def fuse(
             return FusionOutput(smoothed={}, forward={}, epochs_s=epochs, observations=table)
         smooth = False
     if smooth:
+        refits = params.robust_smoother_iterations if params.state == "dr" and params.robust else 0
+        # a smoother pass that a refit follows gives its states only: no variances, no DR
+        # states (an n^2 product per reported value, ~1 s of 5 at 10 x 1 h)
         xs_s, var_s, dr_xs, dr_vs = mbf_backward(
             cp_x, cp_c, *noise, *kernel_obs, gamma, dim, rec_ptr, rec_plat, block,
-            smoothed_sigma, dr_idx=dr.idx, dr_q=dr.q, dr_rec=dr.rec,
+            smoothed_sigma and refits == 0, dr_idx=dr.idx, dr_q=dr.q,
+            dr_rec=dr.rec if refits == 0 else dr.rec[:0],
         )  # fmt: skip
-        refits = params.robust_smoother_iterations if params.state == "dr" else 0
-        for _ in range(refits if params.robust else 0):
+        for _ in range(refits):
             # the robust factors against the smoothed solution, then the filter and the
             # smoother again with them (robust_refit.py); the forward trajectories stay
             # the causal filter's
