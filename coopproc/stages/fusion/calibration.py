@@ -61,7 +61,7 @@ from coopproc.stages.fusion.calibration_bias import (
 )
 from coopproc.stages.fusion.calibration_dr import dr_noise_factor
 from coopproc.stages.fusion.calibration_subset import CALIBRATION_EPOCHS, calibration_rows
-from coopproc.stages.fusion.dr_states import dr_layout
+from coopproc.stages.fusion.dr_states import dr_followers
 from coopproc.stages.fusion.fuse import FusionOutput, FusionParams, fuse
 from coopproc.stages.fusion.inputs import FusionInputs, fusion_inputs
 from coopproc.stages.ranging.calibration import MAD_SCALE, posterior_sigma
@@ -184,8 +184,7 @@ def _drift_scales(
     if inputs is None:
         inputs = fusion_inputs(session, ranges, params, "ranges")
     moving = set(session.moving_platforms()) if only is None else only
-    layout = dr_layout(session, inputs.moving, inputs.epochs[:1], params)
-    limit = {p: NIS_LIMIT_DR for p, i in zip(inputs.moving, layout.idx, strict=True) if i >= 0}
+    limit = dict.fromkeys(dr_followers(session, inputs.moving, params), NIS_LIMIT_DR)
     scale = dict(scale)
     last: list[tuple[pd.DataFrame, dict[str, float]]] = []
 
@@ -267,13 +266,8 @@ def calibrated_fuse(
     inputs = fusion_inputs(session, ranges, params, "ranges")
     # 0. the followers' DR noise level by the innovations' likelihood (state "dr")
     dr_factor, dr_scores = dr_noise_factor(session, ranges, params, inputs)
-    layout = dr_layout(session, inputs.moving, inputs.epochs[:1], params)
-    start = {
-        p: dr_factor
-        for p, i in zip(inputs.moving, layout.idx, strict=True)
-        if i >= 0 and dr_factor != 1.0
-    }
-    with_dr = {p for p, i in zip(inputs.moving, layout.idx, strict=True) if i >= 0}
+    with_dr = set(dr_followers(session, inputs.moving, params))
+    start = dict.fromkeys(sorted(with_dr), dr_factor) if dr_factor != 1.0 else {}
     first, scale, first_nis = _drift_scales(
         session, ranges, params, start, smoothed_sigma=smoothed_sigma, inputs=inputs,
         forward=forward, forward_sigma=forward_sigma,

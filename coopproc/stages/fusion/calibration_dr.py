@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from coopproc.model import Session
-from coopproc.stages.fusion.dr_states import dr_layout
+from coopproc.stages.fusion.dr_states import dr_followers
 from coopproc.stages.fusion.fuse import FusionParams, fuse
 from coopproc.stages.fusion.inputs import FusionInputs
 
@@ -68,8 +68,7 @@ def dr_noise_factor(
     1.0 (no search) when no platform carries DR states. Each trial is one forward pass
     (no smoother, no trajectories), on the prepared ``inputs``.
     """
-    layout = dr_layout(session, inputs.moving, inputs.epochs[:1], params)
-    followers = [p for p, i in zip(inputs.moving, layout.idx, strict=True) if i >= 0]
+    followers = dr_followers(session, inputs.moving, params)
     if not followers or not params.dr_noise_search:
         return 1.0, {}
     scores: dict[float, float] = {}

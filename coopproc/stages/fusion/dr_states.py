@@ -25,7 +25,15 @@ if TYPE_CHECKING:
     from coopproc.stages.base import PositionProduct
     from coopproc.stages.fusion.params import FusionParams
 
-__all__ = ["DrLayout", "DrSummary", "dr_layout", "dr_states_of", "dr_states_table", "dr_summary"]
+__all__ = [
+    "DrLayout",
+    "DrSummary",
+    "dr_followers",
+    "dr_layout",
+    "dr_states_of",
+    "dr_states_table",
+    "dr_summary",
+]
 
 _DEG = np.pi / 180.0
 _DPH = _DEG / 3600.0  # deg/h -> rad/s
@@ -50,11 +58,21 @@ class DrLayout:
     position_q: FloatArray
     rec: NDArray[np.int64]
 
+    @property
+    def active(self) -> bool:
+        """Some platform carries DR states."""
+        return bool((self.idx >= 0).any())
+
 
 def _carries_dr(session: Session, pid: str) -> bool:
     """Followers do: their navigation is dead reckoning. Leaders are fixed by their own
     GNSS/INS fix (a position update), tags have no navigation of their own."""
     return session.platforms[pid].role == "follower"
+
+
+def dr_followers(session: Session, moving: list[str], params: FusionParams) -> list[str]:
+    """The platforms of ``moving`` that carry DR states in a fusion with ``params``."""
+    return [p for p in moving if params.state == "dr" and _carries_dr(session, p)]
 
 
 def dr_layout(
@@ -76,7 +94,8 @@ def dr_layout(
     position_q = np.zeros(n_plat)
     prior: list[float] = []
     scale = drift_scale or {}
-    if params.state == "dr":
+    followers = set(dr_followers(session, moving, params))
+    if followers:
         walk = np.array(
             [
                 (params.heading_walk_dpsh * _DEG / _SQRT_H) ** 2,
@@ -92,7 +111,7 @@ def dr_layout(
             params.scale_sigma**2,
         ]
         for p, pid in enumerate(moving):
-            if not _carries_dr(session, pid):
+            if pid not in followers:
                 continue
             idx[p] = n_plat * dim + len(prior)
             factor = scale.get(pid, 1.0) ** 2
@@ -100,7 +119,7 @@ def dr_layout(
             position_q[p] = params.dr_position_sigma_mps**2 * factor
             prior.extend(first)
     rec = np.zeros(0, dtype=np.int64)
-    if idx.max(initial=-1) >= 0 and epochs.shape[0] > 0:
+    if (idx >= 0).any() and epochs.shape[0] > 0:
         bins = np.floor((epochs - epochs[0]) / params.dr_states_every_s)
         rec = np.flatnonzero(np.diff(bins, prepend=-1.0) != 0).astype(np.int64)
     return DrLayout(idx=idx, q=q, prior=np.array(prior), position_q=position_q, rec=rec)
@@ -128,7 +147,7 @@ def dr_states_table(
     values, variances = states
     times = epochs[layout.rec]
     frames = []
-    if values.shape[0] == times.shape[0] and (layout.idx >= 0).any():
+    if values.shape[0] == times.shape[0] and layout.active:
         n_pos = int(layout.idx[layout.idx >= 0].min())
         sig = np.sqrt(np.maximum(variances, 0.0))
         for p, pid in enumerate(moving):

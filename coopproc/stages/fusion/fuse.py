@@ -135,7 +135,7 @@ def fuse(
         q_coef = drift.astype(np.float64)
         q_squared = True
     dr = dr_layout(session, moving, epochs, params, scale)
-    if dr.idx.max(initial=-1) >= 0:  # positions first, each follower's DR states after
+    if dr.active:  # positions first, each follower's DR states after
         n_pos = inputs.x0.shape[0]
         x0 = np.concatenate((inputs.x0, np.zeros(dr.prior.shape[0])))
         c0 = np.zeros((x0.shape[0], x0.shape[0]))
@@ -158,7 +158,7 @@ def fuse(
     forward_slots = (
         (rec_ptr, rec_plat) if record_forward else (np.zeros_like(rec_ptr), rec_plat[:0])
     )
-    if q_squared and dr.idx.max(initial=-1) >= 0:  # the kernel squares every q_coef
+    if q_squared and dr.active:  # the kernel squares every q_coef
         q_coef = np.where(dr.idx >= 0, np.sqrt(dr.position_q), q_coef)
     noise = (epochs, nav_t, nav_v, nav_ptr, q_coef, q_squared, dt)
     xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c, dr_xf, dr_vf = ekf_forward(
@@ -215,9 +215,7 @@ def fuse(
             )  # fmt: skip
     else:
         xs_s, var_s, dr_xs, dr_vs = xs_f, var_f, dr_xf, dr_vf
-    dr_table = (
-        dr_states_table(moving, epochs, dr, (dr_xs, dr_vs)) if dr.idx.max(initial=-1) >= 0 else None
-    )
+    dr_table = dr_states_table(moving, epochs, dr, (dr_xs, dr_vs)) if dr.active else None
     del dr_xf, dr_vf, dr_xs, dr_vs
     # memory (issue 11): the observations and the range rows are spent (unless the caller
     # keeps its inputs for another fusion); free them before the trajectories are built
