@@ -38,6 +38,7 @@ RANGES_OUT_COLUMNS: tuple[str, ...] = (
     "reference",
     "nlos_flag",
     "nlos_estimate",
+    "outlier",
 )
 DI_COLUMNS: tuple[str, ...] = ("time", "pair", "di_dr", "di_cp", "di_smoothed", "di_reference")
 NLOS_EVENT_COLUMNS: tuple[str, ...] = ("pair", "method", "start", "end", "epochs", "estimate")

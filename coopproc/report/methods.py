@@ -47,7 +47,9 @@ __all__ = [
 ]
 
 #: Columns of ``ranges`` that are not range methods.
-NOT_RANGE_METHODS = frozenset({"time", "pair", "reference", "nlos_flag", "nlos_estimate"})
+NOT_RANGE_METHODS = frozenset(
+    {"time", "pair", "reference", "nlos_flag", "nlos_estimate", "outlier"}
+)
 #: ``method`` values of ``positions`` that are not position methods.
 NOT_POSITION_METHODS = frozenset({"nav", "reference"})
 #: Known range methods that detect NLOS (scored even when they found no event); any other

@@ -9,8 +9,9 @@ The per-epoch tables may be Parquet files instead (``coopproc run --format parqu
 
 The methods of a run are not fixed (:mod:`coopproc.report.methods`): ``ranges.csv`` has
 ``time, pair, observed``, then one column per range method of the chain, then
-``reference, nlos_flag, nlos_estimate`` (:func:`ranges_columns`); only those six are
-required, plus every range method that run.json ``"methods"`` lists.
+``reference, nlos_flag, nlos_estimate`` (:func:`ranges_columns`) and, from runs since the
+gross-outlier rejection, ``outlier``; only those six are required, plus every range method
+that run.json ``"methods"`` lists.
 """
 
 from __future__ import annotations

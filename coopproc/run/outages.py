@@ -193,8 +193,9 @@ def _listed_again(full: pd.DataFrame, inner: pd.DataFrame, withheld: np.ndarray)
             out[col] = full[col].to_numpy()
             continue
         values = inner[col].to_numpy()
-        fill: Any = 0 if col == "nlos_flag" else (0.0 if col == "nlos_estimate" else np.nan)
-        column = np.full(len(full), fill, dtype=values.dtype if col == "nlos_flag" else float)
+        flags = col in ("nlos_flag", "outlier")
+        fill: Any = 0 if flags else (0.0 if col == "nlos_estimate" else np.nan)
+        column = np.full(len(full), fill, dtype=values.dtype if flags else float)
         column[~withheld] = values
         out[col] = column
     return pd.DataFrame(out, columns=list(inner.columns))

@@ -324,7 +324,8 @@ def _run_range_step(
 def _range_table(
     base: pd.DataFrame, columns: Mapping[str, FloatArray], products: list[RangeProduct]
 ) -> pd.DataFrame:
-    """ranges.csv: ``time, pair, observed, <methods>, reference, nlos_flag, nlos_estimate``.
+    """ranges.csv: ``time, pair, observed, <methods>, reference, nlos_flag, nlos_estimate,
+    outlier``.
 
     The NLOS columns come from the DI method (DATA.md), or, without it, from the first
     method of the chain that detects NLOS; 0 where none does.
@@ -340,6 +341,12 @@ def _range_table(
     data["reference"] = base["reference"].to_numpy()
     data["nlos_flag"] = np.asarray(flag, dtype=np.int64)
     data["nlos_estimate"] = np.asarray(estimate, dtype=np.float64)
+    # gross outliers rejected by any range processor (outliers.py), 0 where none ran
+    outlier = np.zeros(len(base), dtype=np.int64)
+    for p in products:
+        if p.outlier is not None:
+            outlier |= np.asarray(p.outlier, dtype=np.int64)
+    data["outlier"] = outlier
     # the columns as they are (no copy: a day's table is ~270 MB, held once)
     return pd.DataFrame(data, copy=False)
 

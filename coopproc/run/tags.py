@@ -104,4 +104,5 @@ def widen(product: RangeProduct, rows: np.ndarray) -> RangeProduct:
         m: (spread(np.asarray(f), 0), spread(np.asarray(e, dtype=np.float64), 0.0))
         for m, (f, e) in product.nlos.items()
     }
-    return dataclasses.replace(product, values=values, nlos=nlos)
+    outlier = None if product.outlier is None else spread(np.asarray(product.outlier), 0)
+    return dataclasses.replace(product, values=values, nlos=nlos, outlier=outlier)

@@ -41,7 +41,7 @@ __all__ = [
 #: Names no method may take: columns of ranges.csv that are not methods, and the
 #: positions.csv methods the runner adds itself.
 RESERVED_NAMES: frozenset[str] = frozenset(
-    {"time", "pair", "observed", "reference", "nlos_flag", "nlos_estimate", "nav"}
+    {"time", "pair", "observed", "reference", "nlos_flag", "nlos_estimate", "outlier", "nav"}
 )
 
 
@@ -76,6 +76,8 @@ class RangeProduct:
     sigma: Mapping[str, tuple[float, str]] = field(default_factory=dict)
     #: (pair, method) -> self-calibration facts (coopproc.stages.ranging.stage.PairCalibration)
     calibration: Mapping[tuple[str, str], Any] = field(default_factory=dict)
+    #: 1 at the rows whose range the processor rejected as a gross outlier, or None
+    outlier: NDArray[np.int64] | None = None
 
 
 @dataclass(frozen=True)

@@ -63,6 +63,7 @@ def make_run(n: int = 120, seed: int = 7) -> RunTables:
                     "reference": ref,
                     "nlos_flag": flag,
                     "nlos_estimate": est,
+                    "outlier": np.zeros(n, dtype=np.int64),
                 }
             )
         )

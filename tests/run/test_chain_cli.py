@@ -41,9 +41,10 @@ def test_fusion_only(default_run: Path, tmp_path: Path) -> None:
     out = _run(tmp_path / "fusion", "[pipeline]\nranges = []\n", "--no-figures")
     ranges = _csv(out, "ranges.csv")
     assert list(ranges.columns) == [
-        "time", "pair", "observed", "reference", "nlos_flag", "nlos_estimate"
+        "time", "pair", "observed", "reference", "nlos_flag", "nlos_estimate", "outlier"
     ]  # fmt: skip
     assert (ranges["nlos_flag"] == 0).all() and (ranges["nlos_estimate"] == 0).all()
+    assert (ranges["outlier"] == 0).all()
     assert _csv(out, "nlos_events.csv").empty and _csv(out, "di.csv").empty
     positions = _csv(out, "positions.csv")
     assert sorted(positions["method"].unique()) == ["nav", "observed", "reference"]
@@ -63,7 +64,7 @@ def test_di_without_rn(default_run: Path, tmp_path: Path) -> None:
     out = _run(tmp_path / "di", '[pipeline]\nranges = ["di"]\n', "--no-figures")
     ranges = _csv(out, "ranges.csv")
     assert list(ranges.columns) == [
-        "time", "pair", "observed", "di", "reference", "nlos_flag", "nlos_estimate"
+        "time", "pair", "observed", "di", "reference", "nlos_flag", "nlos_estimate", "outlier"
     ]  # fmt: skip
     default = _csv(default_run, "ranges.csv")
     # DI-Based does not depend on RN-Based: the same distances, flags and events

@@ -7,6 +7,7 @@ One table with four sub-tables, every key optional (defaults are paper 000's):
 [ranging.distance]  # distance filter, eq. (8)
 [ranging.nlos]      # detection eq. (9), estimation eq. (10)-(12), adaptive sigma
 [ranging.rn]        # RN-Based reference method
+[ranging.outliers]  # gross single ranges rejected before the filters
 ```
 """
 
@@ -18,6 +19,7 @@ from typing import Any, Literal
 
 from coopproc.configtools import from_table
 from coopproc.stages.ranging.di import DISmoothingParams
+from coopproc.stages.ranging.outliers import OutlierParams
 
 __all__ = [
     "DistanceParams",
@@ -229,6 +231,10 @@ class RangingConfig:
         default_factory=NLOSParams, metadata={"help": "NLOS detection / estimation"}
     )
     rn: RNParams = field(default_factory=RNParams, metadata={"help": "RN-Based method"})
+    outliers: OutlierParams = field(
+        default_factory=OutlierParams,
+        metadata={"help": "gross single ranges rejected before the filters"},
+    )
 
 
 def ranging_config_from_toml(table: Mapping[str, Any], where: str = "run config") -> RangingConfig:

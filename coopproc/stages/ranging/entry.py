@@ -49,6 +49,7 @@ def ranging_stage(inp: RangeInput, params: RangingConfig, methods: tuple[str, ..
         di=out.di if "di" in methods else None,
         sigma=out.sigma,
         calibration={k: v for k, v in out.calibration.items() if k[1] in methods},
+        outlier=table["outlier"].to_numpy(dtype=np.int64),
     )
 
 

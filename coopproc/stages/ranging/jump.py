@@ -48,6 +48,8 @@ def range_jump(t: FloatArray, rng: FloatArray, k: int, window_s: float) -> tuple
     # rule (no LAPACK call: this runs at every suspect epoch)
     s0 = s1 = s2 = s11 = s12 = s22 = y0 = y1 = y2 = 0.0
     for j in range(lo, hi):
+        if not np.isfinite(rng[j]):
+            continue  # a rejected range (outliers.py)
         x = t[j] - t[k]
         z = 1.0 if j >= k else 0.0
         y = rng[j]

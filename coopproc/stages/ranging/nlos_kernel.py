@@ -104,6 +104,10 @@ def filter_kernel(
     adaptive = sigma_known <= 0.0
     sigma = sigma_init if adaptive else sigma_known
     d = rng[0]
+    for j0 in range(n):  # a rejected (NaN) first range: start on the first kept one
+        if np.isfinite(rng[j0]):
+            d = rng[j0]
+            break
     i = 0.0
     p_dd = sigma * sigma
     p_di = 0.0
@@ -157,6 +161,19 @@ def filter_kernel(
                 # error too, and sigma' sets gamma_max (measured: fewer false flags).
                 r_hat = sum_v2 / ring_count
                 sigma = np.sqrt(max(r_hat, min_sigma * min_sigma))
+        if not np.isfinite(rng[k]):
+            # a rejected range (gross outlier, outliers.py): predicted only, no detection;
+            # inside an event the epoch keeps the event's flag and estimate
+            if mode != 0:
+                in_event[k] = 1
+                flag[k] = 1
+                event[k] = n_events
+                est_out[k] = est
+            out_d[k] = d
+            sigma_out[k] = sigma
+            s_d[k], s_i[k], s_pdd[k], s_pdi[k], s_pii[k] = d, i, p_dd, p_di, p_ii
+            k += 1
+            continue
         r = rng[k] - d  # paper 000, eq. (9) residual (D' = d, eq. (10))
         resid[k] = r
         gamma = gamma_sigma * (detect_sigma if detect_sigma > 0.0 else sigma)

@@ -39,6 +39,7 @@ class OutputColumns:
         self._time = np.empty(n)
         self._range = {c: np.empty(n) for c in self._RANGE_FLOATS}
         self._flag = np.empty(n, dtype=np.int64)
+        self._outlier = np.empty(n, dtype=np.int64)
         self._di = {c: np.empty(n) for c in self._DI_FLOATS}
         self._rn = (np.empty(n, dtype=np.int64), np.empty(n)) if rn else None
 
@@ -55,10 +56,11 @@ class OutputColumns:
         self._time[rows] = p.time_s
         r = self._range
         r["observed"][rows] = p.observed_m
-        r["rn"][rows] = compensated(p.observed_m, outs["rn"]) if "rn" in outs else np.nan
+        r["rn"][rows] = compensated(p.kept_m, outs["rn"]) if "rn" in outs else np.nan
         r["di"][rows] = di_out.distance_m
         r["reference"][rows] = p.reference_m
         self._flag[rows] = di_out.nlos_flag
+        self._outlier[rows] = p.outlier
         r["nlos_estimate"][rows] = di_out.nlos_estimate_m
         d = self._di
         d["di_dr"][rows] = di_dr
@@ -79,7 +81,13 @@ class OutputColumns:
         pair = pd.array(self._names, dtype="str").take(self._code)
         self._code = self._code[:0]
         ranges = pd.DataFrame(
-            {"time": self._time, "pair": pair, **self._range, "nlos_flag": self._flag},
+            {
+                "time": self._time,
+                "pair": pair,
+                **self._range,
+                "nlos_flag": self._flag,
+                "outlier": self._outlier,
+            },
             columns=list(RANGES_OUT_COLUMNS),
             copy=False,
         )
@@ -90,11 +98,13 @@ class OutputColumns:
 
 
 def compensated(observed_m: FloatArray, out: DistanceFilterOutput) -> FloatArray:
-    """RN-Based output: the observed range, minus the held NLOS estimate where flagged.
+    """RN-Based output: the observed range, minus the held NLOS estimate where flagged;
+    the filter's distance where the range was rejected (NaN: a gross outlier).
 
     Paper 000 Table 2 shows RN-Based leaving the line-of-sight pair A-C unchanged (RMSE
     0.0639 against 0.0641 m observed): the reference method compensates NLOS ranges and
     passes the others through; it does not smooth. Its relative-velocity filter serves the
     detection (eq. (9)) and the one-shot estimate only.
     """
-    return np.asarray(observed_m - np.where(out.nlos_flag == 1, out.nlos_estimate_m, 0.0))
+    out_m = observed_m - np.where(out.nlos_flag == 1, out.nlos_estimate_m, 0.0)
+    return np.asarray(np.where(np.isfinite(observed_m), out_m, out.distance_m))

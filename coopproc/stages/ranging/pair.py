@@ -12,11 +12,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from coopproc.model import FloatArray, Session, Trajectory, pair_members
 from coopproc.stages.ranging.config import RangingConfig
 from coopproc.stages.ranging.di import anchored_increments, di_variance, range_increments
 from coopproc.stages.ranging.nlos import KernelParams
+from coopproc.stages.ranging.outliers import gross_outliers
 from coopproc.stages.ranging.rn import rn_increments
 from coopproc.stages.ranging.table import pair_columns, platform_positions, reference_positions
 from coopproc.stages.ranging.tracks import PlatformTracks
@@ -94,6 +96,15 @@ class PairInputs:
     rn_m: FloatArray
     params: KernelParams
     sigma_source: str
+    #: gross outliers (outliers.py): not used by the filters, ``outlier = 1`` in ranges.csv
+    outlier: NDArray[np.bool_]
+
+    @property
+    def kept_m(self) -> FloatArray:
+        """The observed ranges the filters use: NaN at the gross outliers."""
+        if not self.outlier.any():
+            return self.observed_m
+        return np.where(self.outlier, np.nan, self.observed_m)
 
 
 def prepare_pair(
@@ -132,7 +143,8 @@ def prepare_pair(
     dt = np.diff(t)
     step_s = float(np.median(dt[dt > 0])) if np.any(dt > 0) else 1.0
     adaptive_n = max(round(config.nlos.adaptive_window_s / step_s), 1)
-    initial = _initial_sigma(obs, di_dr, config)
+    outlier = gross_outliers(obs, di_dr, config.outliers)
+    initial = _initial_sigma(np.where(outlier, np.nan, obs), di_dr, config)
 
     tm = np.empty_like(t)
     tm[:1] = t[:1]
@@ -159,4 +171,5 @@ def prepare_pair(
         rn_m=rn_inc,
         params=kernel_params(config, sigma, initial, adaptive_n, rn=False),
         sigma_source=source,
+        outlier=outlier,
     )

@@ -141,7 +141,7 @@ def _calibrated(
     keep = PairCalibration(declared, params.sigma_m, params.sigma_m, 0.0, p.sigma_source)
     if not config.nlos.self_calibrate:
         return params, var_m2, keep
-    noise = pair_noise(p.time_s, p.observed_m, increments)
+    noise = pair_noise(p.time_s, p.kept_m, increments)
     if not np.isfinite(noise.white_sigma_m):
         return params, var_m2, keep
     dt = np.zeros_like(p.time_s)
@@ -149,7 +149,7 @@ def _calibrated(
     var = np.fmax(var_m2, noise.growth_m2ps * dt)
     white = max(noise.white_sigma_m, config.nlos.min_sigma_m)
     probe = replace(params, sigma_m=white, gamma_sigma=1e9, suspect_epochs=0, backdate_s=0.0)
-    resid = filter_distance(p.time_s, p.observed_m, increments, var, probe).residual_m
+    resid = filter_distance(p.time_s, p.kept_m, increments, var, probe).residual_m
     spread = robust_sigma(resid)
     prior = None if np.isnan(declared) else declared
     detect = posterior_sigma(prior, spread, int(np.count_nonzero(np.isfinite(resid))))
@@ -204,13 +204,13 @@ def _di_method(
     r_i = np.fmax(smoothed.var_m2, floor)
     params, r_i, cal = _calibrated(p, smoothed.di_m, r_i, p.params, config)
     if config.nlos.two_way:
-        out, _ = filter_distance_two_way(p.time_s, p.observed_m, smoothed.di_m, r_i, params)
+        out, _ = filter_distance_two_way(p.time_s, p.kept_m, smoothed.di_m, r_i, params)
     else:
-        out = filter_distance(p.time_s, p.observed_m, smoothed.di_m, r_i, params)
+        out = filter_distance(p.time_s, p.kept_m, smoothed.di_m, r_i, params)
     if cal.passthrough:
         # the DI would smooth the white noise by less than 1 - gain of its variance, and
         # any error of its model would cost more: the ranges pass through
-        out = replace(out, distance_m=compensated(p.observed_m, out))
+        out = replace(out, distance_m=compensated(p.kept_m, out))
     return smoothed, di_dr, out, cal
 
 
@@ -335,7 +335,7 @@ def _rn_method(
     )
     rn_params, rn_var, rn_cal = _calibrated(p, p.rn_m, p.var_m2, rn_params, config)
     if config.nlos.two_way:
-        rn_out, _ = filter_distance_two_way(p.time_s, p.observed_m, p.rn_m, rn_var, rn_params)
+        rn_out, _ = filter_distance_two_way(p.time_s, p.kept_m, p.rn_m, rn_var, rn_params)
     else:
-        rn_out = filter_distance(p.time_s, p.observed_m, p.rn_m, rn_var, rn_params)
+        rn_out = filter_distance(p.time_s, p.kept_m, p.rn_m, rn_var, rn_params)
     return rn_out, rn_cal
