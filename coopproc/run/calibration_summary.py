@@ -27,6 +27,24 @@ def _num(value: float, digits: int = 4) -> float | None:
     return round(float(value), digits) if math.isfinite(value) else None
 
 
+def _windows(local: Any) -> list[dict[str, Any]]:
+    """The per-window calibration of a pair and method (ranging/local.py) for run.json."""
+    if local is None:
+        return []
+    return [
+        {
+            "start": _num(float(local.starts_s[w]), 3),
+            "white_sigma_m": _num(float(local.white_m[w])),
+            "detect_sigma_m": _num(float(local.detect_m[w])),
+            "di_growth_m2ps": _num(float(local.growth_m2ps[w]), 6),
+            "gain": _num(float(local.gain[w]), 3),
+            "mode": "ranges" if local.ranges_only[w] else "di",
+            "estimated": bool(local.estimated[w]),
+        }
+        for w in range(local.white_m.shape[0])
+    ]
+
+
 def calibration_facts(output: PipelineOutput) -> dict[str, Any]:
     """The run.json ``calibration`` block."""
     pairs: dict[str, Any] = {}
@@ -38,7 +56,9 @@ def calibration_facts(output: PipelineOutput) -> dict[str, Any]:
             "di_growth_m2ps": _num(cal.growth_m2ps, 6),
             "gain": _num(cal.gain, 3),
             "passthrough": cal.passthrough,
+            "ranges_only_fraction": _num(getattr(cal, "ranges_only_fraction", 0.0), 4),
             "source": cal.source,
+            "windows": _windows(getattr(cal, "local", None)),
         }
     fusion: dict[str, Any] = {}
     for method, fcal in sorted(output.fusion_calibration.items()):
@@ -99,10 +119,12 @@ def calibration_lines(output: PipelineOutput) -> list[str]:
                 f"UWB white noise {cal.white_sigma_m:.3f} m{declared}, innovation "
                 f"{cal.detect_sigma_m:.3f} m, DI growth {cal.growth_m2ps:.4f} m^2/s ({cal.source})"
             )
-            if cal.passthrough:
+            fraction = getattr(cal, "ranges_only_fraction", 0.0)
+            if fraction > 0.0:
                 text += (
-                    f"; DI too poor to smooth (gain {cal.gain:.2f}): ranges passed through, "
-                    "no NLOS detection"
+                    f"; DI too poor to smooth in {100.0 * fraction:.0f} % of the time "
+                    f"(gain {cal.gain:.2f}): ranges passed through there, NLOS from the "
+                    "ranges alone"
                 )
             parts.append(text)
         if observed is not None and pair in observed.pair_sigma_m:

@@ -59,6 +59,21 @@ def _lookup(table: pd.DataFrame, key: str, value: str, method: str, column: str)
     return float(rows[column].iloc[0]) if len(rows) else math.nan
 
 
+#: A pair whose NLOS detection ran on the ranges alone (ranging/local.py: ranges-only
+#: calibration windows) for more than this share of its epochs is named in one line.
+DEGRADED_FRACTION = 0.10
+
+
+def _degraded(output: PipelineOutput, method: str) -> dict[str, float]:
+    """pair -> share of its epochs in ranges-only windows, where above DEGRADED_FRACTION."""
+    out = {}
+    for (pair, m), cal in sorted(output.ranging_calibration.items()):
+        fraction = float(getattr(cal, "ranges_only_fraction", 0.0))
+        if m == method and fraction > DEGRADED_FRACTION:
+            out[pair] = fraction
+    return out
+
+
 #: A platform's fused mean error this much (m) above its own navigation's, and 10 % more,
 #: is reported as worse than its navigation.
 WORSE_MIN_M = 0.02
@@ -99,6 +114,15 @@ def summarize(output: PipelineOutput) -> RunSummary:
         with_events = len({str(p) for p in det_events["pair"].unique()} & {str(p) for p in pairs})
         name = _LONG.get(detector, detector)
         lines.append(_events_header(name, len(det_events), with_events, len(pairs)))
+        degraded = _degraded(output, detector)
+        if degraded:
+            facts["nlos_degraded"] = degraded
+            listed = ", ".join(f"{p} {100.0 * f:.0f} %" for p, f in degraded.items())
+            lines.append(
+                f"NLOS detection degraded (DI too poor to smooth: from the ranges alone) on "
+                f"{len(degraded)} of {_count(len(pairs), 'pair')} for more than "
+                f"{100.0 * DEGRADED_FRACTION:.0f} % of their time: {listed}"
+            )
     for pair in pairs:
         n_events = int((det_events["pair"] == pair).sum())
         rmse = {m: _lookup(result.metrics, "pair", pair, m, "rmse") for m in range_methods}

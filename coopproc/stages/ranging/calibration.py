@@ -112,8 +112,14 @@ def white_sigma(time_s: FloatArray, series: FloatArray) -> float:
     return robust_sigma(np.where(ok, e, np.nan))
 
 
-def pair_noise(time_s: FloatArray, range_m: FloatArray, di_m: FloatArray) -> PairNoise:
+def pair_noise(
+    time_s: FloatArray, range_m: FloatArray, di_m: FloatArray, white_m: float | None = None
+) -> PairNoise:
     """White noise and growth of ``z = L - cumsum(I)`` (see the module docstring).
+
+    ``white_m``: the white noise when the caller has it from elsewhere (local.py: from the
+    ranges and the dead-reckoning DI, not from a DI that contains the cooperative
+    solution); only the growth is then estimated here.
 
     sigma_w: the smaller of :func:`white_sigma` of the ranges alone and of z (the ranges
     alone are immune to DI faults, z to the pair's relative acceleration at low rates).
@@ -129,7 +135,10 @@ def pair_noise(time_s: FloatArray, range_m: FloatArray, di_m: FloatArray) -> Pai
     inc = np.where(np.isfinite(di_m), di_m, 0.0)
     inc[0] = 0.0
     z = np.asarray(range_m, dtype=np.float64) - np.cumsum(inc)
-    white = np.fmin(white_sigma(t, range_m), white_sigma(t, z))
+    if white_m is None:
+        white = np.fmin(white_sigma(t, range_m), white_sigma(t, z))
+    else:
+        white = np.float64(white_m)
     dt = np.diff(t)
     dt = dt[dt > 1e-9]
     if not np.isfinite(white) or dt.shape[0] == 0:

@@ -152,9 +152,17 @@ class NLOSParams:
         default=0.75,
         metadata={
             "help": "when a distance filter's steady-state gain on the ranges exceeds this "
-            "(the dead reckoning is too poor to smooth them, or to tell NLOS from its own "
-            "error), the ranges pass through unchanged and that method detects no NLOS on "
-            "the pair. 1: never"
+            "in a calibration window (the dead reckoning is too poor to smooth them), the "
+            "window is ranges-only: the ranges pass through less the NLOS the DI method "
+            "finds from the ranges alone; RN detects nothing there. 1: never"
+        },
+    )
+    calibration_window_s: float = field(
+        default=300.0,
+        metadata={
+            "help": "the noise, DI growth, gamma_max and the smooth-or-ranges-only decision "
+            "are estimated and applied per window of this many seconds (grid fixed at the "
+            "pair's first range; docs/methods-ranging.md)"
         },
     )
     adaptive: bool = field(
@@ -178,7 +186,13 @@ class NLOSParams:
     min_sigma_m: float = field(default=0.01, metadata={"help": "floor of the adaptive sigma, m"})
 
     def __post_init__(self) -> None:
-        for name in ("gamma_sigma", "window_s", "default_sigma_m", "min_sigma_m"):
+        for name in (
+            "gamma_sigma",
+            "window_s",
+            "default_sigma_m",
+            "min_sigma_m",
+            "calibration_window_s",
+        ):
             if getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be > 0, found {getattr(self, name)}")
         if self.jump_window_s <= 0:

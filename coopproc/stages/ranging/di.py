@@ -23,6 +23,7 @@ the observation, and an innovation beyond the gate marks a CP jump that is not u
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -41,6 +42,7 @@ __all__ = [
     "di_variance",
     "range_increments",
     "smooth_di",
+    "windowed_cp_noise_var",
 ]
 
 #: Position drift 1-sigma (m/s) by role when session.toml gives none (sigma_k of eq. (7)).
@@ -269,20 +271,43 @@ def cp_noise_var(di_dr_m: FloatArray, di_cp_m: FloatArray) -> float:
     return (1.4826 * mad) ** 2
 
 
+def windowed_cp_noise_var(
+    time_s: FloatArray, di_dr_m: FloatArray, di_cp_m: FloatArray, window_s: float
+) -> FloatArray:
+    """:func:`cp_noise_var` per calibration window (the grid of ranging/local.py: windows
+    of ``window_s`` from the first epoch), at every epoch: a stretch of the recording gets
+    the same R_k whatever follows it (issue 30)."""
+    out = np.zeros(time_s.shape[0])
+    if time_s.shape[0] == 0:
+        return out
+    win = np.floor((time_s - time_s[0]) / window_s + 1e-9).astype(np.int64)
+    bounds = np.searchsorted(win, np.arange(int(win[-1]) + 2))
+    for lo, hi in itertools.pairwise(bounds.tolist()):
+        out[lo:hi] = cp_noise_var(di_dr_m[lo:hi], di_cp_m[lo:hi])
+    return out
+
+
 def smooth_di(
     time_s: FloatArray,
     di_dr_m: FloatArray,
     di_cp_m: FloatArray,
     var_m2: FloatArray,
     params: DISmoothingParams,
+    window_s: float | None = None,
 ) -> SmoothedDI:
     """Run the DI smoothing filter of paper 000 eq. (4)-(7) over one pair.
 
     ``var_m2`` is the eq. (7) variance (:func:`di_variance`): the DR-DI process noise w_I;
     the CP-DI observation variance R_k is the larger of ``cp_sigma_scale^2 * var_m2`` and
-    :func:`cp_noise_var`.
+    :func:`cp_noise_var` (per calibration window of ``window_s`` seconds; None: over the
+    pair).
     """
-    var_cp = np.maximum(var_m2 * params.cp_sigma_scale**2, cp_noise_var(di_dr_m, di_cp_m))
+    robust: float | FloatArray = (
+        cp_noise_var(di_dr_m, di_cp_m)
+        if window_s is None
+        else windowed_cp_noise_var(time_s, di_dr_m, di_cp_m, window_s)
+    )
+    var_cp = np.maximum(var_m2 * params.cp_sigma_scale**2, robust)
     di, var, dev, jump = _smooth_kernel(
         np.ascontiguousarray(time_s, dtype=np.float64),
         np.ascontiguousarray(di_dr_m, dtype=np.float64),

@@ -23,6 +23,7 @@ from coopproc.stages.ranging.nlos_kernel import filter_kernel
 __all__ = [
     "JUMP_MIN_POINTS",
     "DistanceFilterOutput",
+    "EpochNoise",
     "KernelParams",
     "filter_distance",
     "range_jump",
@@ -74,27 +75,70 @@ class DistanceFilterOutput:
     residual_m: FloatArray  # r = L_D - D after the DI update
 
 
+@dataclass(frozen=True, eq=False)
+class EpochNoise:
+    """Per-epoch numbers of the local calibration (coopproc.stages.ranging.local), which
+    override :class:`KernelParams`' session-wide ``sigma_m`` / ``detect_sigma_m``."""
+
+    sigma_m: FloatArray  # UWB sigma of the range update
+    detect_sigma_m: FloatArray  # 1-sigma behind gamma_max of eq. (9)
+    ranges_only: np.ndarray  # int8: 1 where no DI is used (a constant-velocity prediction)
+    #: the accumulated dead-reckoning DI (m): the ranges-only step test fits L - motion
+    motion_m: FloatArray
+
+    def reversed(self) -> EpochNoise:
+        return EpochNoise(
+            self.sigma_m[::-1],
+            self.detect_sigma_m[::-1],
+            self.ranges_only[::-1],
+            self.motion_m[::-1],
+        )
+
+    def piece(self, lo: int, hi: int) -> EpochNoise:
+        return EpochNoise(
+            self.sigma_m[lo:hi],
+            self.detect_sigma_m[lo:hi],
+            self.ranges_only[lo:hi],
+            self.motion_m[lo:hi],
+        )
+
+
+def _constant_noise(n: int, params: KernelParams) -> EpochNoise:
+    return EpochNoise(
+        np.full(n, float(params.sigma_m)),
+        np.full(n, float(params.detect_sigma_m)),
+        np.zeros(n, dtype=np.int8),
+        np.zeros(n),
+    )
+
+
 def filter_distance(
     time_s: FloatArray,
     range_m: FloatArray,
     di_m: FloatArray,
     di_var_m2: FloatArray,
     params: KernelParams,
+    noise: EpochNoise | None = None,
 ) -> DistanceFilterOutput:
     """Distance filter with NLOS detection and estimation over one pair's range epochs.
 
-    ``di_m`` is the DI observation at each epoch (NaN: none), ``di_var_m2`` its variance.
+    ``di_m`` is the DI observation at each epoch (NaN: none), ``di_var_m2`` its variance;
+    ``noise``: per-epoch sigmas (None: ``params``' for every epoch).
     The series is cut at every gap longer than ``params.restart_gap_s`` and the filter
     restarts on the first range after it: an outage ends any event, and no distance or
     NLOS estimate is propagated across it. Event indices run on across the pieces.
     """
     t = np.ascontiguousarray(time_s, dtype=np.float64)
+    if noise is None:
+        noise = _constant_noise(t.shape[0], params)
     cuts = np.flatnonzero(np.diff(t) > params.restart_gap_s) + 1
     bounds = [0, *cuts.tolist(), t.shape[0]]
     pieces = []
     offset = 0
     for lo, hi in itertools.pairwise(bounds):
-        piece = _filter_piece(t[lo:hi], range_m[lo:hi], di_m[lo:hi], di_var_m2[lo:hi], params)
+        piece = _filter_piece(
+            t[lo:hi], range_m[lo:hi], di_m[lo:hi], di_var_m2[lo:hi], params, noise.piece(lo, hi)
+        )
         if offset:
             piece.event[piece.event >= 0] += offset
         if np.any(piece.event >= 0):
@@ -124,6 +168,7 @@ def _filter_piece(
     di_m: FloatArray,
     di_var_m2: FloatArray,
     params: KernelParams,
+    noise: EpochNoise,
 ) -> DistanceFilterOutput:
     """:func:`filter_distance` over a piece of series without restart gaps."""
     f64 = np.float64
@@ -132,7 +177,7 @@ def _filter_piece(
         np.ascontiguousarray(range_m, dtype=f64),
         np.ascontiguousarray(di_m, dtype=f64),
         np.ascontiguousarray(di_var_m2, dtype=f64),
-        float(params.sigma_m),
+        np.ascontiguousarray(noise.sigma_m, dtype=f64),
         float(params.initial_sigma_m),
         float(params.gamma_sigma),
         float(params.window_s),
@@ -150,9 +195,11 @@ def _filter_piece(
         int(params.suspect_epochs),
         bool(params.positive_only),
         float(params.max_event_s),
-        float(params.detect_sigma_m),
+        np.ascontiguousarray(noise.detect_sigma_m, dtype=f64),
         float(params.jump_fraction),
         float(params.jump_window_s),
+        np.ascontiguousarray(noise.ranges_only, dtype=np.int8),
+        np.ascontiguousarray(noise.motion_m, dtype=f64),
     )
     return DistanceFilterOutput(
         distance_m=d,

@@ -48,7 +48,13 @@ import numpy as np
 from numba import njit
 
 from coopproc.model import FloatArray
-from coopproc.stages.ranging.jump import range_jump, steps_up
+from coopproc.stages.ranging.jump import (
+    FIT_ADEQUACY,
+    STEP_SIGNIFICANCE,
+    range_jump,
+    step_fit,
+    steps_up,
+)
 
 __all__ = ["filter_kernel"]
 
@@ -59,7 +65,7 @@ def filter_kernel(
     rng: FloatArray,
     di: FloatArray,
     di_var: FloatArray,
-    sigma_known: float,
+    sigma_known: FloatArray,
     sigma_init: float,
     gamma_sigma: float,
     window_s: float,
@@ -77,9 +83,11 @@ def filter_kernel(
     suspect_epochs: int,
     positive_only: bool,
     max_event_s: float,
-    detect_sigma: float,
+    detect_sigma: FloatArray,
     jump_fraction: float,
     jump_window_s: float,
+    ranges_only: np.ndarray,
+    motion: FloatArray,
 ) -> tuple[FloatArray, np.ndarray, FloatArray, np.ndarray, FloatArray, FloatArray, FloatArray]:
     n = t.shape[0]
     out_d = np.full(n, np.nan)
@@ -101,8 +109,8 @@ def filter_kernel(
     sum_v2 = 0.0
     if n == 0:
         return out_d, flag, est_out, event, step_est, sigma_out, resid
-    adaptive = sigma_known <= 0.0
-    sigma = sigma_init if adaptive else sigma_known
+    adaptive = sigma_known[0] <= 0.0
+    sigma = sigma_init if adaptive else sigma_known[0]
     d = rng[0]
     for j0 in range(n):  # a rejected (NaN) first range: start on the first kept one
         if np.isfinite(rng[j0]):
@@ -153,7 +161,9 @@ def filter_kernel(
             d += k_d * v
             i += k_i * v
             p_dd, p_di, p_ii = p_dd - k_d * p_di, p_di - k_d * p_ii, p_ii - k_i * p_ii
-        if adaptive:
+        if not adaptive:
+            sigma = sigma_known[k]  # the calibration window's (local.py)
+        else:
             sigma = sigma_init
             if ring_count >= adaptive_min_n:
                 # Mohamed & Schwarz's windowed innovation covariance C_v. Their R = C_v -
@@ -176,7 +186,7 @@ def filter_kernel(
             continue
         r = rng[k] - d  # paper 000, eq. (9) residual (D' = d, eq. (10))
         resid[k] = r
-        gamma = gamma_sigma * (detect_sigma if detect_sigma > 0.0 else sigma)
+        gamma = gamma_sigma * (detect_sigma[k] if detect_sigma[k] > 0.0 else sigma)
         use = 0  # 0 no range update, 1 raw range, 2 range - eps_hat
         done = False
         if mode == 0 and adaptive:
@@ -196,7 +206,13 @@ def filter_kernel(
             done = True
         elif mode == 0:
             stepped = True
-            if abs(r) > onset_fraction * gamma and (one_shot or suspect_epochs > 0):
+            if one_shot and ranges_only[k] != 0:
+                # RN in a ranges-only window: the reference method has no prediction to
+                # detect against (its relative velocity is the dead reckoning's); the
+                # ranges pass through (real `plaza2`: a ranges-only step test held a
+                # 4 m "event" for 18 s on b5-robot)
+                stepped = False
+            elif abs(r) > onset_fraction * gamma and (one_shot or suspect_epochs > 0):
                 stepped = steps_up(t, rng, k, r, jump_fraction, jump_window_s)
             if not stepped:
                 # a residual without a step in the ranges: the DI moved, not the range
@@ -255,7 +271,23 @@ def filter_kernel(
         if mode == 1 and not done:
             if t[k] - ev_t0 >= window_s - 1e-9 and eps_n > 0:
                 stepless = False
-                if not one_shot and jump_fraction > 0.0:
+                if ranges_only[ev_start] != 0 and not one_shot:
+                    # no DI in this calibration window (local.py): D' was a constant-
+                    # velocity prediction of the ranges themselves, so the estimate is
+                    # the ranges' own step at the onset (step_fit on the ranges less the
+                    # dead-reckoning motion, whose drift over the fit the quadratic
+                    # absorbs), not eq. (11)'s mean; the event stands only if that step
+                    # is significant
+                    jump, jump_se, fit_sd = step_fit(t, rng, motion, ev_start, jump_window_s)
+                    if (
+                        np.isfinite(jump)
+                        and jump >= STEP_SIGNIFICANCE * jump_se
+                        and fit_sd <= FIT_ADEQUACY * sigma
+                    ):
+                        est = jump
+                    else:
+                        stepless = True
+                elif not one_shot and jump_fraction > 0.0:
                     jump, _ = range_jump(t, rng, ev_start, jump_window_s)
                     stepless = np.isfinite(jump) and jump < jump_fraction * est
                 small = abs(est) < confirm_fraction * gamma

@@ -10,20 +10,25 @@ the stage rejects such ranges first: their epochs are predicted only (the DI sti
 propagates the distance), their rows get ``outlier = 1`` in ``ranges.csv``, and every
 method's output there is its filter's distance, not the range.
 
-The test (a Hampel identifier on the motion-free series). ``z_k = L_k - sum_{j<=k} I_j``
-with I the pair's dead-reckoning DI removes the platforms' motion, so z is the range error
-plus the slowly accumulated DI error; without a DI (a tag's pairs), z is the range itself,
-whose median over a short window still follows a linear range change exactly. An epoch is
-an outlier when
+The test (a Hampel identifier), on two series that must both call the epoch an outlier:
+the ranges themselves, whose median over a short window follows a linear range change
+exactly, and ``z_k = L_k - sum_{j<=k} I_j`` with I the pair's dead-reckoning DI, which
+removes the platforms' motion (z is the range error plus the slowly accumulated DI error).
+A gross error stands out in both; a jittering dead reckoning makes spikes in z alone (on
+the real `tuc` session, two line-of-sight ranges of 4 and 12 cm error were called outliers
+by z alone), a sharp turn near a pair's closest approach bends the ranges alone. Without a
+DI (a tag's pairs) the ranges alone decide. On a series an epoch is far when
 
     |z_k - med_k| > max(k_sigma * s_k, min_m)
 
 with med_k the median of z over ``half_window`` epochs either side and s_k the local
 scale: 1.4826 x the median of |z - med| over ``scale_half_window`` epochs either side (so a
 noisier stretch of the recording gets a wider gate, a clean one a narrower, and nothing
-depends on the rest of the recording). Only runs of at most ``max_run`` consecutive such
-epochs are outliers: a longer excursion is NLOS (or a dead-reckoning fault) and goes to
-the distance filter, whose detection handles it.
+depends on the rest of the recording), and the gate at least :data:`MOTION_STEPS` times
+the series' change next to the epoch (a fast-moving pair bends its median). Only runs of
+at most ``max_run`` consecutive epochs beyond the first gate are outliers: a longer
+excursion is NLOS (or a dead-reckoning fault) and goes to the distance filter, whose
+detection handles it.
 
 Defaults and the data they were chosen on: ``half_window = 5`` epochs resists runs of up
 to 5 (the median of 11); ``max_run = 2`` leaves every event of 3 epochs or more to the
@@ -45,7 +50,15 @@ from numpy.typing import NDArray
 from coopproc.model import FloatArray
 from coopproc.stages.filters import MAD_SCALE
 
-__all__ = ["OutlierParams", "gross_outliers"]
+__all__ = ["MOTION_STEPS", "OutlierParams", "gross_outliers"]
+
+#: The gate is at least this many of the series' changes next to the epoch (into its
+#: neighbour before, out of its neighbour after): on the real `plaza2` session (ranges
+#: changing by up to 9 m from one epoch to the next) departures of 1-2 m from the median
+#: of 11 were the peaks of the range's own motion, not errors (the neighbours'
+#: interpolation was worse than the range there). A single gross range is still caught;
+#: two in a row shield each other.
+MOTION_STEPS = 3.0
 
 
 @dataclass(frozen=True)
@@ -81,6 +94,26 @@ def _centred_median(values: FloatArray, half: int) -> FloatArray:
     return series.rolling(2 * half + 1, center=True, min_periods=1).median().to_numpy()
 
 
+def _far(z: FloatArray, params: OutlierParams) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Epochs whose value departs from the local median by more than the local gate, and
+    by more than the motion next to them too."""
+    dev = np.abs(z - _centred_median(z, params.half_window))
+    scale = MAD_SCALE * _centred_median(dev, params.scale_half_window)
+    # a fast-changing series (a pair at its closest approach: the median of a V bends
+    # away from it) moves this much per epoch next to k (the steps into k-1 and out of
+    # k+1, not k's own): departures of a few such steps are motion
+    n = z.shape[0]
+    step = np.full(n + 1, np.nan)
+    step[1:n] = np.abs(np.diff(z))  # step[j]: from j-1 to j
+    before = np.full(n, np.nan)
+    after = np.full(n, np.nan)
+    before[2:] = step[1 : n - 1]  # z[k-1] - z[k-2]
+    after[: n - 2] = step[2:n]  # z[k+2] - z[k+1]
+    moving = MOTION_STEPS * np.nan_to_num(np.fmax(before, after))
+    far = dev > np.fmax(params.k_sigma * scale, params.min_m)
+    return np.asarray(far), np.asarray(far & (dev > moving))
+
+
 def gross_outliers(
     range_m: FloatArray, di_m: FloatArray | None, params: OutlierParams
 ) -> NDArray[np.bool_]:
@@ -93,16 +126,14 @@ def gross_outliers(
     out = np.zeros(n, dtype=bool)
     if not params.enabled or n < 2 * params.half_window + 1:
         return out
-    z = np.asarray(range_m, dtype=np.float64).copy()
-    if di_m is not None:
+    rng = np.asarray(range_m, dtype=np.float64)
+    far, beyond_motion = _far(rng, params)
+    if di_m is not None and far.any():
         inc = np.where(np.isfinite(di_m), di_m, 0.0)
         inc[0] = 0.0
-        z -= np.cumsum(inc)
-    med = _centred_median(z, params.half_window)
-    dev = np.abs(z - med)
-    scale = MAD_SCALE * _centred_median(dev, params.scale_half_window)
-    gate = np.fmax(params.k_sigma * scale, params.min_m)
-    far = dev > gate
+        far_z, beyond_z = _far(rng - np.cumsum(inc), params)
+        far &= far_z
+        beyond_motion &= beyond_z
     if not far.any():
         return out
     # runs of consecutive far epochs: only the short ones are outliers
@@ -110,6 +141,6 @@ def gross_outliers(
     starts = np.flatnonzero(edges == 1)
     ends = np.flatnonzero(edges == -1)
     for lo, hi in zip(starts, ends, strict=True):
-        if hi - lo <= params.max_run:
+        if hi - lo <= params.max_run and beyond_motion[lo:hi].all():
             out[lo:hi] = True
     return out

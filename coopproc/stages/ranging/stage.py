@@ -47,12 +47,6 @@ from coopproc.model import (
     Session,
     Trajectory,
 )
-from coopproc.stages.ranging.calibration import (
-    pair_noise,
-    posterior_sigma,
-    robust_sigma,
-    steady_gain,
-)
 from coopproc.stages.ranging.config import RangingConfig, ranging_config_from_toml
 from coopproc.stages.ranging.di import (
     SmoothedDI,
@@ -60,7 +54,13 @@ from coopproc.stages.ranging.di import (
     di_variance,
     smooth_di,
 )
-from coopproc.stages.ranging.nlos import DistanceFilterOutput, KernelParams, filter_distance
+from coopproc.stages.ranging.local import LocalCalibration, calibrate_windows
+from coopproc.stages.ranging.nlos import (
+    DistanceFilterOutput,
+    EpochNoise,
+    KernelParams,
+    filter_distance,
+)
 from coopproc.stages.ranging.output_columns import OutputColumns, compensated
 from coopproc.stages.ranging.pair import PairInputs, kernel_params, prepare_pair
 from coopproc.stages.ranging.tracks import PlatformTracks
@@ -87,8 +87,13 @@ class PairCalibration:
     source: str  # "data", "session.toml", "adaptive" or "default"
     #: steady-state gain of the distance filter's range update (NaN: not computed)
     gain: float = float("nan")
-    #: True: the DI adds too little (gain above passthrough_gain); ranges passed through
+    #: True: the DI adds too little (gain above passthrough_gain) in every calibration
+    #: window; ranges passed through (less the NLOS found from the ranges alone)
     passthrough: bool = False
+    #: share of the pair's epochs in ranges-only calibration windows (local.py)
+    ranges_only_fraction: float = 0.0
+    #: the per-window calibration (None: not self-calibrated)
+    local: LocalCalibration | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,58 +134,52 @@ def _calibrated(
     var_m2: FloatArray,
     params: KernelParams,
     config: RangingConfig,
-) -> tuple[KernelParams, FloatArray, PairCalibration]:
-    """The filter numbers of one pair and method from its own data (calibration.py).
-
-    The white range noise sigma_w and the growth q of ``L - cumsum(I)`` come from the
-    structure function; the DI variance becomes max(given, q dt); the innovation spread of
-    a run without detection, combined with the declared sigma as a prior, sets gamma_max.
-    Without enough data (or ``self_calibrate = false``) the given numbers stay.
+) -> tuple[KernelParams, FloatArray, FloatArray, EpochNoise | None, PairCalibration]:
+    """The filter numbers of one pair and method from its own data, per calibration window
+    (local.py): (params, DI used (NaN in ranges-only windows), DI variance, per-epoch
+    noise, the summary for run.json). Without enough data (or ``self_calibrate = false``)
+    the given numbers stay, for every epoch.
     """
     declared = p.params.sigma_m if p.sigma_source == "session.toml" else float("nan")
     keep = PairCalibration(declared, params.sigma_m, params.sigma_m, 0.0, p.sigma_source)
     if not config.nlos.self_calibrate:
-        return params, var_m2, keep
-    noise = pair_noise(p.time_s, p.kept_m, increments)
-    if not np.isfinite(noise.white_sigma_m):
-        return params, var_m2, keep
-    dt = np.zeros_like(p.time_s)
-    dt[1:] = np.diff(p.time_s)
-    var = np.fmax(var_m2, noise.growth_m2ps * dt)
-    white = max(noise.white_sigma_m, config.nlos.min_sigma_m)
-    probe = replace(params, sigma_m=white, gamma_sigma=1e9, suspect_epochs=0, backdate_s=0.0)
-    resid = filter_distance(p.time_s, p.kept_m, increments, var, probe).residual_m
-    spread = robust_sigma(resid)
-    prior = None if np.isnan(declared) else declared
-    detect = posterior_sigma(prior, spread, int(np.count_nonzero(np.isfinite(resid))))
-    if not np.isfinite(detect):
-        detect = white
+        return params, increments, var_m2, None, keep
+    nlos = config.nlos
+    local = calibrate_windows(
+        p.time_s,
+        p.kept_m,
+        increments,
+        p.di_dr_m,
+        var_m2,
+        params,
+        window_s=nlos.calibration_window_s,
+        declared_m=None if np.isnan(declared) else declared,
+        min_sigma_m=nlos.min_sigma_m,
+        passthrough_gain=nlos.passthrough_gain,
+        estimation_window_s=nlos.window_s,
+    )
+    if local is None:
+        return params, increments, var_m2, None, keep
     # eq. (11) averages eps = L - D' over M seconds of DI propagation, so the estimate
     # carries the DI error of the window's mean: for a random walk of growth q, variance
-    # q M / 3. The test of eq. (9) allows for it, or DI drift reads as NLOS (measured on
-    # TIERS: q M gave DI recall 0.03, nothing gave 24 % false alarms on tb6-tb7, q M / 3
-    # 3.8 % at most with recall 0.86-0.90 on tb1-tb3 / tb1-tb7). The one-shot RN
-    # estimate uses no window.
-    if not params.one_shot:
-        detect = float(np.sqrt(detect**2 + noise.growth_m2ps * config.nlos.window_s / 3.0))
-    gain = steady_gain(float(np.nanmedian(var[1:])) if var.shape[0] > 1 else np.nan, white**2)
-    passthrough = bool(gain > config.nlos.passthrough_gain)
+    # q M / 3. The test of eq. (9) allows for it (local.py), or DI drift reads as NLOS
+    # (measured on TIERS: q M gave DI recall 0.03, nothing gave 24 % false alarms on
+    # tb6-tb7, q M / 3 3.8 % at most with recall 0.86-0.90 on tb1-tb3 / tb1-tb7). The
+    # one-shot RN estimate uses no window.
+    fraction = local.ranges_only_fraction
     cal = PairCalibration(
         declared,
-        white,
-        max(detect, white),
-        noise.growth_m2ps,
+        float(np.median(local.white_m)),
+        float(np.median(local.detect_m)),
+        float(np.median(local.growth_m2ps)),
         "data",
-        gain=gain,
-        passthrough=passthrough,
+        gain=float(np.nanmedian(local.gain)) if np.isfinite(local.gain).any() else np.nan,
+        passthrough=fraction >= 1.0,
+        ranges_only_fraction=fraction,
+        local=local,
     )
-    tuned = replace(params, sigma_m=white, detect_sigma_m=cal.detect_sigma_m)
-    if passthrough:
-        # the prediction is too poor to tell NLOS from its own error either (real tuc:
-        # RN held a 0.55 m "event" for 13 s of line of sight on robot-u109 where the
-        # relative velocity of a turning robot's poor odometry missed a 0.5 m range change)
-        tuned = replace(tuned, gamma_sigma=1e9, suspect_epochs=0)
-    return tuned, var, cal
+    tuned = replace(params, sigma_m=cal.white_sigma_m, detect_sigma_m=cal.detect_sigma_m)
+    return tuned, local.di_m, local.di_var_m2, local.noise, cal
 
 
 def _di_method(
@@ -198,19 +197,23 @@ def _di_method(
             last = np.maximum.accumulate(np.where(mask, 0, np.arange(mask.shape[0])))
             base = [cp[last] + nav - nav[last] for cp, nav in zip(p.cp_m, p.nav_m, strict=True)]
             di_dr = anchored_increments(base[0], base[1], p.nav_m[0], p.nav_m[1])
-    smoothed = smooth_di(p.time_s, di_dr, di_cp, p.var_m2, config.di)
+    smoothed = smooth_di(
+        p.time_s, di_dr, di_cp, p.var_m2, config.di, config.nlos.calibration_window_s
+    )
     # R_I of eq. (8): the smoothed-DI variance, at least the configured DI error floor
     floor = di_variance(p.time_s, config.distance.di_sigma_floor_mps, 0.0, config.di.drift_scaling)
     r_i = np.fmax(smoothed.var_m2, floor)
-    params, r_i, cal = _calibrated(p, smoothed.di_m, r_i, p.params, config)
+    params, di_used, r_i, noise, cal = _calibrated(p, smoothed.di_m, r_i, p.params, config)
     if config.nlos.two_way:
-        out, _ = filter_distance_two_way(p.time_s, p.kept_m, smoothed.di_m, r_i, params)
+        out, _ = filter_distance_two_way(p.time_s, p.kept_m, di_used, r_i, params, noise)
     else:
-        out = filter_distance(p.time_s, p.kept_m, smoothed.di_m, r_i, params)
-    if cal.passthrough:
-        # the DI would smooth the white noise by less than 1 - gain of its variance, and
-        # any error of its model would cost more: the ranges pass through
-        out = replace(out, distance_m=compensated(p.kept_m, out))
+        out = filter_distance(p.time_s, p.kept_m, di_used, r_i, params, noise)
+    if noise is not None and noise.ranges_only.any():
+        # in ranges-only windows the DI would smooth the white noise by less than 1 - gain
+        # of its variance, and any error of its model would cost more: the ranges pass
+        # through, less the NLOS the ranges-only detection found
+        own = noise.ranges_only.astype(bool)
+        out = replace(out, distance_m=np.where(own, compensated(p.kept_m, out), out.distance_m))
     return smoothed, di_dr, out, cal
 
 
@@ -333,9 +336,9 @@ def _rn_method(
     rn_params = replace(
         p.params, one_shot=True, backdate_s=0.0, confirm_fraction=0.0, suspect_epochs=0
     )
-    rn_params, rn_var, rn_cal = _calibrated(p, p.rn_m, p.var_m2, rn_params, config)
+    rn_params, rn_inc, rn_var, noise, rn_cal = _calibrated(p, p.rn_m, p.var_m2, rn_params, config)
     if config.nlos.two_way:
-        rn_out, _ = filter_distance_two_way(p.time_s, p.kept_m, p.rn_m, rn_var, rn_params)
+        rn_out, _ = filter_distance_two_way(p.time_s, p.kept_m, rn_inc, rn_var, rn_params, noise)
     else:
-        rn_out = filter_distance(p.time_s, p.kept_m, p.rn_m, rn_var, rn_params)
+        rn_out = filter_distance(p.time_s, p.kept_m, rn_inc, rn_var, rn_params, noise)
     return rn_out, rn_cal

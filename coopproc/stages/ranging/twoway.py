@@ -25,7 +25,12 @@ from __future__ import annotations
 import numpy as np
 
 from coopproc.model import FloatArray
-from coopproc.stages.ranging.nlos import DistanceFilterOutput, KernelParams, filter_distance
+from coopproc.stages.ranging.nlos import (
+    DistanceFilterOutput,
+    EpochNoise,
+    KernelParams,
+    filter_distance,
+)
 
 __all__ = ["filter_distance_two_way", "reverse_increments"]
 
@@ -54,15 +59,17 @@ def filter_distance_two_way(
     di_m: FloatArray,
     di_var_m2: FloatArray,
     params: KernelParams,
+    noise: EpochNoise | None = None,
 ) -> tuple[DistanceFilterOutput, DistanceFilterOutput]:
     """(combined, forward) outputs of the distance filter (see the module docstring)."""
-    fwd = filter_distance(time_s, range_m, di_m, di_var_m2, params)
+    fwd = filter_distance(time_s, range_m, di_m, di_var_m2, params, noise)
     rev = filter_distance(
         -time_s[::-1],
         range_m[::-1],
         reverse_increments(di_m, negate=True),
         reverse_increments(di_var_m2, negate=False),
         params,
+        None if noise is None else noise.reversed(),
     )
     bwd_d = rev.distance_m[::-1]
     bwd_flag = rev.nlos_flag[::-1].astype(bool)
