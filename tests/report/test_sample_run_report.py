@@ -58,7 +58,7 @@ def test_every_event_with_estimates_is_a_series(sample_run: Path) -> None:
     expected = _expected_events(run)
     methods = {m for _, m, _ in expected}
     assert methods == {"di", "rn"}
-    assert len(expected) == 9  # 4 DI, 5 RN (A-B's third RN event has no estimation step)
+    assert len(expected) == 8  # 4 DI, 4 RN
     with mpl.rc_context(RC):
         figs = [p.draw() for p in figure_pages(run) if p.name == "nlos_convergence"]
     drawn = []
