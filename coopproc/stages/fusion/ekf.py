@@ -273,7 +273,7 @@ def ekf_forward(
                     window_push(ring, ring_sorted, ring_state, abs(v[j]) / np.sqrt(d[j]))
         epoch_update(
             x, c, lo, m, h_idx, h_val, h_cnt, v, gamma, r_var, x_prior, ph,
-            np.bool_(False), unused, unused_v, unused_v,
+            bool(np.bool_(False)), unused, unused_v, unused_v,
         )  # fmt: skip
         for r in range(rec_ptr[k], rec_ptr[k + 1]):
             p = rec_plat[r]

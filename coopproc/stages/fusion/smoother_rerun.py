@@ -190,7 +190,7 @@ def rerun_block(
         at = lo - base
         epoch_update(
             x, c, lo, m, h_idx, h_val, h_cnt, v, gamma, r_var, x_prior, ph,
-            np.bool_(True), b_gain[at : at + m], b_y[at : at + m], b_s[at : at + m],
+            bool(np.bool_(True)), b_gain[at : at + m], b_y[at : at + m], b_s[at : at + m],
         )  # fmt: skip
         for j in range(m):
             b_cnt[at + j] = h_cnt[j]
