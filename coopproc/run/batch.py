@@ -13,18 +13,37 @@ one-line error and does not stop the others.
 
 ``ROOT/batch.json`` and the stacked tables always describe every session under ROOT, not
 just this call's (coopproc.run.batch_root.merge_listing).
+
+Ctrl-C (issue 32): SIGINT is caught while the cluster runs (the handler only notes it;
+the wait for the next finished session looks at it every :data:`POLL_S`), so Dask never
+sees a KeyboardInterrupt in its event loop and prints none of its tracebacks; the
+cluster is closed with Dask's log lines silenced (as after every batch: a local
+cluster's workers log nothing below ERROR, and their "task cancelled" and the nanny's
+"still alive after 4 s, killing" on a close are not the user's concern), the sessions
+finished so far (a session whose worker finished it during the close included) are
+listed in batch.json as usual, the temporary directories of the unfinished ones are
+removed (each session's output appears whole or not at all:
+:func:`coopproc.io.outdir.atomic_output_dir`), ROOT too when this call made it and
+nothing finished, and :class:`BatchInterrupted` is raised with the outcomes so far (the
+CLI prints one line).
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import datetime as dt
+import logging
+import shutil
+import signal
 import socket
+import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from coopproc.errors import CoopprocError
 from coopproc.run.batch_plan import (
@@ -38,11 +57,32 @@ from coopproc.run.batch_plan import (
 from coopproc.run.batch_root import BatchEntry, merge_listing, read_listing, run_json, write_listing
 from coopproc.run.config import RunConfig
 
-__all__ = ["BatchEntry", "BatchResult", "SessionOutcome", "check_scheduler", "run_batch", "run_one"]
+__all__ = [
+    "BatchEntry",
+    "BatchInterrupted",
+    "BatchResult",
+    "SessionOutcome",
+    "check_scheduler",
+    "run_batch",
+    "run_one",
+]
 
 #: Seconds to wait for the scheduler's port (connect), then for its handshake.
 CONNECT_TIMEOUT_S = 5.0
 HANDSHAKE_TIMEOUT_S = 10.0
+
+#: Seconds between two looks for finished sessions or a Ctrl-C (a Ctrl-C is acted on
+#: within this; the wait costs nothing measurable).
+POLL_S = 0.2
+
+
+class BatchInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a batch, after the cleanup: this call's outcomes so far."""
+
+    def __init__(self, outcomes: Sequence[SessionOutcome], out_root: Path) -> None:
+        super().__init__("interrupted")
+        self.outcomes = tuple(outcomes)
+        self.out_root = out_root
 
 
 @dataclass(frozen=True)
@@ -146,6 +186,7 @@ def run_batch(
     names = out_names(paths, out_root)
     if scheduler is not None:
         check_scheduler(scheduler)
+    made_root = not out_root.exists()
     make_root(out_root)
     earlier = read_listing(out_root / "batch.json")
     plans = plan_sessions(paths, names, out_root, config, earlier, force=force, resume=resume)
@@ -158,8 +199,27 @@ def run_batch(
         for s, n in zip(paths, names, strict=True)
         if n not in outcomes
     ]
-    for outcome in _compute(todo, config, formats, scheduler, workers, processes, on_done):
+    interrupted = False
+    try:
+        computed = _compute(todo, config, formats, scheduler, workers, processes, on_done)
+    except _Interrupted as stop:
+        computed, interrupted = stop.outcomes, True
+    for outcome in computed:
         outcomes[Path(outcome.out_dir).name] = outcome
+    if interrupted:
+        for session, name in zip(paths, names, strict=True):
+            if name not in outcomes and _written_since(out_root / name, started):
+                outcomes[name] = SessionOutcome(str(session), str(out_root / name), ok=True)
+        _clean_after_interrupt(out_root, [n for n in names if n not in outcomes], made_root)
+        finished = [outcomes[n] for n in names if n in outcomes]
+        if any(not o.skipped for o in finished):  # listed as usual: --resume keeps them
+            done = {
+                n: _entry(s, n, outcomes[n], out_root, started)
+                for s, n in zip(paths, names, strict=True)
+                if n in outcomes
+            }
+            write_listing(out_root, merge_listing(out_root, done, earlier))
+        raise BatchInterrupted(finished, out_root)
     this_call = {
         n: _entry(s, n, outcomes[n], out_root, started) for s, n in zip(paths, names, strict=True)
     }
@@ -168,6 +228,80 @@ def run_batch(
     return BatchResult(
         tuple(outcomes[n] for n in names), tuple(entries), metrics_csv, positions_csv
     )
+
+
+class _Interrupted(Exception):
+    """Ctrl-C seen by :func:`_compute` (the cluster closed): the outcomes before it."""
+
+    def __init__(self, outcomes: list[SessionOutcome]) -> None:
+        super().__init__("interrupted")
+        self.outcomes = outcomes
+
+
+class _SigintFlag:
+    """A SIGINT handler that only notes the signal (installed from the main thread)."""
+
+    def __init__(self) -> None:
+        self.hit = False
+        self._previous: object = None
+        self._installed = False
+
+    def __call__(self, signum: int, frame: object) -> None:
+        self.hit = True
+
+    def __enter__(self) -> _SigintFlag:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self)
+            self._installed = True
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._installed:
+            signal.signal(signal.SIGINT, self._previous)  # type: ignore[arg-type]
+
+    @contextlib.contextmanager
+    def ignored(self) -> Iterator[None]:
+        """SIGINT ignored for the block (the local cluster's start).
+
+        Processes spawned meanwhile inherit the ignored disposition (a caught one is
+        reset by exec, and a blocked mask too, measured): the cluster's worker processes
+        so never see a Ctrl-C, each of which would print a KeyboardInterrupt traceback of
+        its own. A Ctrl-C during those few seconds is lost; from the first session on it
+        is acted on.
+        """
+        if not self._installed:
+            yield
+            return
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            yield
+        finally:
+            signal.signal(signal.SIGINT, self)
+
+
+def _quiet_workers() -> object:
+    """A Dask worker plugin: the local cluster's workers log nothing below ERROR."""
+    from distributed import WorkerPlugin
+
+    class QuietWorkers(WorkerPlugin):
+        name = "coopproc-quiet-workers"
+
+        def setup(self, worker: object) -> None:
+            logging.getLogger("distributed").setLevel(logging.ERROR)
+
+    return QuietWorkers()
+
+
+@contextlib.contextmanager
+def _dask_silenced() -> Iterator[None]:
+    """This process's Dask loggers at CRITICAL for the block (the cluster's close)."""
+    logger = logging.getLogger("distributed")
+    level = logger.level
+    logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
 
 
 def _compute(
@@ -179,36 +313,48 @@ def _compute(
     processes: bool,
     on_done: Callable[[SessionOutcome], None] | None,
 ) -> list[SessionOutcome]:
-    """Run ``(session, out_dir, force)`` tasks on Dask; their outcomes as they complete."""
+    """Run ``(session, out_dir, force)`` tasks on Dask; their outcomes as they complete.
+
+    Raises :class:`_Interrupted` (the cluster closed) after a Ctrl-C.
+    """
     if not todo:
         return []
     from dask.distributed import Client, LocalCluster, as_completed
 
-    cluster = None
-    if scheduler is None:
-        cluster = LocalCluster(
-            n_workers=min(workers, len(todo)),
-            threads_per_worker=1,
-            processes=processes,
-            dashboard_address=None,
-        )
-    try:
+    outcomes: list[SessionOutcome] = []
+    with _SigintFlag() as sigint:
+        cluster = None
+        client = None
         try:
-            client = Client(
-                cluster if cluster is not None else scheduler, timeout=HANDSHAKE_TIMEOUT_S
-            )
-        except (OSError, TimeoutError) as err:
-            raise CoopprocError(
-                f"scheduler {scheduler}: no Dask scheduler answered within "
-                f"{HANDSHAKE_TIMEOUT_S:g} s ({err})"
-            ) from err
-        outcomes = []
-        with client:
+            with sigint.ignored():
+                if scheduler is None:
+                    cluster = LocalCluster(
+                        n_workers=min(workers, len(todo)),
+                        threads_per_worker=1,
+                        processes=processes,
+                        dashboard_address=None,
+                    )
+                try:
+                    client = Client(
+                        cluster if cluster is not None else scheduler,
+                        timeout=HANDSHAKE_TIMEOUT_S,
+                    )
+                except (OSError, TimeoutError) as err:
+                    raise CoopprocError(
+                        f"scheduler {scheduler}: no Dask scheduler answered within "
+                        f"{HANDSHAKE_TIMEOUT_S:g} s ({err})"
+                    ) from err
+            if cluster is not None and processes:
+                client.register_plugin(_quiet_workers())  # type: ignore[arg-type]
             futures = {
                 client.submit(run_one, s, o, config, f, formats, pure=False): (s, o)
                 for s, o, f in todo
             }
-            for future in as_completed(futures):
+            pending = as_completed(futures)
+            seen: set[object] = set()
+
+            def report(future: Any) -> None:
+                seen.add(future)
                 try:
                     outcome = future.result()
                 except Exception as err:  # a worker died or the task raised
@@ -217,10 +363,52 @@ def _compute(
                 outcomes.append(outcome)
                 if on_done is not None:
                     on_done(outcome)
-    finally:
-        if cluster is not None:
-            cluster.close()
+
+            while not sigint.hit and not pending.is_empty():
+                if not pending.has_ready():
+                    time.sleep(POLL_S)
+                    continue
+                for future in pending.next_batch(block=False):
+                    report(future)
+            if sigint.hit:  # the sessions that finished meanwhile are reported too
+                for future in futures:
+                    if future not in seen and future.status == "finished":
+                        report(future)
+                with _dask_silenced():
+                    client.cancel([f for f in futures if f not in seen], force=True)
+        finally:  # Dask's "still alive after 4 s, killing" on a loaded machine: not news
+            with _dask_silenced():
+                if client is not None:
+                    client.close()
+                if cluster is not None:
+                    cluster.close()
+        if sigint.hit:
+            raise _Interrupted(outcomes)
     return outcomes
+
+
+def _written_since(out_dir: Path, started: str) -> bool:
+    """``out_dir`` holds a run that started at ``started`` or later (one this call's
+    worker finished while the cluster closed)."""
+    info = run_json(out_dir)
+    when = info.get("start_time") if info is not None else None
+    try:
+        return isinstance(when, str) and dt.datetime.fromisoformat(
+            when
+        ) >= dt.datetime.fromisoformat(started)
+    except ValueError:
+        return False
+
+
+def _clean_after_interrupt(out_root: Path, unfinished: Sequence[str], made_root: bool) -> None:
+    """Remove what the unfinished sessions' killed workers left (their temporary output
+    directories, ``.<name>.*.tmp``) and ROOT when this call made it and it is empty."""
+    for name in unfinished:
+        for tmp in out_root.glob(f".{name}.*.tmp"):
+            shutil.rmtree(tmp, ignore_errors=True)
+    if made_root:
+        with contextlib.suppress(OSError):  # not empty: something finished, or another's
+            out_root.rmdir()
 
 
 def _entry(
