@@ -14,38 +14,31 @@ one-line error and does not stop the others.
 ``ROOT/batch.json`` and the stacked tables always describe every session under ROOT, not
 just this call's (coopproc.run.batch_root.merge_listing).
 
-Ctrl-C (issue 32): SIGINT is caught while the cluster runs (the handler only notes it;
-the wait for the next finished session looks at it every :data:`POLL_S`), so Dask never
-sees a KeyboardInterrupt in its event loop and prints none of its tracebacks; the
-cluster is closed with Dask's log lines silenced (as after every batch: a local
-cluster's workers log nothing below ERROR, and their "task cancelled" and the nanny's
-"still alive after 4 s, killing" on a close are not the user's concern), the sessions
-finished so far (a session whose worker finished it during the close included) are
-listed in batch.json as usual, the temporary directories of the unfinished ones are
-removed (each session's output appears whole or not at all:
-:func:`coopproc.io.outdir.atomic_output_dir`), ROOT too when this call made it and
-nothing finished, and :class:`BatchInterrupted` is raised with the outcomes so far (the
-CLI prints one line).
+Ctrl-C (issue 32, :mod:`coopproc.run.batch_interrupt`): one line; the sessions finished
+so far are listed in batch.json as usual, nothing half-made is left, and
+:class:`BatchInterrupted` is raised with the outcomes so far (the CLI prints the line).
 """
 
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import datetime as dt
-import logging
-import shutil
-import signal
 import socket
-import threading
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from coopproc.errors import CoopprocError
+from coopproc.run.batch_interrupt import (
+    SigintFlag,
+    clean_after_interrupt,
+    dask_silenced,
+    quiet_workers,
+    written_since,
+)
 from coopproc.run.batch_plan import (
     SessionOutcome,
     failed_outcome,
@@ -208,9 +201,9 @@ def run_batch(
         outcomes[Path(outcome.out_dir).name] = outcome
     if interrupted:
         for session, name in zip(paths, names, strict=True):
-            if name not in outcomes and _written_since(out_root / name, started):
+            if name not in outcomes and written_since(out_root / name, started):
                 outcomes[name] = SessionOutcome(str(session), str(out_root / name), ok=True)
-        _clean_after_interrupt(out_root, [n for n in names if n not in outcomes], made_root)
+        clean_after_interrupt(out_root, [n for n in names if n not in outcomes], made_root)
         finished = [outcomes[n] for n in names if n in outcomes]
         if any(not o.skipped for o in finished):  # listed as usual: --resume keeps them
             done = {
@@ -238,72 +231,6 @@ class _Interrupted(Exception):
         self.outcomes = outcomes
 
 
-class _SigintFlag:
-    """A SIGINT handler that only notes the signal (installed from the main thread)."""
-
-    def __init__(self) -> None:
-        self.hit = False
-        self._previous: object = None
-        self._installed = False
-
-    def __call__(self, signum: int, frame: object) -> None:
-        self.hit = True
-
-    def __enter__(self) -> _SigintFlag:
-        if threading.current_thread() is threading.main_thread():
-            self._previous = signal.signal(signal.SIGINT, self)
-            self._installed = True
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        if self._installed:
-            signal.signal(signal.SIGINT, self._previous)  # type: ignore[arg-type]
-
-    @contextlib.contextmanager
-    def ignored(self) -> Iterator[None]:
-        """SIGINT ignored for the block (the local cluster's start).
-
-        Processes spawned meanwhile inherit the ignored disposition (a caught one is
-        reset by exec, and a blocked mask too, measured): the cluster's worker processes
-        so never see a Ctrl-C, each of which would print a KeyboardInterrupt traceback of
-        its own. A Ctrl-C during those few seconds is lost; from the first session on it
-        is acted on.
-        """
-        if not self._installed:
-            yield
-            return
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        try:
-            yield
-        finally:
-            signal.signal(signal.SIGINT, self)
-
-
-def _quiet_workers() -> object:
-    """A Dask worker plugin: the local cluster's workers log nothing below ERROR."""
-    from distributed import WorkerPlugin
-
-    class QuietWorkers(WorkerPlugin):
-        name = "coopproc-quiet-workers"
-
-        def setup(self, worker: object) -> None:
-            logging.getLogger("distributed").setLevel(logging.ERROR)
-
-    return QuietWorkers()
-
-
-@contextlib.contextmanager
-def _dask_silenced() -> Iterator[None]:
-    """This process's Dask loggers at CRITICAL for the block (the cluster's close)."""
-    logger = logging.getLogger("distributed")
-    level = logger.level
-    logger.setLevel(logging.CRITICAL)
-    try:
-        yield
-    finally:
-        logger.setLevel(level)
-
-
 def _compute(
     todo: Sequence[tuple[str, str, bool]],
     config: RunConfig,
@@ -322,7 +249,7 @@ def _compute(
     from dask.distributed import Client, LocalCluster, as_completed
 
     outcomes: list[SessionOutcome] = []
-    with _SigintFlag() as sigint:
+    with SigintFlag() as sigint:
         cluster = None
         client = None
         try:
@@ -345,7 +272,7 @@ def _compute(
                         f"{HANDSHAKE_TIMEOUT_S:g} s ({err})"
                     ) from err
             if cluster is not None and processes:
-                client.register_plugin(_quiet_workers())  # type: ignore[arg-type]
+                client.register_plugin(quiet_workers())  # type: ignore[arg-type]
             futures = {
                 client.submit(run_one, s, o, config, f, formats, pure=False): (s, o)
                 for s, o, f in todo
@@ -374,10 +301,10 @@ def _compute(
                 for future in futures:
                     if future not in seen and future.status == "finished":
                         report(future)
-                with _dask_silenced():
+                with dask_silenced():
                     client.cancel([f for f in futures if f not in seen], force=True)
         finally:  # Dask's "still alive after 4 s, killing" on a loaded machine: not news
-            with _dask_silenced():
+            with dask_silenced():
                 if client is not None:
                     client.close()
                 if cluster is not None:
@@ -385,30 +312,6 @@ def _compute(
         if sigint.hit:
             raise _Interrupted(outcomes)
     return outcomes
-
-
-def _written_since(out_dir: Path, started: str) -> bool:
-    """``out_dir`` holds a run that started at ``started`` or later (one this call's
-    worker finished while the cluster closed)."""
-    info = run_json(out_dir)
-    when = info.get("start_time") if info is not None else None
-    try:
-        return isinstance(when, str) and dt.datetime.fromisoformat(
-            when
-        ) >= dt.datetime.fromisoformat(started)
-    except ValueError:
-        return False
-
-
-def _clean_after_interrupt(out_root: Path, unfinished: Sequence[str], made_root: bool) -> None:
-    """Remove what the unfinished sessions' killed workers left (their temporary output
-    directories, ``.<name>.*.tmp``) and ROOT when this call made it and it is empty."""
-    for name in unfinished:
-        for tmp in out_root.glob(f".{name}.*.tmp"):
-            shutil.rmtree(tmp, ignore_errors=True)
-    if made_root:
-        with contextlib.suppress(OSError):  # not empty: something finished, or another's
-            out_root.rmdir()
 
 
 def _entry(

@@ -14,7 +14,7 @@ import pytest
 from click.testing import CliRunner
 
 from coopproc.cli import main
-from coopproc.run.batch import _clean_after_interrupt
+from coopproc.run.batch_interrupt import clean_after_interrupt
 
 
 @pytest.fixture(scope="module")
@@ -69,13 +69,13 @@ def test_the_cleanup_removes_temporary_outputs_and_an_empty_root_it_made(tmp_pat
     root = tmp_path / "root"
     (root / ".s1.abc123.tmp" / "figures").mkdir(parents=True)
     (root / ".s1.abc123.tmp" / "ranges.csv").write_text("half\n")
-    _clean_after_interrupt(root, ["s1"], made_root=True)
+    clean_after_interrupt(root, ["s1"], made_root=True)
     assert not root.exists()
     (root / ".s2.x.tmp").mkdir(parents=True)
     (root / "other").mkdir()
-    _clean_after_interrupt(root, ["s2"], made_root=True)  # not empty: kept
+    clean_after_interrupt(root, ["s2"], made_root=True)  # not empty: kept
     assert sorted(p.name for p in root.iterdir()) == ["other"]
-    _clean_after_interrupt(root, [], made_root=False)
+    clean_after_interrupt(root, [], made_root=False)
     assert root.is_dir()
 
 
