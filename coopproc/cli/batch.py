@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -11,7 +12,7 @@ import click
 from coopproc.cli.options import config_option, output_option
 
 if TYPE_CHECKING:
-    from coopproc.run.batch import BatchResult
+    from coopproc.run.batch import BatchInterrupted, BatchResult
 
 __all__ = ["batch"]
 
@@ -74,7 +75,7 @@ def batch(
 
     from tqdm import tqdm
 
-    from coopproc.run.batch import SessionOutcome, run_batch
+    from coopproc.run.batch import BatchInterrupted, SessionOutcome, run_batch
     from coopproc.run.config import load_run_config
 
     config = load_run_config(config_path)
@@ -85,28 +86,55 @@ def batch(
 
         require_pyarrow()
     show_bar = not quiet and sys.stderr.isatty()
+    started = time.perf_counter()
+    finished = 0
     with tqdm(total=len(sessions), disable=not show_bar, unit="session") as bar:
 
         def done(outcome: SessionOutcome) -> None:
+            """One line per session as it finishes (its outcome), under the bar."""
+            nonlocal finished
+            finished += 1
             bar.update(1)
             if not outcome.ok:  # printed here only: once per failed session
                 tqdm.write(f"error: {outcome.error}", file=sys.stderr)
+            elif not quiet:
+                what = "skipped (complete and current)" if outcome.skipped else "done"
+                tqdm.write(
+                    f"batch: {Path(outcome.out_dir).name} {what} ({finished} of "
+                    f"{len(sessions)}, {time.perf_counter() - started:.0f} s)",
+                    file=sys.stderr,
+                )
 
-        result = run_batch(
-            list(sessions),
-            out_root,
-            config,
-            scheduler=scheduler,
-            workers=workers,
-            processes=not threads,
-            force=force,
-            resume=resume,
-            on_done=done,
-        )
+        try:
+            result = run_batch(
+                list(sessions),
+                out_root,
+                config,
+                scheduler=scheduler,
+                workers=workers,
+                processes=not threads,
+                force=force,
+                resume=resume,
+                on_done=done,
+            )
+        except BatchInterrupted as stop:
+            bar.close()
+            click.echo(_interrupted_line(stop, len(sessions)), err=True)
+            sys.exit(130)
     if not quiet:
         _summary(result, out_root)
     if result.failed:
         sys.exit(1)
+
+
+def _interrupted_line(stop: BatchInterrupted, n_sessions: int) -> str:
+    """The one line of a Ctrl-C: what finished, and that nothing else was left."""
+    ok = [Path(o.out_dir).name for o in stop.outcomes if o.ok]
+    kept = f" ({', '.join(ok[:5])}{', ...' if len(ok) > 5 else ''})" if ok else ""
+    return (
+        f"interrupted: {len(ok)} of {n_sessions} sessions processed into {stop.out_root}/{kept}; "
+        "the unfinished ones left nothing (--resume goes on from here)"
+    )
 
 
 def _summary(result: BatchResult, out_root: Path) -> None:

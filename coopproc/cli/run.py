@@ -106,6 +106,7 @@ def run(
     matplotlib.use("Agg")
     from coopproc.checks.coverage import prepare_run
     from coopproc.io import read_session
+    from coopproc.jit_cache import compile_note
     from coopproc.run.calibration_summary import calibration_lines
     from coopproc.run.chain import resolve
     from coopproc.run.concurrent_steps import group_steps, workers
@@ -163,6 +164,9 @@ def run(
         phases.set_total(total - len(steps) + len(group_steps(steps, together)))
         for text in data.notes:
             note(f"note: {text}")
+        compiling = None if quiet else compile_note()  # the first run's minute, said
+        if compiling is not None:
+            note(compiling)
 
         def let_go_of_samples() -> None:  # the pipeline's metrics have read them
             nonlocal data

@@ -13,6 +13,10 @@ one-line error and does not stop the others.
 
 ``ROOT/batch.json`` and the stacked tables always describe every session under ROOT, not
 just this call's (coopproc.run.batch_root.merge_listing).
+
+Ctrl-C (issue 32, :mod:`coopproc.run.batch_interrupt`): one line; the sessions finished
+so far are listed in batch.json as usual, nothing half-made is left, and
+:class:`BatchInterrupted` is raised with the outcomes so far (the CLI prints the line).
 """
 
 from __future__ import annotations
@@ -25,8 +29,16 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from coopproc.errors import CoopprocError
+from coopproc.run.batch_interrupt import (
+    SigintFlag,
+    clean_after_interrupt,
+    dask_silenced,
+    quiet_workers,
+    written_since,
+)
 from coopproc.run.batch_plan import (
     SessionOutcome,
     failed_outcome,
@@ -38,11 +50,32 @@ from coopproc.run.batch_plan import (
 from coopproc.run.batch_root import BatchEntry, merge_listing, read_listing, run_json, write_listing
 from coopproc.run.config import RunConfig
 
-__all__ = ["BatchEntry", "BatchResult", "SessionOutcome", "check_scheduler", "run_batch", "run_one"]
+__all__ = [
+    "BatchEntry",
+    "BatchInterrupted",
+    "BatchResult",
+    "SessionOutcome",
+    "check_scheduler",
+    "run_batch",
+    "run_one",
+]
 
 #: Seconds to wait for the scheduler's port (connect), then for its handshake.
 CONNECT_TIMEOUT_S = 5.0
 HANDSHAKE_TIMEOUT_S = 10.0
+
+#: Seconds between two looks for finished sessions or a Ctrl-C (a Ctrl-C is acted on
+#: within this; the wait costs nothing measurable).
+POLL_S = 0.2
+
+
+class BatchInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a batch, after the cleanup: this call's outcomes so far."""
+
+    def __init__(self, outcomes: Sequence[SessionOutcome], out_root: Path) -> None:
+        super().__init__("interrupted")
+        self.outcomes = tuple(outcomes)
+        self.out_root = out_root
 
 
 @dataclass(frozen=True)
@@ -146,6 +179,7 @@ def run_batch(
     names = out_names(paths, out_root)
     if scheduler is not None:
         check_scheduler(scheduler)
+    made_root = not out_root.exists()
     make_root(out_root)
     earlier = read_listing(out_root / "batch.json")
     plans = plan_sessions(paths, names, out_root, config, earlier, force=force, resume=resume)
@@ -158,8 +192,27 @@ def run_batch(
         for s, n in zip(paths, names, strict=True)
         if n not in outcomes
     ]
-    for outcome in _compute(todo, config, formats, scheduler, workers, processes, on_done):
+    interrupted = False
+    try:
+        computed = _compute(todo, config, formats, scheduler, workers, processes, on_done)
+    except _Interrupted as stop:
+        computed, interrupted = stop.outcomes, True
+    for outcome in computed:
         outcomes[Path(outcome.out_dir).name] = outcome
+    if interrupted:
+        for session, name in zip(paths, names, strict=True):
+            if name not in outcomes and written_since(out_root / name, started):
+                outcomes[name] = SessionOutcome(str(session), str(out_root / name), ok=True)
+        clean_after_interrupt(out_root, [n for n in names if n not in outcomes], made_root)
+        finished = [outcomes[n] for n in names if n in outcomes]
+        if any(not o.skipped for o in finished):  # listed as usual: --resume keeps them
+            done = {
+                n: _entry(s, n, outcomes[n], out_root, started)
+                for s, n in zip(paths, names, strict=True)
+                if n in outcomes
+            }
+            write_listing(out_root, merge_listing(out_root, done, earlier))
+        raise BatchInterrupted(finished, out_root)
     this_call = {
         n: _entry(s, n, outcomes[n], out_root, started) for s, n in zip(paths, names, strict=True)
     }
@@ -168,6 +221,14 @@ def run_batch(
     return BatchResult(
         tuple(outcomes[n] for n in names), tuple(entries), metrics_csv, positions_csv
     )
+
+
+class _Interrupted(Exception):
+    """Ctrl-C seen by :func:`_compute` (the cluster closed): the outcomes before it."""
+
+    def __init__(self, outcomes: list[SessionOutcome]) -> None:
+        super().__init__("interrupted")
+        self.outcomes = outcomes
 
 
 def _compute(
@@ -179,36 +240,48 @@ def _compute(
     processes: bool,
     on_done: Callable[[SessionOutcome], None] | None,
 ) -> list[SessionOutcome]:
-    """Run ``(session, out_dir, force)`` tasks on Dask; their outcomes as they complete."""
+    """Run ``(session, out_dir, force)`` tasks on Dask; their outcomes as they complete.
+
+    Raises :class:`_Interrupted` (the cluster closed) after a Ctrl-C.
+    """
     if not todo:
         return []
     from dask.distributed import Client, LocalCluster, as_completed
 
-    cluster = None
-    if scheduler is None:
-        cluster = LocalCluster(
-            n_workers=min(workers, len(todo)),
-            threads_per_worker=1,
-            processes=processes,
-            dashboard_address=None,
-        )
-    try:
+    outcomes: list[SessionOutcome] = []
+    with SigintFlag() as sigint:
+        cluster = None
+        client = None
         try:
-            client = Client(
-                cluster if cluster is not None else scheduler, timeout=HANDSHAKE_TIMEOUT_S
-            )
-        except (OSError, TimeoutError) as err:
-            raise CoopprocError(
-                f"scheduler {scheduler}: no Dask scheduler answered within "
-                f"{HANDSHAKE_TIMEOUT_S:g} s ({err})"
-            ) from err
-        outcomes = []
-        with client:
+            with sigint.ignored():
+                if scheduler is None:
+                    cluster = LocalCluster(
+                        n_workers=min(workers, len(todo)),
+                        threads_per_worker=1,
+                        processes=processes,
+                        dashboard_address=None,
+                    )
+                try:
+                    client = Client(
+                        cluster if cluster is not None else scheduler,
+                        timeout=HANDSHAKE_TIMEOUT_S,
+                    )
+                except (OSError, TimeoutError) as err:
+                    raise CoopprocError(
+                        f"scheduler {scheduler}: no Dask scheduler answered within "
+                        f"{HANDSHAKE_TIMEOUT_S:g} s ({err})"
+                    ) from err
+            if cluster is not None and processes:
+                client.register_plugin(quiet_workers())  # type: ignore[arg-type]
             futures = {
                 client.submit(run_one, s, o, config, f, formats, pure=False): (s, o)
                 for s, o, f in todo
             }
-            for future in as_completed(futures):
+            pending = as_completed(futures)
+            seen: set[object] = set()
+
+            def report(future: Any) -> None:
+                seen.add(future)
                 try:
                     outcome = future.result()
                 except Exception as err:  # a worker died or the task raised
@@ -217,9 +290,27 @@ def _compute(
                 outcomes.append(outcome)
                 if on_done is not None:
                     on_done(outcome)
-    finally:
-        if cluster is not None:
-            cluster.close()
+
+            while not sigint.hit and not pending.is_empty():
+                if not pending.has_ready():
+                    time.sleep(POLL_S)
+                    continue
+                for future in pending.next_batch(block=False):
+                    report(future)
+            if sigint.hit:  # the sessions that finished meanwhile are reported too
+                for future in futures:
+                    if future not in seen and future.status == "finished":
+                        report(future)
+                with dask_silenced():
+                    client.cancel([f for f in futures if f not in seen], force=True)
+        finally:  # Dask's "still alive after 4 s, killing" on a loaded machine: not news
+            with dask_silenced():
+                if client is not None:
+                    client.close()
+                if cluster is not None:
+                    cluster.close()
+        if sigint.hit:
+            raise _Interrupted(outcomes)
     return outcomes
 
 

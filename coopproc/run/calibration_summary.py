@@ -13,6 +13,7 @@ import math
 from typing import Any
 
 from coopproc.run.pipeline import PipelineOutput
+from coopproc.stages.fusion.calibration_bias import bias_words
 from coopproc.stages.fusion.dr_states import dr_summary
 
 __all__ = ["calibration_facts", "calibration_lines"]
@@ -132,7 +133,7 @@ def calibration_lines(output: PipelineOutput) -> list[str]:
             text = f"fusion sigma {sigma:.3f} m"
             bias = observed.pair_bias_m.get(pair, math.nan)
             if math.isfinite(bias) and abs(bias) >= max(BIAS_FRACTION * sigma, BIAS_MIN_M):
-                text += f", ranges read {bias:+.3f} m long"
+                text += f", ranges read {bias_words(bias)}"
             parts.append(text)
         lines.append(f"  {pair}: " + "; ".join(parts))
     states = dr_summary(output.result.dr_states)

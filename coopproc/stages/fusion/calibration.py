@@ -52,6 +52,7 @@ import pandas as pd
 from coopproc.model import FloatArray, Session
 from coopproc.stages.fusion.calibration_bias import (
     PairCodes,
+    bias_words,
     biased_platform,
     code_groups,
     pair_codes,
@@ -309,7 +310,7 @@ def calibrated_fuse(
             notes.append(
                 f"fusion ({label}): the ranges of {platform} disagree with the rest of the "
                 f"network (its pairs' sigma {factor:.1f} x the others') and read "
-                f"{found[platform]:+.3f} m long on average (body shadowing or an "
+                f"{bias_words(found[platform])} on average (body shadowing or an "
                 "antenna delay): corrected by that in the fusion"
             )
         if platform_factor:

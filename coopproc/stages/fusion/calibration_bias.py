@@ -37,6 +37,7 @@ from coopproc.stages.fusion.fuse import FusionOutput, FusionParams, fuse
 
 __all__ = [
     "PairCodes",
+    "bias_words",
     "biased_platform",
     "code_groups",
     "corrected",
@@ -311,3 +312,9 @@ def corrected(ranges: pd.DataFrame, bias: Mapping[str, float]) -> pd.DataFrame:
     for platform, value in bias.items():
         corrected[platform_rows(ranges, platform)] -= value
     return ranges.assign(range=corrected)
+
+
+def bias_words(bias_m: float) -> str:
+    """A signed range bias in words: ``+0.131`` reads "0.131 m long", ``-0.131`` "0.131 m
+    short" (a positive bias: the ranges exceed the geometry's distances; issue 32)."""
+    return f"{abs(bias_m):.3f} m {'long' if bias_m > 0 else 'short'}"

@@ -41,6 +41,7 @@ import numpy as np
 
 from coopproc.model import FloatArray
 from coopproc.stages.filters import MAD_SCALE, igg3_scalar, mad_sigma_nb
+from coopproc.stages.fusion.copies import copy1, copy2
 from coopproc.stages.fusion.dr_model import DR_STATES, dr_predict
 from coopproc.stages.fusion.ekf_update import (
     OBS_ANCHOR,
@@ -204,7 +205,7 @@ def ekf_forward(
     gamma = np.ones(n_obs)
     given = gamma_in.shape[0] == n_obs and n_obs > 0
     if given:
-        gamma[:] = gamma_in
+        copy1(gamma, gamma_in)
         robust = False
     innov = np.zeros(n_obs)
     innov_var = np.zeros(n_obs)
@@ -232,12 +233,12 @@ def ekf_forward(
         nav_at(nav_t, nav_v, nav_ptr, epochs[0], cursor, nav_prev)
     for k in range(n_epochs):
         if block > 0 and k % block == 0:
-            cp_x[k // block] = x
-            cp_c[k // block] = c
+            copy1(cp_x[k // block], x)
+            copy2(cp_c[k // block], c)
         if k > 0:
             nav_at(nav_t, nav_v, nav_ptr, epochs[k], cursor, nav_now)
             time_update(x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt, dr_idx, dr_q, f_out)
-            nav_prev[:] = nav_now
+            copy2(nav_prev, nav_now)
         lo = obs_ptr[k]
         m = obs_ptr[k + 1] - lo
         epoch_innovations(
@@ -272,7 +273,7 @@ def ekf_forward(
                     window_push(ring, ring_sorted, ring_state, abs(v[j]) / np.sqrt(d[j]))
         epoch_update(
             x, c, lo, m, h_idx, h_val, h_cnt, v, gamma, r_var, x_prior, ph,
-            False, unused, unused_v, unused_v,
+            bool(np.bool_(False)), unused, unused_v, unused_v,
         )  # fmt: skip
         for r in range(rec_ptr[k], rec_ptr[k + 1]):
             p = rec_plat[r]

@@ -137,6 +137,8 @@ def epoch_update(
 
     With ``keep``, scalar update j's gain C h / s (row j of ``gains``), its corrected
     innovation (``y[j]``) and variance s (``s_out[j]``) are kept for the smoother.
+    Callers pass ``keep`` as ``bool(np.bool_(...))``, a run-time bool: a literal ``True`` or
+    ``False`` would compile one specialisation per caller (issue 32, the first run).
     """
     n = x.shape[0]
     for i in range(n):

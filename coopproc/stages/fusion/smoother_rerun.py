@@ -18,6 +18,7 @@ import numba
 import numpy as np
 
 from coopproc.model import FloatArray
+from coopproc.stages.fusion.copies import copy1, copy2
 from coopproc.stages.fusion.ekf import (
     IntArray,
     epoch_buffers,
@@ -179,7 +180,7 @@ def rerun_block(
                 x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt, dr_idx, dr_q,
                 b_f[k - first],
             )  # fmt: skip
-            nav_prev[:] = nav_now
+            copy2(nav_prev, nav_now)
         lo = obs_ptr[k]
         m = obs_ptr[k + 1] - lo
         epoch_innovations(
@@ -189,21 +190,21 @@ def rerun_block(
         at = lo - base
         epoch_update(
             x, c, lo, m, h_idx, h_val, h_cnt, v, gamma, r_var, x_prior, ph,
-            True, b_gain[at : at + m], b_y[at : at + m], b_s[at : at + m],
+            bool(np.bool_(True)), b_gain[at : at + m], b_y[at : at + m], b_s[at : at + m],
         )  # fmt: skip
         for j in range(m):
             b_cnt[at + j] = h_cnt[j]
             for p in range(h_cnt[j]):
                 b_idx[at + j, p] = h_idx[j, p]
                 b_val[at + j, p] = h_val[j, p]
-        bx[k - first] = x
+        copy1(bx[k - first], x)
         if with_var:
-            bc[k - first] = c
+            copy2(bc[k - first], c)
         for r in range(rec_ptr[k], rec_ptr[k + 1]):
             p = rec_plat[r]
             for ax in range(dim):
-                b_rows[(r - rec_base) * dim + ax] = c[p * dim + ax]
+                copy1(b_rows[(r - rec_base) * dim + ax], c[p * dim + ax])
         if dr_next < dr_rec.shape[0] and dr_rec[dr_next] == k:
             for j in range(n_dr):
-                b_dr_rows[(dr_next - dr_base) * n_dr + j] = c[n_pos + j]
+                copy1(b_dr_rows[(dr_next - dr_base) * n_dr + j], c[n_pos + j])
             dr_next += 1

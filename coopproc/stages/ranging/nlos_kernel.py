@@ -136,7 +136,9 @@ def filter_kernel(
     n_suspect = 0
     suspect_sign = 0.0
     quiet_until = -1
-    k = 1
+    # int64, not the literal 1: a literal first type compiles steps_up and range_jump
+    # twice (for Literal[int](1), then for int64) on the first run
+    k = int(np.int64(1))
     while k < n:
         dt = t[k] - t[k - 1]
         # predict, paper 000 eq. (8) with w_D = 0 (a second range at the same time is a

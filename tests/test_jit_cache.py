@@ -1,0 +1,73 @@
+"""The first run says that it compiles (coopproc.jit_cache): cold and warm told apart from
+numba's own cache index, and the kernel list is the one a run calls."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+from numba.core.registry import CPUDispatcher
+
+from coopproc.cli import main
+from coopproc.jit_cache import RUN_KERNELS
+
+SAMPLE = Path(__file__).resolve().parents[1] / "sample_logs"
+
+_COLD_THEN_WARM = """
+import numpy as np
+from coopproc.jit_cache import compile_note
+from coopproc.io.csv_fast import _any_slow
+kernel = [("coopproc.io.csv_fast", "_any_slow", 0.1)]
+print(compile_note(kernel))
+_any_slow(np.zeros(3))
+print(compile_note(kernel))
+"""
+
+
+def test_an_empty_cache_is_said_and_a_compiled_kernel_is_not(tmp_path: Path) -> None:
+    """With an empty NUMBA_CACHE_DIR the kernel is cold (the note); once it has been
+    called its compile is in the cache and nothing is said."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
+    out = subprocess.run(
+        [sys.executable, "-c", _COLD_THEN_WARM], env=env, capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines() == [
+        "compiling the numerical kernels (once after install, a few seconds)",
+        "None",
+    ]
+
+
+def _signatures() -> dict[str, int]:
+    """Compiled specialisations of every coopproc numba kernel in this process."""
+    out = {}
+    for name, module in list(sys.modules.items()):
+        if not name.startswith("coopproc"):
+            continue
+        for attr, value in vars(module).items():
+            if isinstance(value, CPUDispatcher) and value.py_func.__module__ == name:
+                out[f"{name}:{attr}"] = len(value.signatures)
+    return out
+
+
+def test_a_run_calls_no_kernel_outside_the_list(tmp_path: Path) -> None:
+    """Every kernel a run of sample_logs calls from Python is in RUN_KERNELS (its
+    callees are compiled and cached with it), so the cold check sees them all; and each
+    listed one is called (the list is not stale)."""
+    if not SAMPLE.is_dir():
+        pytest.skip("no sample_logs/ in this checkout")
+    before = _signatures()
+    out = tmp_path / "run"
+    result = CliRunner().invoke(
+        main, ["run", str(SAMPLE), "-o", str(out), "--no-figures", "-q", "--force"]
+    )
+    assert result.exit_code == 0, result.output
+    after = _signatures()
+    called = {k for k, n in after.items() if n > before.get(k, 0)}
+    listed = {f"{m}:{k}" for m, k, _ in RUN_KERNELS}
+    assert called - listed == set()
+    assert {k for k in listed if after.get(k, 0) == 0} == set()
