@@ -135,6 +135,11 @@ class Platform:
     nhc: bool | None = None
     #: IMU noise figures; None: not given.
     imu: ImuNoise | None = None
+    #: Plausibility bounds of its navigation and reference (m/s, m/s^2, m); None: the
+    #: role's default (coopproc.io.plausible.ROLE_BOUNDS).
+    max_speed_mps: float | None = None
+    max_accel_mps2: float | None = None
+    max_jump_m: float | None = None
 
 
 @dataclass(frozen=True)
@@ -378,6 +383,9 @@ class Session:
     odometer: Mapping[str, OdometerData] = field(default_factory=dict)
     #: GPS observations by platform (obs_<ID>.*): coopproc.gnss.receiver.GnssReceiver
     gnss: Mapping[str, Any] = field(default_factory=dict)
+    #: What the plausibility checks found that may spoil a run without being an error
+    #: (coopproc.io.plausible): printed as warnings by validate and run.
+    warnings: tuple[str, ...] = ()
 
     @property
     def name(self) -> str:

@@ -66,6 +66,12 @@ __all__ = ["run"]
     "method and score each method's drift there (outages.csv, outage_drift.png; paper 003 "
     "sec. 3.4); repeatable; replaces the config's [run] outages.",
 )
+@click.option(
+    "--strict",
+    is_flag=True,
+    help="Refuse a navigation or reference file with a single-row glitch instead of "
+    "excluding the row with a note.",
+)
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def run(
     session: Path,
@@ -82,6 +88,7 @@ def run(
     figure_style: str | None,
     table_format: str | None,
     outages: tuple[str, ...],
+    strict: bool,
     quiet: bool,
 ) -> None:
     """Process a recorded session: clean the ranges, detect and estimate NLOS errors,
@@ -144,7 +151,7 @@ def run(
     total = len(steps) + 6 + (1 if config.run.figures else 0)
     with PhaseProgress(total, bar=show_bar, log=None if quiet else note, prefix="run") as phases:
         phases.start("read")
-        data = read_session(session)
+        data = read_session(session, strict=strict)
         figure_options = _figure_options(
             data, pairs, platforms, max_panels, figure_style or config.run.figure_style
         )  # checked early
@@ -163,6 +170,8 @@ def run(
         phases.set_total(total - len(steps) + len(group_steps(steps, together)))
         for text in data.notes:
             note(f"note: {text}")
+        for text in data.warnings:  # implausible jumps, accelerations (io/plausible.py)
+            note(f"warning: {text}")
 
         def let_go_of_samples() -> None:  # the pipeline's metrics have read them
             nonlocal data
