@@ -252,6 +252,7 @@ def _kinematics(
             int(rows[k + 1]),
         )
         out.warnings.append(str(err))
+        return  # the jump's own acceleration would only repeat it
     _acceleration(raw, t, p, rows, b, role, out)
 
 

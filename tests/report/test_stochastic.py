@@ -198,15 +198,18 @@ def test_allan_recovers_arw_and_vrw() -> None:
     assert res.notes == ()
 
 
-def test_allan_uses_the_longest_stretch_and_warns_about_motion() -> None:
+def test_allan_uses_the_longest_stretch_at_rest_without_a_gap() -> None:
     t, gyro, accel, _ = synthetic_imu(seconds=120.0)
     t = np.where(t >= 30.0, t + 5.0, t)  # a 5-s gap after 30 s
-    res = imu_allan("B", "imu_B.csv", t, gyro, accel, static_fraction=0.4)
-    assert res.duration_s == pytest.approx(89.99)
-    assert res.notes[0] == (
-        "imu_B.csv: Allan deviation of the longest stretch without a gap, 90.0 s of 125.0 s"
+    rest = np.ones(t.size, dtype=bool)
+    rest[(t > 80.0) & (t < 90.0)] = False  # 10 s in motion
+    res = imu_allan("B", "imu_B.csv", t, gyro, accel, rest)
+    assert res.duration_s == pytest.approx(45.0, abs=0.02)  # 35..80 s
+    assert res.notes == (
+        "imu_B.csv: Allan deviation of the longest stretch at rest without a gap, 45.0 s "
+        "(35.0-80.0; at rest 110.0 s of 125.0 s in all, judged from the IMU)",
     )
-    assert "at rest in only 40 % of the 1-s windows" in res.notes[1]
+    assert res.static_fraction == pytest.approx(110.0 / 125.0, abs=1e-3)
 
 
 # --- the command, on real runs --------------------------------------------------------
@@ -247,9 +250,10 @@ def test_cli_recovers_the_sample_logs_noise(sample_run: Path, tmp_path: Path) ->
     )
     assert f"sigma = {table.loc['all', 'std']:.4f}" in text
     assert "Table 2" not in text  # the stochastic tables instead
-    # an IMU file given explicitly, the tables as CSV to a file
+    # an IMU file given explicitly, the tables as CSV to a file; of a platform D without
+    # navigation (C's navigation moves: its IMU would be judged not at rest, and refused)
     t, gyro, accel, _ = synthetic_imu(seconds=120.0)
-    imu = tmp_path / "imu_C.csv"
+    imu = tmp_path / "imu_D.csv"
     pd.DataFrame(
         np.column_stack([t + 108000.0, gyro, accel]),
         columns=["time", "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"],
@@ -259,9 +263,9 @@ def test_cli_recovers_the_sample_logs_noise(sample_run: Path, tmp_path: Path) ->
                       "-o", str(target))  # fmt: skip
     assert code == 0, text
     written = target.read_text()
-    assert "# Gyro Allan deviation\n" in written and "# [platforms.C.imu]" in written
+    assert "# Gyro Allan deviation\n" in written and "# [platforms.D.imu]" in written
     allan = pd.read_csv(sample_run / "allan.csv")
-    assert allan["platform"].tolist() == ["C"] * 6
+    assert allan["platform"].tolist() == ["D"] * 6
     np.testing.assert_allclose(allan["random_walk"].iloc[:3], 0.0035, rtol=0.15)
 
 
