@@ -267,8 +267,8 @@ def _acceleration(
 ) -> None:
     """The acceleration check on a grid ACCEL_BASE_S apart (see the module text)."""
     span = float(t[-1] - t[0])
-    if span < 3 * ACCEL_BASE_S or t.size < 4:
-        return
+    if not 3 * ACCEL_BASE_S <= span <= ACCEL_BASE_S * (4 * t.size + 1000) or t.size < 4:
+        return  # too short, or a span mostly gaps (absurd times: the time checks say so)
     grid = t[0] + ACCEL_BASE_S * np.arange(int(span // ACCEL_BASE_S) + 1)
     pos = np.column_stack([np.interp(grid, t, p[:, k]) for k in range(3)])
     # a grid point inside a gap is invented: the second differences using it are not used
