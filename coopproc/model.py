@@ -135,11 +135,7 @@ class Platform:
     nhc: bool | None = None
     #: IMU noise figures; None: not given.
     imu: ImuNoise | None = None
-    #: Plausibility bounds of its navigation and reference (m/s, m/s^2, m); None: the
-    #: role's default (coopproc.io.plausible.ROLE_BOUNDS).
-    max_speed_mps: float | None = None
-    max_accel_mps2: float | None = None
-    max_jump_m: float | None = None
+    max_motion: tuple[float | None, ...] = (None, None, None)  #: speed, accel, jump: plausible.py
 
 
 @dataclass(frozen=True)
@@ -383,9 +379,6 @@ class Session:
     odometer: Mapping[str, OdometerData] = field(default_factory=dict)
     #: GPS observations by platform (obs_<ID>.*): coopproc.gnss.receiver.GnssReceiver
     gnss: Mapping[str, Any] = field(default_factory=dict)
-    #: What the plausibility checks found that may spoil a run without being an error
-    #: (coopproc.io.plausible): printed as warnings by validate and run.
-    warnings: tuple[str, ...] = ()
 
     @property
     def name(self) -> str:

@@ -168,10 +168,8 @@ def run(
         # steps run two at a time are one phase (run.concurrent_steps)
         together = workers(config.run.parallel_fusion, len(data.ranges))
         phases.set_total(total - len(steps) + len(group_steps(steps, together)))
-        for text in data.notes:
-            note(f"note: {text}")
-        for text in data.warnings:  # implausible jumps, accelerations (io/plausible.py)
-            note(f"warning: {text}")
+        for text in data.notes:  # implausible jumps are "warning: ..." (io/plausible.py)
+            note(text if text.startswith("warning: ") else f"note: {text}")
 
         def let_go_of_samples() -> None:  # the pipeline's metrics have read them
             nonlocal data

@@ -37,6 +37,7 @@ def validate(session: Path, strict: bool, quiet: bool) -> None:
     """
     from coopproc.checks.coverage import coverage_warnings, session_start_s
     from coopproc.checks.framecheck import frame_notes
+    from coopproc.io.plausible import WARNING
     from coopproc.io.raw_sensors import sensor_notes
     from coopproc.io.registry import find_files
     from coopproc.io.session import inspect_session
@@ -54,14 +55,16 @@ def validate(session: Path, strict: bool, quiet: bool) -> None:
     if coverage:
         start = session_start_s(data)
         click.echo(f"note: times below are seconds from the session start, {start:.3f}")
-    warnings = [*data.warnings, *coverage]
+    # implausible jumps and accelerations (io/plausible.py): warnings among the notes
+    found = [n.removeprefix(WARNING) for n in data.notes if n.startswith(WARNING)]
+    warnings = [*found, *coverage]
     if data.root.is_dir():  # copies and backups left out (io/file_names.py)
         warnings += find_files(data.root, data.config).notes
     for line in warnings:
         click.echo(f"warning: {line}")
     # what the readers decided, as coopproc run prints it (rows sorted, duplicates
     # dropped, reference epochs dropped, a platform left out, defaults taken, ...)
-    notes = [n for n in data.notes if n not in warnings]
+    notes = [n for n in data.notes if n not in warnings and not n.startswith(WARNING)]
     notes += [n for n in sensor_notes(data) if n not in notes]
     for note in [*notes, *frame_notes(data)]:
         click.echo(f"note: {note}")

@@ -14,8 +14,9 @@ and what is implausible, with the likely fix:
   the same idea: a scale that makes the numbers plausible names the unit): the median
   range residual |range - |s p - q|| of a platform's ranges to partners whose positions
   are known (anchors, the other platforms' navigation) is computed for the scales s of
-  :data:`UNIT_SCALES`; a scale other than 1 that fits :data:`UNIT_GAIN` times better than
-  metres, to within :data:`UNIT_FIT` of the median range, names the unit. All the
+  UNIT_SCALES; a scale other than 1 that fits UNIT_GAIN times better than
+  metres, to within UNIT_FIT of the median range, names the unit
+  (:mod:`coopproc.io.plausible_units`). All the
   navigation files scaled together are tried first (a session written in mm throughout),
   then each file alone; only ENU-form files (lat/lon and ECEF have units of their own);
 - **speed and jumps**: a step between consecutive epochs is implausible when it is
@@ -49,6 +50,7 @@ from numpy.typing import NDArray
 
 from coopproc.errors import CoopprocError
 from coopproc.io._common import RawTrajectory
+from coopproc.io.plausible_units import position_units
 from coopproc.model import FloatArray, Platform, RangeTable, Trajectory, gap_limit_s
 
 __all__ = [
@@ -57,9 +59,10 @@ __all__ = [
     "MAX_OFFSET_M",
     "ROLE_BOUNDS",
     "SUSTAINED_SHARE",
-    "UNIT_SCALES",
+    "WARNING",
     "Bounds",
     "Plausibility",
+    "apply_plausible",
     "bounds_of",
     "check_plausible",
 ]
@@ -96,19 +99,6 @@ MAX_GLITCH_SHARE = 0.01
 #: The grid of the acceleration check, s (a 1-s base gives 2.3 m/s^2 at most on the
 #: shared real sessions; 2 s halves the noise term again).
 ACCEL_BASE_S = 2.0
-#: Scales tried on positions, with the unit they stand for and the fix.
-UNIT_SCALES: tuple[tuple[float, str, str, str], ...] = (
-    (1e-3, "millimetres", "divide the positions by 1000", "mm"),
-    (1e-2, "centimetres", "divide the positions by 100", "cm"),
-    (1e3, "kilometres", "multiply the positions by 1000", "km"),
-)
-#: A scale must fit this many times better than metres...
-UNIT_GAIN = 5.0
-#: ...and to within this share of the median range.
-UNIT_FIT = 0.25
-#: Ranges used per platform for the unit check at most (evenly subsampled), and at least.
-_UNIT_RANGES = 2000
-_UNIT_MIN = 20
 #: Velocity units told by the ratio of the vel_* magnitudes to the positions' speed.
 _VEL_UNITS: tuple[tuple[float, str, str], ...] = (
     (3.6, "km/h", "km/h"),
@@ -118,23 +108,18 @@ _VEL_UNITS: tuple[tuple[float, str, str], ...] = (
 #: A ratio within this factor of a unit's names it; speeds below this are not moving.
 _VEL_TOLERANCE = 1.25
 _MOVING_MPS = 0.1
-
-
-def _m(value: float) -> str:
-    """A length for messages: 0.259, 12.3, 55,910."""
-    return f"{value:,.0f}" if abs(value) >= 100 else f"{value:.3g}"
+#: The prefix of a note that is a warning (validate counts it; run prints it so).
+WARNING = "warning: "
 
 
 def bounds_of(platform: Platform | None) -> Bounds:
     """The platform's bounds: its session.toml keys, else its role's defaults."""
-    role = platform.role if platform is not None else "follower"
-    base = ROLE_BOUNDS[role]
+    base = ROLE_BOUNDS[platform.role if platform is not None else "follower"]
     if platform is None:
         return base
+    speed, accel, jump = platform.max_motion
     return Bounds(
-        platform.max_speed_mps or base.max_speed_mps,
-        platform.max_accel_mps2 or base.max_accel_mps2,
-        platform.max_jump_m or base.max_jump_m,
+        speed or base.max_speed_mps, accel or base.max_accel_mps2, jump or base.max_jump_m
     )
 
 
@@ -321,122 +306,6 @@ def _velocity(raw: RawTrajectory, traj: Trajectory, out: Plausibility) -> bool:
     return True
 
 
-def _partner_rows(
-    ranges: RangeTable,
-    pid: str,
-    nav: Mapping[str, Trajectory],
-    anchors: Mapping[str, FloatArray],
-) -> tuple[FloatArray, FloatArray, NDArray[np.object_]] | None:
-    """(times, ranges, partner of each) of ``pid``'s ranges to known partners (subsampled)."""
-    ids, first, second = ranges.id_codes
-    at = int(np.searchsorted(ids, pid))
-    if at >= ids.shape[0] or ids[at] != pid:
-        return None
-    known_id = np.array([i in anchors or (i in nav and i != pid) for i in ids], dtype=bool)
-    mine = (first == at) | (second == at)
-    other = np.where(first == at, second, first)
-    rows = np.flatnonzero(mine & known_id[other])
-    if rows.size < _UNIT_MIN:
-        return None
-    if rows.size > _UNIT_RANGES:
-        rows = rows[np.linspace(0, rows.size - 1, _UNIT_RANGES).round().astype(np.intp)]
-    frame = ranges.frame
-    t = frame["time"].to_numpy(dtype=np.float64)[rows]
-    r = frame["range"].to_numpy(dtype=np.float64)[rows]
-    return t, r, np.asarray(ids, dtype=object)[other[rows]]
-
-
-def _misfit(
-    pid: str,
-    data: tuple[FloatArray, FloatArray, NDArray[np.object_]],
-    nav: Mapping[str, Trajectory],
-    anchors: Mapping[str, FloatArray],
-    scale: Mapping[str, float],
-) -> float:
-    """Median |range - |s_P p - s_Q q||, the positions scaled by ``scale`` (default 1)."""
-    t, r, names = data
-    own = nav[pid].interpolate(t) * scale.get(pid, 1.0)
-    other = np.empty_like(own)
-    for name in set(names.tolist()):
-        sel = names == name
-        if name in anchors:
-            other[sel] = anchors[name]
-        else:
-            other[sel] = nav[name].interpolate(t[sel]) * scale.get(name, 1.0)
-    with np.errstate(invalid="ignore", over="ignore"):
-        res = np.abs(r - np.linalg.norm(own - other, axis=1))
-    res = res[np.isfinite(res)]
-    return float(np.median(res)) if res.size >= _UNIT_MIN else float("nan")
-
-
-def _units(
-    raws: Mapping[str, RawTrajectory],
-    nav: Mapping[str, Trajectory],
-    platforms: Mapping[str, Platform],
-    ranges: RangeTable | None,
-    out: Plausibility,
-) -> set[str]:
-    """The navigation files whose positions look like another unit (see the module)."""
-    if ranges is None or not len(ranges):
-        return set()
-    anchors = {
-        pid: np.asarray(p.position_enu_m, dtype=np.float64)
-        for pid, p in platforms.items()
-        if p.role == "anchor" and p.position_enu_m is not None and pid not in nav
-    }
-    enu = sorted(pid for pid in nav if raws[pid].form == "enu")
-    data = {pid: _partner_rows(ranges, pid, nav, anchors) for pid in enu}
-    usable = {pid: d for pid, d in data.items() if d is not None}
-    if not usable:
-        return set()
-    median_range = float(np.median(ranges.frame["range"].to_numpy(dtype=np.float64)))
-
-    def best(scales: list[dict[str, float]], pids: list[str]) -> tuple[int, float, float] | None:
-        fits = [
-            np.nanmedian([_misfit(pid, usable[pid], nav, anchors, s) for pid in pids])
-            if pids
-            else np.nan
-            for s in scales
-        ]
-        base = fits[0]
-        if not np.isfinite(base):
-            return None
-        k = int(np.nanargmin(fits)) if np.isfinite(fits).any() else 0
-        if k and fits[k] * UNIT_GAIN < base and fits[k] <= UNIT_FIT * median_range:
-            return k, float(fits[k]), float(base)
-        return None
-
-    def report(pids: list[str], found: tuple[int, float, float]) -> None:
-        k, fit, base = found
-        _scale, unit, fix, key = UNIT_SCALES[k - 1]
-        # [columns.nav.units] converts every nav file: offered when all are in the unit
-        declare = f' or declare session.toml [columns.nav.units] position = "{key}"'
-        for pid in pids:
-            out.problems.append(
-                raws[pid].error(
-                    f"positions look like {unit}: the ranges fit them to {_m(fit)} m "
-                    f"(median residual) read so, to {_m(base)} m read as metres; expected "
-                    f"metres: {fix}{',' + declare if len(pids) > 1 else ''}",
-                    0,
-                )
-            )
-
-    scales = [1.0, *(unit[0] for unit in UNIT_SCALES)]
-    together = [{pid: s for pid in enu} for s in scales]
-    found = best(together, sorted(usable)) if len(enu) > 1 else None
-    if found is not None:
-        report(enu, found)
-        return set(enu)
-    flagged: set[str] = set()
-    for pid in sorted(usable):
-        alone = [{pid: s} for s in scales]
-        found = best(alone, [pid])
-        if found is not None:
-            report([pid], found)
-            flagged.add(pid)
-    return flagged
-
-
 def check_plausible(
     nav_raw: Mapping[str, RawTrajectory],
     ref_raw: Mapping[str, RawTrajectory],
@@ -473,7 +342,7 @@ def check_plausible(
                 off.add(traj.source)
             elif group is nav:
                 sane[pid] = traj
-    wrong_unit = _units(nav_raw, sane, platforms, ranges, out)
+    wrong_unit = position_units(nav_raw, sane, platforms, ranges, out.problems)
     for group, raws in ((nav, nav_raw), (reference, ref_raw)):
         for pid in sorted(group):
             traj = group[pid]
@@ -484,3 +353,22 @@ def check_plausible(
             p = platforms.get(pid)
             _kinematics(raws[pid], traj, bounds_of(p), _role(platforms, pid), strict, out)
     return out
+
+
+def apply_plausible(
+    found: Plausibility,
+    raws: tuple[Mapping[str, RawTrajectory], Mapping[str, RawTrajectory]],
+    groups: tuple[dict[str, Trajectory], dict[str, Trajectory]],
+    origin: tuple[float, float, float],
+) -> list[str]:
+    """Rebuild the trajectories whose glitched rows were excluded (in ``groups``: nav,
+    reference) and return the notes to record: the exclusions, then the warnings as
+    ``warning: ...`` notes (validate counts them as warnings, run prints them so)."""
+    from coopproc.io.assemble import to_trajectory
+
+    for raw_group, group in zip(raws, groups, strict=True):
+        for pid, raw in raw_group.items():
+            keep = found.keep.get(raw.source)
+            if keep is not None and pid in group:
+                group[pid] = to_trajectory(raw.take(keep), origin)
+    return [*found.notes, *(f"{WARNING}{w}" for w in found.warnings)]

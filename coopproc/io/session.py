@@ -25,7 +25,7 @@ from coopproc.io._common import (
 from coopproc.io.csv_mapping import CsvForms
 from coopproc.io.gnss_session import read_gnss
 from coopproc.io.mcap_read import McapContent, decode_mcap, read_mcap_raw
-from coopproc.io.plausible import check_plausible
+from coopproc.io.plausible import apply_plausible, check_plausible
 from coopproc.io.ranges_csv import RangesRead, read_ranges_csv
 from coopproc.io.raw_sensors import attach_decoded, bag_imu, read_raw_sensors
 from coopproc.io.registry import find_files, read_trajectory, sensor_note
@@ -50,7 +50,6 @@ class _Loader:
         self.strict = strict
         self.problems: list[CoopprocError] = []
         self.notes: list[str] = []
-        self.warnings: list[str] = []
         self.inputs: list[Path] = []
         self.failed: set[str] = set()  # platforms whose nav could not be read
         self.sensors: list[SensorFile] = []  # raw-sensor files (imu, odo read; others listed)
@@ -249,25 +248,13 @@ class _Loader:
             config, set(nav) | self.failed - {"<ranges>"}, self.notes, self.problems
         )
         platforms = {p: v for p, v in platforms.items() if p not in self.failed}
-        # positions and velocities against the platforms' roles (io/plausible.py):
-        # glitched rows excluded (noted), units and overflows refused, jumps warned of
+        # positions and velocities against the platforms' roles (io/plausible.py)
         plausible = check_plausible(
-            nav_raw,
-            ref_raw,
-            nav,
-            reference,
-            platforms,
-            None if ranges is None else ranges.table,
-            strict=self.strict,
-        )
+            nav_raw, ref_raw, nav, reference, platforms,
+            None if ranges is None else ranges.table, strict=self.strict,
+        )  # fmt: skip
         self.problems.extend(plausible.problems)
-        self.notes.extend(plausible.notes)
-        self.warnings.extend(plausible.warnings)
-        for raws, group in ((nav_raw, nav), (ref_raw, reference)):
-            for pid, raw in raws.items():
-                keep = plausible.keep.get(raw.source)
-                if keep is not None and pid in group:
-                    group[pid] = assemble.to_trajectory(raw.take(keep), origin)
+        self.notes += apply_plausible(plausible, (nav_raw, ref_raw), (nav, reference), origin)
         tags = {p for p, v in platforms.items() if v.role == "tag"}  # no navigation by design
         for pid in sorted(set(reference) - set(nav) - tags):
             self.notes.append(f"reference of {pid} has no navigation beside it")
@@ -316,7 +303,6 @@ class _Loader:
             imu=imu,
             odometer=odometer,
             gnss=gnss,
-            warnings=tuple(self.warnings),
         )
 
     def _time_base(
@@ -396,8 +382,7 @@ def read_session(path: str | Path, *, strict: bool = False) -> Session:
 
     Raises the first problem found as InputError / ConfigError (one line: file, line or
     record, what was found and what was expected); ``validate_session`` lists them all.
-    ``strict``: a single-row glitch of a navigation or reference file is a problem
-    instead of a row excluded with a note (coopproc.io.plausible).
+    ``strict``: a single-row glitch is a problem, not a row excluded (io/plausible.py).
     """
     loader = _Loader(strict)
     session = loader.load(path)

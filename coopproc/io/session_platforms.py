@@ -159,9 +159,7 @@ def parse_platforms(table: Any, where: str) -> dict[str, Platform]:
             imu_mounting_deg=p.imu_mounting,
             nhc=p.nhc,
             imu=None if p.imu is None else _imu(p.imu, f"{where} [platforms.{pid}.imu]"),
-            max_speed_mps=p.max_speed,
-            max_accel_mps2=p.max_accel,
-            max_jump_m=p.max_jump,
+            max_motion=(p.max_speed, p.max_accel, p.max_jump),
         )
     return out
 
@@ -212,11 +210,7 @@ def _sensor_entry(p: Platform) -> dict[str, Any]:
             entry[key] = [float(v) for v in arm]
     if p.nhc is not None:
         entry["nhc"] = p.nhc
-    for key, bound in (
-        ("max_speed", p.max_speed_mps),
-        ("max_accel", p.max_accel_mps2),
-        ("max_jump", p.max_jump_m),
-    ):
+    for key, bound in zip(("max_speed", "max_accel", "max_jump"), p.max_motion, strict=True):
         if bound is not None:
             entry[key] = bound
     if p.imu is not None:

@@ -53,7 +53,6 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from coopproc.errors import InputError
-from coopproc.io.imu_csv import rest_windows
 from coopproc.model import FloatArray, gap_limit_s
 
 __all__ = [
@@ -65,7 +64,6 @@ __all__ = [
     "axis_allan",
     "imu_allan",
     "imu_toml",
-    "rest_mask",
 ]
 
 #: sigma_min / B for flicker (bias-instability) noise: sqrt(2 ln 2 / pi).
@@ -195,49 +193,6 @@ def axis_allan(sensor: str, axis: str, rate: FloatArray, rate_hz: float) -> Axis
         tau_min_s=float(tau[i]),
         reached=i < tau.size - 1,
     )
-
-
-def rest_mask(
-    time_s: FloatArray,
-    gyro_radps: FloatArray,
-    accel_mps2: FloatArray,
-    speed_mps: FloatArray | None = None,
-) -> NDArray[np.bool_]:
-    """The samples in 1-s windows at rest (see the module text).
-
-    ``speed_mps``: the navigation's speed across each 1-s window (NaN where it does not
-    cover the window: not at rest); None when the session has no track to judge by.
-    """
-    n = time_s.size
-    rate = 1.0 / float(np.median(np.diff(time_s))) if n > 1 else 1.0
-    per_window = max(round(rate), 2)
-    windows = n // per_window
-    still = np.zeros(windows, dtype=bool)
-    starts, _ = rest_windows(accel_mps2, per_window)
-    still[starts // per_window] = True
-    if still.any():
-        g = gyro_radps[: windows * per_window].reshape(windows, per_window, 3)
-        mean, std = g.mean(axis=1), g.std(axis=1)
-        centre = np.median(mean[still], axis=0)
-        noise = np.median(std[still], axis=0)
-        turning = np.linalg.norm(mean - centre, axis=1) > REST_TURN_RADPS
-        shaking = np.any(std > REST_NOISE_FACTOR * noise + 1e-12, axis=1)
-        still &= ~turning & ~shaking
-    if speed_mps is not None:
-        with np.errstate(invalid="ignore"):
-            still &= np.asarray(speed_mps[:windows]) < REST_SPEED_MPS
-    out = np.zeros(n, dtype=bool)
-    out[: windows * per_window] = np.repeat(still, per_window)
-    return out
-
-
-def window_times(time_s: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Start and end time of each 1-s window of :func:`rest_mask`."""
-    rate = 1.0 / float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
-    per_window = max(round(rate), 2)
-    windows = time_s.size // per_window
-    edges = time_s[: windows * per_window].reshape(windows, per_window)
-    return edges[:, 0].copy(), edges[:, -1].copy()
 
 
 def _longest_stretch(time_s: FloatArray, rest: NDArray[np.bool_]) -> slice:

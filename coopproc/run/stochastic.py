@@ -19,11 +19,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from coopproc.errors import CoopprocError, InputError, OutputError
 from coopproc.io.assemble import choose_origin, to_session_time, to_trajectory
 from coopproc.io.csv_mapping import CsvForms
-from coopproc.io.imu_csv import find_imu_files, imu_platform, read_imu_csv
+from coopproc.io.imu_csv import find_imu_files, imu_platform, read_imu_csv, rest_windows
 from coopproc.io.outdir import check_output_file, csv_text, write_text_atomic
 from coopproc.io.registry import find_files, read_trajectory
 from coopproc.io.session_toml import read_session_toml
@@ -31,11 +32,12 @@ from coopproc.model import FloatArray, SessionConfig
 from coopproc.report.allan import (
     ALLAN_COLUMNS,
     DEFAULT_TAU_S,
+    REST_NOISE_FACTOR,
+    REST_SPEED_MPS,
+    REST_TURN_RADPS,
     ImuAllan,
     allan_frame,
     imu_allan,
-    rest_mask,
-    window_times,
 )
 from coopproc.report.pages import FigureOptions
 from coopproc.report.rundir import RunTables
@@ -48,7 +50,14 @@ from coopproc.report.stochastic import (
 )
 from coopproc.report.stochastic_figures import render_stochastic_figures
 
-__all__ = ["imu_sources", "stochastic_report", "track_speed", "write_stochastic"]
+__all__ = [
+    "imu_sources",
+    "rest_mask",
+    "stochastic_report",
+    "track_speed",
+    "window_times",
+    "write_stochastic",
+]
 
 
 def imu_sources(info: Mapping[str, Any]) -> tuple[dict[str, Path], list[str]]:
@@ -73,6 +82,49 @@ def imu_sources(info: Mapping[str, Any]) -> tuple[dict[str, Path], list[str]]:
     if not found:
         return {}, [f"no imu_<ID>.csv in the session {path}: no Allan deviation"]
     return found, []
+
+
+def rest_mask(
+    time_s: FloatArray,
+    gyro_radps: FloatArray,
+    accel_mps2: FloatArray,
+    speed_mps: FloatArray | None = None,
+) -> NDArray[np.bool_]:
+    """The samples in 1-s windows at rest (see the module text).
+
+    ``speed_mps``: the navigation's speed across each 1-s window (NaN where it does not
+    cover the window: not at rest); None when the session has no track to judge by.
+    """
+    n = time_s.size
+    rate = 1.0 / float(np.median(np.diff(time_s))) if n > 1 else 1.0
+    per_window = max(round(rate), 2)
+    windows = n // per_window
+    still = np.zeros(windows, dtype=bool)
+    starts, _ = rest_windows(accel_mps2, per_window)
+    still[starts // per_window] = True
+    if still.any():
+        g = gyro_radps[: windows * per_window].reshape(windows, per_window, 3)
+        mean, std = g.mean(axis=1), g.std(axis=1)
+        centre = np.median(mean[still], axis=0)
+        noise = np.median(std[still], axis=0)
+        turning = np.linalg.norm(mean - centre, axis=1) > REST_TURN_RADPS
+        shaking = np.any(std > REST_NOISE_FACTOR * noise + 1e-12, axis=1)
+        still &= ~turning & ~shaking
+    if speed_mps is not None:
+        with np.errstate(invalid="ignore"):
+            still &= np.asarray(speed_mps[:windows]) < REST_SPEED_MPS
+    out = np.zeros(n, dtype=bool)
+    out[: windows * per_window] = np.repeat(still, per_window)
+    return out
+
+
+def window_times(time_s: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Start and end time of each 1-s window of :func:`rest_mask`."""
+    rate = 1.0 / float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
+    per_window = max(round(rate), 2)
+    windows = time_s.size // per_window
+    edges = time_s[: windows * per_window].reshape(windows, per_window)
+    return edges[:, 0].copy(), edges[:, -1].copy()
 
 
 def _session_dir(info: Mapping[str, Any]) -> Path | None:

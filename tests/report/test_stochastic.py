@@ -18,7 +18,7 @@ from test_report_rundir import write_run_dir
 
 from coopproc.cli import main
 from coopproc.errors import InputError
-from coopproc.report.allan import FLICKER_FACTOR, allan_frame, imu_allan, imu_toml, rest_mask
+from coopproc.report.allan import FLICKER_FACTOR, allan_frame, imu_allan, imu_toml
 from coopproc.report.stochastic import (
     STOCHASTIC_COLUMNS,
     StochasticReport,
@@ -28,6 +28,7 @@ from coopproc.report.stochastic import (
     uwb_stochastics,
 )
 from coopproc.report.stochastic_format import format_stochastic
+from coopproc.run.stochastic import rest_mask
 
 REPO = Path(__file__).resolve().parents[2]
 SAMPLE = REPO / "sample_logs"
