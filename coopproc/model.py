@@ -135,6 +135,7 @@ class Platform:
     nhc: bool | None = None
     #: IMU noise figures; None: not given.
     imu: ImuNoise | None = None
+    max_motion: tuple[float | None, ...] = (None, None, None)  #: speed, accel, jump: plausible.py
 
 
 @dataclass(frozen=True)

@@ -171,6 +171,17 @@ def _run_max_pages(run: RunTables) -> int:
     help="IMU file (imu_<ID>.csv) for the Allan deviation instead of the session's; "
     "repeatable; implies --stochastic.",
 )
+@click.option(
+    "--allan-tau",
+    "allan_tau",
+    type=click.FloatRange(min=0.0, min_open=True),
+    default=1.0,
+    show_default=True,
+    metavar="S",
+    help="Longest averaging time the Allan deviation must reach, s; the IMU must be at rest "
+    "for 10 x this in one stretch (only that stretch is analysed), else the analysis is "
+    "refused; implies --stochastic when given.",
+)
 def report(
     out: Path,
     show_table: bool,
@@ -196,6 +207,7 @@ def report(
     show_outages: bool,
     stochastic: bool,
     imu_files: tuple[Path, ...],
+    allan_tau: float,
 ) -> None:
     """Show the tables of a finished run (OUT, written by `coopproc run`) and remake its
     figures and HTML page, without recomputing anything.
@@ -234,7 +246,10 @@ def report(
 
     run = load_run(out)
     plots = plots or pdf or svg
-    stochastic = stochastic or bool(imu_files)
+    tau_given = click.get_current_context().get_parameter_source("allan_tau")
+    stochastic = (
+        stochastic or bool(imu_files) or tau_given == click.core.ParameterSource.COMMANDLINE
+    )
     figure_options = None
     if plots or make_html:  # the pairs / platforms drawn (unknown ones fail before any work)
         from coopproc.report.pages import check_selection
@@ -254,7 +269,7 @@ def report(
     if stochastic:  # UWB range residuals and IMU Allan deviation (coopproc/run/stochastic.py)
         from coopproc.run.stochastic import stochastic_report
 
-        stoch = stochastic_report(out, run, imu_files=imu_files)
+        stoch = stochastic_report(out, run, imu_files=imu_files, allan_tau_s=allan_tau)
     if show_outages and run.outages is None:
         from coopproc.errors import InputError
 

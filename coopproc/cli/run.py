@@ -66,6 +66,12 @@ __all__ = ["run"]
     "method and score each method's drift there (outages.csv, outage_drift.png; paper 003 "
     "sec. 3.4); repeatable; replaces the config's [run] outages.",
 )
+@click.option(
+    "--strict",
+    is_flag=True,
+    help="Refuse a navigation or reference file with a single-row glitch instead of "
+    "excluding the row with a note.",
+)
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 def run(
     session: Path,
@@ -82,6 +88,7 @@ def run(
     figure_style: str | None,
     table_format: str | None,
     outages: tuple[str, ...],
+    strict: bool,
     quiet: bool,
 ) -> None:
     """Process a recorded session: clean the ranges, detect and estimate NLOS errors,
@@ -145,7 +152,7 @@ def run(
     total = len(steps) + 6 + (1 if config.run.figures else 0)
     with PhaseProgress(total, bar=show_bar, log=None if quiet else note, prefix="run") as phases:
         phases.start("read")
-        data = read_session(session)
+        data = read_session(session, strict=strict)
         figure_options = _figure_options(
             data, pairs, platforms, max_panels, figure_style or config.run.figure_style
         )  # checked early
@@ -162,8 +169,8 @@ def run(
         # steps run two at a time are one phase (run.concurrent_steps)
         together = workers(config.run.parallel_fusion, len(data.ranges))
         phases.set_total(total - len(steps) + len(group_steps(steps, together)))
-        for text in data.notes:
-            note(f"note: {text}")
+        for text in data.notes:  # implausible jumps are "warning: ..." (io/plausible.py)
+            note(text if text.startswith("warning: ") else f"note: {text}")
         compiling = None if quiet else compile_note()  # the first run's minute, said
         if compiling is not None:
             note(compiling)

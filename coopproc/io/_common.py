@@ -69,11 +69,44 @@ class InputProblems(InputError):
     """Several problems of one input; renders as the first, carries all in ``errors``."""
 
     def __init__(self, errors: Sequence[InputError]) -> None:
+        errors = _one_per_short_line(errors)
         first = errors[0]
         self.errors: tuple[InputError, ...] = tuple(errors)
         more = len(errors) - 1
         suffix = f" (and {more} more problem{'s' if more > 1 else ''})" if more else ""
         super().__init__(first.path, first.problem + suffix, line=first.line, record=first.record)
+
+
+_EMPTY_CELL = re.compile(r"\Acolumn '(?P<name>[^']*)': empty or NaN, expected a number\Z")
+
+
+def _one_per_short_line(errors: Sequence[InputError]) -> list[InputError]:
+    """One message for the empty cells of one line (a truncated or short line), not one
+    per column: two or more "column 'x': empty or NaN" errors at the same line that
+    name that line alone (no "and N more rows") become one, naming the columns."""
+    found: dict[tuple[str | None, int], list[int]] = {}
+    for k, err in enumerate(errors):
+        if err.line is not None and _EMPTY_CELL.match(err.problem):
+            found.setdefault((err.path, err.line), []).append(k)
+    merged = {ks[0]: ks for ks in found.values() if len(ks) > 1}
+    if not merged:
+        return list(errors)
+    dropped = {k for ks in merged.values() for k in ks[1:]}
+    out = []
+    for k, err in enumerate(errors):
+        if k in dropped:
+            continue
+        if k in merged:
+            names = [_EMPTY_CELL.match(errors[j].problem)["name"] for j in merged[k]]  # type: ignore[index]
+            shown = ", ".join(names[:6]) + (", ..." if len(names) > 6 else "")
+            err = InputError(
+                err.path,
+                f"{len(names)} empty cells ({shown}): a truncated or short line; expected a "
+                "number in every column",
+                line=err.line,
+            )
+        out.append(err)
+    return out
 
 
 def one_line(text: object, limit: int = 160) -> str:
@@ -216,6 +249,18 @@ class RawTrajectory:
     #: The GPS week of the first epoch (files that carry absolute GPST times).
     gps_week: int | None = None
     notes: list[str] = field(default_factory=list)
+    #: Where the rows came from (file lines or records) and the input row of each row
+    #: (rows are sorted and deduplicated on reading), for messages about single rows.
+    where: Locator | None = None
+    rows: NDArray[np.int64] | None = None
+
+    def error(self, message: str, row: int | None = None, count: int = 1) -> InputError:
+        """An InputError at row ``row`` of this trajectory, located at its input row."""
+        if row is not None and self.rows is not None:
+            row = int(self.rows[row])
+        if self.where is None:
+            return Locator(self.source).error(message, row, count)
+        return self.where.error(message, row, count)
 
     def take(self, index: NDArray[np.intp]) -> RawTrajectory:
         """The rows ``index`` (a new object)."""
@@ -237,6 +282,8 @@ class RawTrajectory:
             quality=sub(self.quality),
             gps_week=self.gps_week,
             notes=list(self.notes),
+            where=self.where,
+            rows=sub(self.rows),
         )
 
 
@@ -274,6 +321,9 @@ def check_trajectory_times(raw: RawTrajectory, where: Locator) -> RawTrajectory:
         keep[same + 1] = False
         out = out.take(np.flatnonzero(keep))
         out.notes.append(f"{where.path}: {same.size} duplicated epoch(s) dropped")
+        order = order[keep]
+    out.where = where
+    out.rows = np.asarray(order, dtype=np.int64)
     return out
 
 

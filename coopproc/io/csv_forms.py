@@ -51,7 +51,7 @@ __all__ = [
 UNITS: dict[str, dict[str, float]] = {
     "time": {"s": 1.0, "ms": 1e3, "us": 1e6, "ns": 1e9},
     "range": {"m": 1.0, "cm": 1e2, "mm": 1e3},
-    "position": {"m": 1.0, "cm": 1e2, "mm": 1e3},
+    "position": {"m": 1.0, "cm": 1e2, "mm": 1e3, "km": 1e-3},
     "velocity": {"m/s": 1.0, "cm/s": 1e2, "mm/s": 1e3, "km/h": 3.6},
     "heading": {"deg": 1.0, "rad": 0.0},
 }

@@ -55,6 +55,7 @@ __all__ = [
     "imu_platform",
     "read_imu_csv",
     "rest_gravity",
+    "rest_windows",
 ]
 
 IMU_RATE_COLUMNS: tuple[str, ...] = (
@@ -137,7 +138,7 @@ def _rate_error(where: Locator, interval: float) -> InputError | None:
     return where.error(f"{found}; expected 50-1000 Hz (DATA.md imu_<ID>.csv)")
 
 
-def _rest_windows(accel: FloatArray, per_window: int) -> tuple[NDArray[np.intp], FloatArray]:
+def rest_windows(accel: FloatArray, per_window: int) -> tuple[NDArray[np.intp], FloatArray]:
     """Indices (start) and mean accel of the 1-s windows in which the unit is at rest.
 
     At rest: every axis steadier than 0.2 m/s^2 (std) and the mean direction of the first
@@ -189,7 +190,7 @@ def _check_units(
             f"{rates} up to {top:.4g} (99.9th percentile of the magnitude; above 34.9 rad/s "
             f"= 2000 deg/s, the full scale of MEMS gyros) {deg}"
         )
-    starts, g_body = _rest_windows(accel, per_window)
+    starts, g_body = rest_windows(accel, per_window)
     notes: list[str] = []
     n_windows = max(accel.shape[0] // per_window, 1)
     if starts.size:
@@ -218,7 +219,7 @@ def _check_units(
 def rest_gravity(imu: ImuData) -> FloatArray | None:
     """The mean specific force (body frame) over the 1-s windows at rest; None: never at rest."""
     per_window = max(round(imu.rate_hz), 2)
-    starts, g_body = _rest_windows(imu.accel_mps2, per_window)
+    starts, g_body = rest_windows(imu.accel_mps2, per_window)
     if not starts.size:
         return None
     return np.asarray(np.median(g_body, axis=0), dtype=np.float64)

@@ -40,6 +40,12 @@ MAX_RANGE_M = 2000.0
 #: A median sigma from this up is not metres either (with ranges in millimetres).
 _MAX_SIGMA_M = 10.0
 
+#: Ranges above MAX_RANGE_M on this share of the rows or more (and on 3 rows at least)
+#: are a unit, not outliers: the largest range of the shared real sessions, outliers
+#: included, is 82.9 m (plaza2), and a receiver's garbage readings (65535) are single rows.
+_UNIT_SHARE = 0.1
+_UNIT_ROWS = 3
+
 _REQUIRED = ("time", "from", "to", "range")
 
 
@@ -180,6 +186,22 @@ def range_table_from_frame(frame: pd.DataFrame, where: Locator) -> RangesRead:
                 f"{idx.size} of {finite.size} rows above {MAX_RANGE_M:g}); expected metres: "
                 f"divide the {both} by 1000, or declare session.toml [columns.units] "
                 'range = "mm"',
+                int(idx[0]),
+            )
+        )
+    elif np.count_nonzero(big) >= max(_UNIT_ROWS, _UNIT_SHARE * finite.size):
+        # Many ranges absurd but the median not: centimetres (20 m reads 2000 cm, so a
+        # third of paper 000's ranges pass for metres); outliers are a few rows.
+        idx = np.flatnonzero(big)
+        sigmas = sigma_m[np.isfinite(sigma_m)]
+        cm_sigma = sigmas.size and float(np.median(sigmas)) >= _MAX_SIGMA_M / 10
+        both = "ranges and sigmas" if cm_sigma else "ranges"
+        problems.append(
+            where.error(
+                f"ranges look like centimetres (median {float(np.median(finite)):,.0f}; "
+                f"{idx.size} of {finite.size} rows above {MAX_RANGE_M:g}); expected metres: "
+                f"divide the {both} by 100, or declare session.toml [columns.units] "
+                'range = "cm"',
                 int(idx[0]),
             )
         )

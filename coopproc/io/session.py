@@ -25,6 +25,7 @@ from coopproc.io._common import (
 from coopproc.io.csv_mapping import CsvForms
 from coopproc.io.gnss_session import read_gnss
 from coopproc.io.mcap_read import McapContent, decode_mcap, read_mcap_raw
+from coopproc.io.plausible import apply_plausible, check_plausible
 from coopproc.io.ranges_csv import RangesRead, read_ranges_csv
 from coopproc.io.raw_sensors import attach_decoded, bag_imu, read_raw_sensors
 from coopproc.io.registry import find_files, read_trajectory, sensor_note
@@ -44,7 +45,9 @@ READ_THREADS = 2
 
 
 class _Loader:
-    def __init__(self) -> None:
+    def __init__(self, strict: bool = False) -> None:
+        #: --strict: a single-row glitch is a problem, not a row excluded with a note.
+        self.strict = strict
         self.problems: list[CoopprocError] = []
         self.notes: list[str] = []
         self.inputs: list[Path] = []
@@ -245,6 +248,13 @@ class _Loader:
             config, set(nav) | self.failed - {"<ranges>"}, self.notes, self.problems
         )
         platforms = {p: v for p, v in platforms.items() if p not in self.failed}
+        # positions and velocities against the platforms' roles (io/plausible.py)
+        plausible = check_plausible(
+            nav_raw, ref_raw, nav, reference, platforms,
+            None if ranges is None else ranges.table, strict=self.strict,
+        )  # fmt: skip
+        self.problems.extend(plausible.problems)
+        self.notes += apply_plausible(plausible, (nav_raw, ref_raw), (nav, reference), origin)
         tags = {p for p, v in platforms.items() if v.role == "tag"}  # no navigation by design
         for pid in sorted(set(reference) - set(nav) - tags):
             self.notes.append(f"reference of {pid} has no navigation beside it")
@@ -367,13 +377,14 @@ class _Loader:
             )
 
 
-def read_session(path: str | Path) -> Session:
+def read_session(path: str | Path, *, strict: bool = False) -> Session:
     """Read and validate a session directory or one ``.mcap`` file.
 
     Raises the first problem found as InputError / ConfigError (one line: file, line or
     record, what was found and what was expected); ``validate_session`` lists them all.
+    ``strict``: a single-row glitch is a problem, not a row excluded (io/plausible.py).
     """
-    loader = _Loader()
+    loader = _Loader(strict)
     session = loader.load(path)
     release_freed_memory()  # the parsers' buffers
     if loader.problems:
@@ -388,13 +399,13 @@ def validate_session(path: str | Path) -> list[str]:
     return inspect_session(path)[1]
 
 
-def inspect_session(path: str | Path) -> tuple[Session | None, list[str]]:
+def inspect_session(path: str | Path, *, strict: bool = False) -> tuple[Session | None, list[str]]:
     """The session (None when it has problems) and every problem, one line each.
 
     What ``coopproc validate`` needs from one read: the problems, and the session for
-    the checks that only warn (coverage, frames).
+    the checks that only warn (coverage, frames). ``strict`` as :func:`read_session`.
     """
-    loader = _Loader()
+    loader = _Loader(strict)
     session = None
     try:
         session = loader.load(path)

@@ -81,6 +81,20 @@ class PlatformTable:
     imu: ImuTable | None = field(
         default=None, metadata={"help": "[platforms.<ID>.imu] table: IMU noise figures"}
     )
+    max_speed: float | None = field(
+        default=None,
+        metadata={"help": "plausible speed of its navigation, m/s (absent: the role's default)"},
+    )
+    max_accel: float | None = field(
+        default=None,
+        metadata={"help": "plausible acceleration, m/s^2 (absent: the role's default)"},
+    )
+    max_jump: float | None = field(
+        default=None,
+        metadata={
+            "help": "position noise allowed per epoch on top of max_speed, m (absent: role's)"
+        },
+    )
 
 
 # Plausible ranges that catch a value given in the wrong unit: (low, high, unit text).
@@ -130,6 +144,10 @@ def parse_platforms(table: Any, where: str) -> dict[str, Platform]:
                 f"{at} imu_mounting: {list(p.imu_mounting)}; "
                 "expected [roll, pitch, yaw] in degrees, each within +-360"
             )
+        for key in ("max_speed", "max_accel", "max_jump"):
+            value = getattr(p, key)
+            if value is not None and not 0 < value < 1e6:
+                raise ConfigError(f"{at} {key}: {value}; expected a positive bound below 1e6")
         out[pid] = Platform(
             pid,
             p.role,
@@ -141,6 +159,7 @@ def parse_platforms(table: Any, where: str) -> dict[str, Platform]:
             imu_mounting_deg=p.imu_mounting,
             nhc=p.nhc,
             imu=None if p.imu is None else _imu(p.imu, f"{where} [platforms.{pid}.imu]"),
+            max_motion=(p.max_speed, p.max_accel, p.max_jump),
         )
     return out
 
@@ -191,6 +210,9 @@ def _sensor_entry(p: Platform) -> dict[str, Any]:
             entry[key] = [float(v) for v in arm]
     if p.nhc is not None:
         entry["nhc"] = p.nhc
+    for key, bound in zip(("max_speed", "max_accel", "max_jump"), p.max_motion, strict=True):
+        if bound is not None:
+            entry[key] = bound
     if p.imu is not None:
         imu = {
             "grade": p.imu.grade,

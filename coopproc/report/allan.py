@@ -16,14 +16,33 @@ the record. From each curve (IEEE Std 952 reading of the log-log plot):
   curve had not turned up yet (``bias_reached`` 0): B is an upper bound, record longer.
 
 The figures of ``session.toml`` are one value per sensor: the largest axis (a filter
-that assumes the noisiest axis for all is conservative). The analysis reads the whole
-record, or its longest stretch without a gap when it has gaps (Allan deviation needs
-even sampling); the unit must be **at rest** for these to be sensor figures, so the
-share of 1-s windows at rest is reported and a record mostly in motion gets a note.
+that assumes the noisiest axis for all is conservative).
+
+The unit must be **at rest** for these to be sensor figures: on a moving record the
+curve measures the motion (``simulate --scenario handcart``, 20 s of 240 s at rest, gave
+ARW 1.23 deg/sqrt(h) for a truth of 0.15 and a gyro bias of 1107 deg/h for 2.7 when the
+whole record was analysed). So the analysis reads only the **longest stretch at rest**
+without a gap (Allan deviation needs even, uninterrupted sampling), and says how long it
+is; :func:`rest_mask` finds the 1-s windows at rest:
+
+- the accelerometers steady (:func:`coopproc.io.imu_csv.rest_windows`: every axis
+  steadier than 0.2 m/s^2, gravity's direction within 1 deg over the window);
+- the gyros not turning: the window's mean rate within :data:`REST_TURN_RADPS` of the
+  median over the steady windows (the bias and the earth rate, whatever the grade), and
+  no axis noisier than :data:`REST_NOISE_FACTOR` x its median std (vibration);
+- the platform's navigation (or reference), when the session has one over the IMU's
+  times, slower than :data:`REST_SPEED_MPS` across the window: an IMU moving straight
+  at constant speed without vibration (the simulator's handcart) reads like one at
+  rest, its track does not.
+
+A stretch shorter than :data:`STRETCH_TAUS` x the longest averaging time asked for
+(``--allan-tau``, default :data:`DEFAULT_TAU_S` s, where the white noise is read) is
+refused with one line: no figure is offered from a moving record.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -31,7 +50,9 @@ from dataclasses import dataclass
 import allantools
 import numpy as np
 import pandas as pd
+from numpy.typing import NDArray
 
+from coopproc.errors import InputError
 from coopproc.model import FloatArray, gap_limit_s
 
 __all__ = [
@@ -50,8 +71,21 @@ FLICKER_FACTOR = 0.664
 G_MPS2 = 9.80665
 _SLOPE_TOLERANCE = 0.15
 _PER_DECADE = 10
-#: A record is taken as at rest when at least this share of its 1-s windows is.
-_AT_REST = 0.9
+#: A window turns when its mean rate is this far from the steady windows' median, rad/s
+#: (0.57 deg/s: the handcart's turns are 0.38 rad/s, a tactical gyro's noise averaged
+#: over 1 s 0.0003 rad/s, a consumer one's 0.003).
+REST_TURN_RADPS = 0.01
+#: A window vibrates when an axis' std exceeds this many times its median over the
+#: steady windows.
+REST_NOISE_FACTOR = 3.0
+#: The navigation's speed across a window at rest stays below this, m/s (a walk is
+#: 1.4 m/s, the handcart 0.8, a code-GNSS track at rest wanders by about 0.05).
+REST_SPEED_MPS = 0.1
+#: The averaging time asked for by default, s: where the white noise N is read.
+DEFAULT_TAU_S = 1.0
+#: The stretch at rest must be this many times the longest averaging time (the curve
+#: reaches a tenth of the record: allan_curve).
+STRETCH_TAUS = 10.0
 
 ALLAN_COLUMNS: tuple[str, ...] = (
     "platform",
@@ -161,12 +195,18 @@ def axis_allan(sensor: str, axis: str, rate: FloatArray, rate_hz: float) -> Axis
     )
 
 
-def _longest_stretch(time_s: FloatArray) -> slice:
-    """The longest run of samples without a gap (:func:`coopproc.model.gap_limit_s`)."""
-    cuts = np.flatnonzero(np.diff(time_s) > gap_limit_s(time_s)) + 1
-    edges = np.concatenate([[0], cuts, [time_s.size]])
-    k = int(np.argmax(np.diff(edges)))
-    return slice(int(edges[k]), int(edges[k + 1]))
+def _longest_stretch(time_s: FloatArray, rest: NDArray[np.bool_]) -> slice:
+    """The longest run of samples at rest without a gap (:func:`gap_limit_s`)."""
+    breaks = np.zeros(time_s.size + 1, dtype=bool)
+    breaks[1:-1] = np.diff(time_s) > gap_limit_s(time_s)
+    # runs of rest samples, cut at gaps: run edges where rest changes or a gap falls
+    ok = np.concatenate([[False], rest, [False]])
+    change = np.flatnonzero((ok[1:] != ok[:-1]) | (breaks & ok[1:] & ok[:-1]))
+    best, span = slice(0, 0), -1.0
+    for a, b in itertools.pairwise(change):
+        if rest[a] and b - a > 1 and time_s[b - 1] - time_s[a] > span:
+            best, span = slice(int(a), int(b)), float(time_s[b - 1] - time_s[a])
+    return best
 
 
 def imu_allan(
@@ -175,32 +215,54 @@ def imu_allan(
     time_s: FloatArray,
     gyro_radps: FloatArray,
     accel_mps2: FloatArray,
-    static_fraction: float = 1.0,
+    rest: NDArray[np.bool_] | None = None,
+    *,
+    tau_s: float = DEFAULT_TAU_S,
+    judged: str = "the IMU",
 ) -> ImuAllan:
-    """Allan deviation of every gyro and accelerometer axis of one IMU record."""
-    part = _longest_stretch(time_s)
+    """Allan deviation of every axis over the longest stretch at rest of one IMU record.
+
+    ``rest``: the samples at rest (:func:`rest_mask`); None: the whole record is (the
+    caller knows). ``tau_s``: the longest averaging time asked for; a stretch shorter
+    than STRETCH_TAUS times it is an InputError. ``judged``: what said where the unit
+    rests, for the notes.
+    """
+    span_all = float(time_s[-1] - time_s[0])
+    at_rest = np.ones(time_s.size, dtype=bool) if rest is None else np.asarray(rest)
+    part = _longest_stretch(time_s, at_rest)
     t = time_s[part]
+    length = float(t[-1] - t[0]) if t.size > 1 else 0.0
+    rate_all = 1.0 / float(np.median(np.diff(time_s)))
+    rest_total = float(np.count_nonzero(at_rest)) / rate_all
+    static_fraction = rest_total / max(span_all, 1e-9) if rest is not None else 1.0
+    need = STRETCH_TAUS * tau_s
+    if length < need:
+        found = (
+            f"at rest for {length:.1f} s at most in one stretch ({rest_total:.1f} s of "
+            f"{span_all:.1f} s in all, judged from {judged})"
+            if length > 0
+            else f"never at rest in {span_all:.1f} s (judged from {judged})"
+        )
+        raise InputError(
+            source,
+            f"{found}; the Allan deviation to tau = {tau_s:g} s needs {need:g} s at rest in "
+            "one stretch: record the IMU at rest for its noise figures, or ask for a "
+            "shorter --allan-tau",
+        )
     rate_hz = 1.0 / float(np.median(np.diff(t)))
     notes: list[str] = []
     if part.stop - part.start < time_s.size:
         notes.append(
-            f"{source}: Allan deviation of the longest stretch without a gap, "
-            f"{t[-1] - t[0]:.1f} s of {time_s[-1] - time_s[0]:.1f} s"
-        )
-    if static_fraction < _AT_REST:
-        notes.append(
-            f"{source}: at rest in only {100 * static_fraction:.0f} % of the 1-s windows; the "
-            "Allan deviation then measures the motion, not the sensor: record the IMU at rest "
-            "for its noise figures"
+            f"{source}: Allan deviation of the longest stretch at rest without a gap, "
+            f"{length:.1f} s ({t[0]:.1f}-{t[-1]:.1f}; at rest {rest_total:.1f} s of "
+            f"{span_all:.1f} s in all, judged from {judged})"
         )
     axes = [
         axis_allan(sensor, axis, data[part, k], rate_hz)
         for sensor, data in (("gyro", gyro_radps), ("accel", accel_mps2))
         for k, axis in enumerate("xyz")
     ]
-    return ImuAllan(
-        platform, source, rate_hz, float(t[-1] - t[0]), static_fraction, tuple(axes), tuple(notes)
-    )
+    return ImuAllan(platform, source, rate_hz, length, static_fraction, tuple(axes), tuple(notes))
 
 
 def allan_frame(results: Sequence[ImuAllan]) -> pd.DataFrame:

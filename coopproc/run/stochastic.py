@@ -18,10 +18,27 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from coopproc.errors import InputError, OutputError
-from coopproc.io.imu_csv import find_imu_files, imu_platform, read_imu_csv
+import numpy as np
+from numpy.typing import NDArray
+
+from coopproc.errors import CoopprocError, InputError, OutputError
+from coopproc.io.assemble import choose_origin, to_session_time, to_trajectory
+from coopproc.io.csv_mapping import CsvForms
+from coopproc.io.imu_csv import find_imu_files, imu_platform, read_imu_csv, rest_windows
 from coopproc.io.outdir import check_output_file, csv_text, write_text_atomic
-from coopproc.report.allan import ALLAN_COLUMNS, ImuAllan, allan_frame, imu_allan
+from coopproc.io.registry import find_files, read_trajectory
+from coopproc.io.session_toml import read_session_toml
+from coopproc.model import FloatArray, SessionConfig
+from coopproc.report.allan import (
+    ALLAN_COLUMNS,
+    DEFAULT_TAU_S,
+    REST_NOISE_FACTOR,
+    REST_SPEED_MPS,
+    REST_TURN_RADPS,
+    ImuAllan,
+    allan_frame,
+    imu_allan,
+)
 from coopproc.report.pages import FigureOptions
 from coopproc.report.rundir import RunTables
 from coopproc.report.stochastic import (
@@ -33,7 +50,14 @@ from coopproc.report.stochastic import (
 )
 from coopproc.report.stochastic_figures import render_stochastic_figures
 
-__all__ = ["imu_sources", "stochastic_report", "write_stochastic"]
+__all__ = [
+    "imu_sources",
+    "rest_mask",
+    "stochastic_report",
+    "track_speed",
+    "window_times",
+    "write_stochastic",
+]
 
 
 def imu_sources(info: Mapping[str, Any]) -> tuple[dict[str, Path], list[str]]:
@@ -60,11 +84,110 @@ def imu_sources(info: Mapping[str, Any]) -> tuple[dict[str, Path], list[str]]:
     return found, []
 
 
+def rest_mask(
+    time_s: FloatArray,
+    gyro_radps: FloatArray,
+    accel_mps2: FloatArray,
+    speed_mps: FloatArray | None = None,
+) -> NDArray[np.bool_]:
+    """The samples in 1-s windows at rest (see the module text).
+
+    ``speed_mps``: the navigation's speed across each 1-s window (NaN where it does not
+    cover the window: not at rest); None when the session has no track to judge by.
+    """
+    n = time_s.size
+    rate = 1.0 / float(np.median(np.diff(time_s))) if n > 1 else 1.0
+    per_window = max(round(rate), 2)
+    windows = n // per_window
+    still = np.zeros(windows, dtype=bool)
+    starts, _ = rest_windows(accel_mps2, per_window)
+    still[starts // per_window] = True
+    if still.any():
+        g = gyro_radps[: windows * per_window].reshape(windows, per_window, 3)
+        mean, std = g.mean(axis=1), g.std(axis=1)
+        centre = np.median(mean[still], axis=0)
+        noise = np.median(std[still], axis=0)
+        turning = np.linalg.norm(mean - centre, axis=1) > REST_TURN_RADPS
+        shaking = np.any(std > REST_NOISE_FACTOR * noise + 1e-12, axis=1)
+        still &= ~turning & ~shaking
+    if speed_mps is not None:
+        with np.errstate(invalid="ignore"):
+            still &= np.asarray(speed_mps[:windows]) < REST_SPEED_MPS
+    out = np.zeros(n, dtype=bool)
+    out[: windows * per_window] = np.repeat(still, per_window)
+    return out
+
+
+def window_times(time_s: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Start and end time of each 1-s window of :func:`rest_mask`."""
+    rate = 1.0 / float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
+    per_window = max(round(rate), 2)
+    windows = time_s.size // per_window
+    edges = time_s[: windows * per_window].reshape(windows, per_window)
+    return edges[:, 0].copy(), edges[:, -1].copy()
+
+
+def _session_dir(info: Mapping[str, Any]) -> Path | None:
+    session = info.get("session")
+    raw = session.get("path") if isinstance(session, Mapping) else None
+    path = Path(str(raw)) if raw else None
+    return path if path is not None and path.is_dir() else None
+
+
+def track_speed(
+    info: Mapping[str, Any], platform: str, imu_time_s: FloatArray
+) -> tuple[FloatArray | None, str | None]:
+    """The speed of ``platform``'s navigation (else reference) across each 1-s window of
+    :func:`coopproc.report.allan.rest_mask`, m/s (NaN outside the track), and the file
+    it came from; (None, None) when the session has no track over the IMU's times.
+
+    The file is read alone (the session's ``[files]``, ``[columns]`` and time base
+    apply), not the whole session: the report needs one track.
+    """
+    root = _session_dir(info)
+    if root is None:
+        return None, None
+    try:
+        toml = (
+            read_session_toml(root / "session.toml") if (root / "session.toml").is_file() else None
+        )
+        config = toml.config if toml else SessionConfig()
+        forms = toml.forms if toml else CsvForms()
+        files = find_files(root, config)
+        for kind, group in (("nav", files.nav), ("ref", files.ref)):
+            path = group.get(platform)
+            if path is None:
+                continue
+            raw = read_trajectory(path, platform, forms.form(f"{kind}.{platform}"))
+            if raw.time_kind != "session":
+                if config.gps_week is None and config.time_base == "gps_tow":
+                    continue
+                raw = to_session_time(raw, config.time_base, config.gps_week)
+            origin, _ = choose_origin(config, {}, {platform: raw})
+            traj = to_trajectory(raw, origin)
+            start, end = window_times(imu_time_s)
+            inside = (start >= traj.time_s[0]) & (end <= traj.time_s[-1])
+            if not inside.any():
+                continue
+            a, b = traj.interpolate(start), traj.interpolate(end)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                speed = np.linalg.norm(b - a, axis=1) / np.maximum(end - start, 1e-9)
+            return np.where(inside, speed, np.nan), path.name
+    except CoopprocError:
+        return None, None  # a track that does not read: the IMU alone judges
+    return None, None
+
+
 def stochastic_report(
-    out_dir: str | Path, run: RunTables, imu_files: Sequence[str | Path] = ()
+    out_dir: str | Path,
+    run: RunTables,
+    imu_files: Sequence[str | Path] = (),
+    *,
+    allan_tau_s: float = DEFAULT_TAU_S,
 ) -> StochasticReport:
     """The UWB analysis of ``run`` and the Allan deviation of the IMU files: ``imu_files``
-    when given, else the session's. InputError when there is nothing to analyse."""
+    when given, else the session's. InputError when there is nothing to analyse, or when
+    an IMU is not at rest long enough for ``allan_tau_s`` (report/allan.py)."""
     pairs, notes = uwb_stochastics(run.ranges)
     if imu_files:
         files: dict[str, Path] = {}
@@ -80,8 +203,18 @@ def stochastic_report(
     results: list[ImuAllan] = []
     for platform, path in files.items():
         imu = read_imu_csv(path, platform)
+        speed, track = track_speed(run.info, platform, imu.time_s)
+        rest = rest_mask(imu.time_s, imu.gyro_radps, imu.accel_mps2, speed)
+        judged = "the IMU" if track is None else f"the IMU and the speed of {track}"
         res = imu_allan(
-            platform, str(path), imu.time_s, imu.gyro_radps, imu.accel_mps2, imu.static_fraction
+            platform,
+            str(path),
+            imu.time_s,
+            imu.gyro_radps,
+            imu.accel_mps2,
+            rest,
+            tau_s=allan_tau_s,
+            judged=judged,
         )
         notes += [*imu.notes, *res.notes]
         results.append(res)

@@ -17,6 +17,7 @@ from report_synth import make_run
 from test_report_rundir import write_run_dir
 
 from coopproc.cli import main
+from coopproc.errors import InputError
 from coopproc.report.allan import FLICKER_FACTOR, allan_frame, imu_allan, imu_toml
 from coopproc.report.stochastic import (
     STOCHASTIC_COLUMNS,
@@ -27,6 +28,7 @@ from coopproc.report.stochastic import (
     uwb_stochastics,
 )
 from coopproc.report.stochastic_format import format_stochastic
+from coopproc.run.stochastic import rest_mask
 
 REPO = Path(__file__).resolve().parents[2]
 SAMPLE = REPO / "sample_logs"
@@ -198,15 +200,18 @@ def test_allan_recovers_arw_and_vrw() -> None:
     assert res.notes == ()
 
 
-def test_allan_uses_the_longest_stretch_and_warns_about_motion() -> None:
+def test_allan_uses_the_longest_stretch_at_rest_without_a_gap() -> None:
     t, gyro, accel, _ = synthetic_imu(seconds=120.0)
     t = np.where(t >= 30.0, t + 5.0, t)  # a 5-s gap after 30 s
-    res = imu_allan("B", "imu_B.csv", t, gyro, accel, static_fraction=0.4)
-    assert res.duration_s == pytest.approx(89.99)
-    assert res.notes[0] == (
-        "imu_B.csv: Allan deviation of the longest stretch without a gap, 90.0 s of 125.0 s"
+    rest = np.ones(t.size, dtype=bool)
+    rest[(t > 80.0) & (t < 90.0)] = False  # 10 s in motion
+    res = imu_allan("B", "imu_B.csv", t, gyro, accel, rest)
+    assert res.duration_s == pytest.approx(45.0, abs=0.02)  # 35..80 s
+    assert res.notes == (
+        "imu_B.csv: Allan deviation of the longest stretch at rest without a gap, 45.0 s "
+        "(35.0-80.0; at rest 110.0 s of 125.0 s in all, judged from the IMU)",
     )
-    assert "at rest in only 40 % of the 1-s windows" in res.notes[1]
+    assert res.static_fraction == pytest.approx(110.0 / 125.0, abs=1e-3)
 
 
 # --- the command, on real runs --------------------------------------------------------
@@ -247,9 +252,10 @@ def test_cli_recovers_the_sample_logs_noise(sample_run: Path, tmp_path: Path) ->
     )
     assert f"sigma = {table.loc['all', 'std']:.4f}" in text
     assert "Table 2" not in text  # the stochastic tables instead
-    # an IMU file given explicitly, the tables as CSV to a file
+    # an IMU file given explicitly, the tables as CSV to a file; of a platform D without
+    # navigation (C's navigation moves: its IMU would be judged not at rest, and refused)
     t, gyro, accel, _ = synthetic_imu(seconds=120.0)
-    imu = tmp_path / "imu_C.csv"
+    imu = tmp_path / "imu_D.csv"
     pd.DataFrame(
         np.column_stack([t + 108000.0, gyro, accel]),
         columns=["time", "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"],
@@ -259,9 +265,9 @@ def test_cli_recovers_the_sample_logs_noise(sample_run: Path, tmp_path: Path) ->
                       "-o", str(target))  # fmt: skip
     assert code == 0, text
     written = target.read_text()
-    assert "# Gyro Allan deviation\n" in written and "# [platforms.C.imu]" in written
+    assert "# Gyro Allan deviation\n" in written and "# [platforms.D.imu]" in written
     allan = pd.read_csv(sample_run / "allan.csv")
-    assert allan["platform"].tolist() == ["C"] * 6
+    assert allan["platform"].tolist() == ["D"] * 6
     np.testing.assert_allclose(allan["random_walk"].iloc[:3], 0.0035, rtol=0.15)
 
 
@@ -322,3 +328,57 @@ def test_tiers_real_ranges(tmp_path: Path) -> None:
         ).to_numpy()
     err = (ranges["observed"] - ranges["reference"]).to_numpy()[~nlos]
     assert float(np.std(err, ddof=1)) == pytest.approx(0.121, abs=0.003)
+
+
+def _cart_imu(seed: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A handcart-like record at 100 Hz: 20 s at rest, a 5-s turn at 0.38 rad/s, then 35 s
+    straight at constant speed without vibration (its IMU reads like one at rest); and
+    the track's speed per 1-s window (0 at rest, 0.8 m/s after)."""
+    t, gyro, accel, _ = synthetic_imu(seconds=60.0, seed=seed)
+    turn = (t >= 20.0) & (t < 25.0)
+    gyro[turn, 2] += 0.38
+    speed = np.where(np.arange(60) < 20, 0.0, 0.8)
+    return t, gyro, accel, speed
+
+
+def test_rest_is_judged_by_the_imu_and_the_track() -> None:
+    t, gyro, accel, speed = _cart_imu()
+    alone = rest_mask(t, gyro, accel)
+    assert not alone[(t >= 20.0) & (t < 25.0)].any()  # the turn is seen by the gyros
+    assert alone[t < 20.0].all() and alone[t >= 25.0].all()  # straight motion is not
+    with_track = rest_mask(t, gyro, accel, speed)
+    assert with_track[t < 20.0].all() and not with_track[t >= 20.0].any()
+    res = imu_allan("cart", "imu_cart.csv", t, gyro, accel, with_track, judged="nav")
+    assert res.duration_s == pytest.approx(19.99, abs=0.01)
+    assert res.static_fraction == pytest.approx(20.0 / 60.0, abs=0.01)
+    assert res.notes == (
+        "imu_cart.csv: Allan deviation of the longest stretch at rest without a gap, 20.0 s "
+        "(0.0-20.0; at rest 20.0 s of 60.0 s in all, judged from nav)",
+    )
+    np.testing.assert_allclose([a.random_walk for a in res.axes[:3]], 0.0035, rtol=0.2)
+    with pytest.raises(InputError) as err:  # too short for tau = 5 s
+        imu_allan("cart", "imu_cart.csv", t, gyro, accel, with_track, tau_s=5.0, judged="nav")
+    assert str(err.value) == (
+        "imu_cart.csv: at rest for 20.0 s at most in one stretch (20.0 s of 60.0 s in all, "
+        "judged from nav); the Allan deviation to tau = 5 s needs 50 s at rest in one "
+        "stretch: record the IMU at rest for its noise figures, or ask for a shorter "
+        "--allan-tau"
+    )
+
+
+def test_cli_refuses_the_imu_of_a_moving_platform(sample_run: Path, tmp_path: Path) -> None:
+    """sample_logs' C moves all along (nav_C.csv): its IMU is never at rest, whatever the
+    samples say, and no figure is offered."""
+    t, gyro, accel, _ = synthetic_imu(seconds=30.0)
+    imu = tmp_path / "imu_C.csv"
+    pd.DataFrame(
+        np.column_stack([t + 108000.0, gyro, accel]),
+        columns=["time", "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"],
+    ).to_csv(imu, index=False, float_format="%.9f")
+    code, text = _cli("report", str(sample_run), "--imu", str(imu))
+    assert (code, text) == (
+        1,
+        f"error: {imu}: never at rest in 30.0 s (judged from the IMU and the speed of "
+        "nav_C.csv); the Allan deviation to tau = 1 s needs 10 s at rest in one stretch: "
+        "record the IMU at rest for its noise figures, or ask for a shorter --allan-tau\n",
+    )
