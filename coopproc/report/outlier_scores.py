@@ -60,6 +60,14 @@ def _matched(
     return order[inside], found
 
 
+def _codes_in(values: pd.Series, names: list[str]) -> np.ndarray:
+    """Each value's position in ``names`` (-1 where absent): one factorization and a
+    lookup per distinct value."""
+    raw, uniques = pd.factorize(values)
+    lut = np.append(pd.Index(names).get_indexer(pd.Index([str(u) for u in uniques])), -1)
+    return np.asarray(lut[raw], dtype=np.int64)
+
+
 def fusion_outlier_scores(
     ranges: pd.DataFrame,
     weights: pd.DataFrame | None,
@@ -83,9 +91,9 @@ def fusion_outlier_scores(
     r_time = ranges["time"].to_numpy(dtype=np.float64, na_value=np.nan)
     observed = ranges["observed"].to_numpy(dtype=np.float64, na_value=np.nan)
     reference = ranges["reference"].to_numpy(dtype=np.float64, na_value=np.nan)
-    w_pair = pd.Categorical(weights["pair"], categories=r_pairs)
-    w_codes = np.asarray(w_pair.codes, dtype=np.int64)  # -1: a pair ranges.csv lacks
-    w_method = weights["method"].astype(str).to_numpy()
+    # integer codes of the few distinct pairs and methods (no string compared per row)
+    w_codes = _codes_in(weights["pair"], [str(p) for p in r_pairs])  # -1: not in ranges.csv
+    w_method = _codes_in(weights["method"], [str(m) for m in methods])
     w_time = weights["time"].to_numpy(dtype=np.float64)
     gamma = weights["gamma"].to_numpy(dtype=np.float64)
     rejected = weights["rejected"].to_numpy(dtype=np.int64)
@@ -111,9 +119,9 @@ def fusion_outlier_scores(
         theirs = w_order[w_bounds[k] : w_bounds[k + 1]]
         at, found = _matched(r_time[mine], w_time[theirs])
         row_of = mine[at]
-        for method in methods:
+        for code, method in enumerate(methods):
             value = value_of[method]
-            sel = w_method[theirs] == method
+            sel = w_method[theirs] == code
             error = np.where(found[sel], value[row_of[sel]] - reference[row_of[sel]], np.nan)
             scored = np.isfinite(error)
             truth = np.abs(error[scored]) > OUTLIER_SIGMAS * s
