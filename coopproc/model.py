@@ -418,3 +418,4 @@ class Result:
     states: pd.DataFrame | None = None  # STATES_COLUMNS -> states.csv (INS methods)
     #: DR_STATES_COLUMNS -> dr_states.csv (the fusion's DR-error states, [fusion] state "dr")
     dr_states: pd.DataFrame | None = None
+    range_weights: pd.DataFrame | None = None  # names.RANGE_WEIGHTS_COLUMNS -> range_weights.csv

@@ -17,6 +17,7 @@ __all__ = [
     "POSITION_METRICS_COLUMNS",
     "RANGES_OUT_COLUMNS",
     "RANGE_COLUMNS",
+    "RANGE_WEIGHTS_COLUMNS",
     "STATES_COLUMNS",
     "pair_members",
     "pair_name",
@@ -77,6 +78,22 @@ STATES_COLUMNS += tuple(f"sigma_{c}" for c in _STATE_VALUES)
 _DR_VALUES = ("heading_error", "heading_rate_error", "scale_error")
 DR_STATES_COLUMNS: tuple[str, ...] = ("time", "platform", "method", *_DR_VALUES)
 DR_STATES_COLUMNS += tuple(f"sigma_{c}" for c in _DR_VALUES)
+
+#: range_weights.csv (docs/outputs.md, extension): each range a cooperative fusion method
+#: used, with the IGG-III decision of the pass whose solution it reports: ``innovation``
+#: the residual the factor judged (m; the innovation at the prior, or with the robust
+#: smoother the residual against the smoothed solution), ``standardized`` that over its
+#: sigma and the MAD unit-weight sigma, ``gamma`` the factor (1 full weight, 0 rejected),
+#: ``rejected`` 1 beyond k1.
+RANGE_WEIGHTS_COLUMNS: tuple[str, ...] = (
+    "time",
+    "pair",
+    "method",
+    "innovation",
+    "standardized",
+    "gamma",
+    "rejected",
+)
 
 
 def pair_name(a: str, b: str) -> str:

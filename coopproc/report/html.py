@@ -28,6 +28,7 @@ from coopproc.report.stochastic_figures import stochastic_section
 from coopproc.report.tables import (
     POSITION_ALL,
     distance_table,
+    fusion_outlier_table,
     method_label,
     nlos_table,
     position_table,
@@ -226,6 +227,9 @@ def render_html(
     ]
     if run.nlos_scores is not None and len(run.nlos_scores):
         parts.append(_wide(render_table(nlos_table(run.nlos_scores, order=order["nlos"]), "html")))
+        outliers = fusion_outlier_table(run.nlos_scores)
+        if outliers.rows:
+            parts.append(_wide(render_table(outliers, "html")))
     parts.append(_wide(_event_table(run)))
     # a run of a `coopproc inject` session: the injected NLOS against each method's estimate
     parts.extend(_wide(render_table(t, "html")) for t in injected_tables(run))

@@ -36,6 +36,7 @@ from coopproc.model import (
     POSITIONS_COLUMNS,
     STATES_COLUMNS,
 )
+from coopproc.names import RANGE_WEIGHTS_COLUMNS
 from coopproc.report.methods import METHOD_KEYS, listed_methods, range_methods_of
 from coopproc.report.outage import OUTAGE_COLUMNS
 from coopproc.report.scores import NLOS_EVENT_SCORE_COLUMNS, NLOS_SCORE_COLUMNS
@@ -100,6 +101,7 @@ RUN_EXTENSION_FILES: tuple[tuple[str, str, tuple[str, ...], bool], ...] = (
     ("rpe.csv", "rpe", ("platform", "method", "alignment", "segment_m"), False),
     ("states.csv", "states", STATES_COLUMNS, False),
     ("dr_states.csv", "dr_states", DR_STATES_COLUMNS, False),
+    ("range_weights.csv", "range_weights", RANGE_WEIGHTS_COLUMNS, False),
     ("outages.csv", "outages", OUTAGE_COLUMNS, False),
 )
 
@@ -131,6 +133,8 @@ class RunTables:
     outages: pd.DataFrame | None = None
     #: dr_states.csv: the fusion's estimate of the followers' dead-reckoning errors
     dr_states: pd.DataFrame | None = None
+    #: range_weights.csv: the cooperative fusion's IGG-III factor of every range it used
+    range_weights: pd.DataFrame | None = None
 
     @property
     def time_origin_s(self) -> float:

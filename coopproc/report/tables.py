@@ -29,6 +29,7 @@ from coopproc.model import METRICS_COLUMNS
 from coopproc.report.change import Change, change_of
 from coopproc.report.methods import method_order, nlos_methods, position_methods, range_methods
 from coopproc.report.metrics import POSITION_METRICS_EXTRA_COLUMNS
+from coopproc.report.outlier_scores import FUSION_PREFIX
 from coopproc.report.rundir import RunTables
 
 __all__ = [
@@ -41,6 +42,7 @@ __all__ = [
     "axis_table",
     "build_tables",
     "distance_table",
+    "fusion_outlier_table",
     "method_label",
     "nlos_table",
     "number_text",
@@ -114,6 +116,10 @@ METRIC_SPECS: dict[str, MetricSpec] = {
     "events": MetricSpec("Events", "", 0, None),
     "estimate_mae": MetricSpec("Est. MAE", "m"),
     "n": MetricSpec("n", "", 0, None),
+    # the fusion's outlier decisions (report/outlier_scores.py): nlos_scores.csv's
+    # ``detected`` and ``events`` of the fusion:<method> rows
+    "down_weighted": MetricSpec("Down-weighted", "", 0, None),
+    "rejected": MetricSpec("Rejected", "", 0, None),
 }
 
 _DISTANCE_DEFAULT = tuple(c for c in METRICS_COLUMNS if c not in ("pair", "method"))
@@ -126,6 +132,7 @@ _AXIS_ALL = (
     *(f"rms_{c}" for c in ("vel_east", "vel_north", "vel_up", "roll", "pitch", "yaw")),
 )
 _NLOS_DEFAULT = ("precision", "recall", "f1", "events", "estimate_mae")
+_OUTLIER_DEFAULT = ("precision", "recall", "f1", "down_weighted", "rejected")
 
 
 @dataclass(frozen=True)
@@ -312,6 +319,7 @@ def nlos_table(
     """NLOS detection scores against the reference (``nlos_scores.csv`` rows); methods in
     ``order``, then the rest."""
     frame = nlos_scores if pairs is None else nlos_scores[nlos_scores["pair"].isin(list(pairs))]
+    frame = frame[~_fusion_rows(frame)]  # other truth labels: fusion_outlier_table
     return _build(
         frame,
         "pair",
@@ -324,8 +332,36 @@ def nlos_table(
     )
 
 
+def _fusion_rows(frame: pd.DataFrame) -> np.ndarray:
+    return frame["method"].astype(str).str.startswith(FUSION_PREFIX).to_numpy(dtype=bool)
+
+
+def fusion_outlier_table(
+    nlos_scores: pd.DataFrame,
+    columns: Sequence[str] = _OUTLIER_DEFAULT,
+    pairs: Sequence[str] | None = None,
+) -> Table:
+    """The cooperative fusion's IGG-III decisions against the reference (the
+    ``fusion:<method>`` rows of ``nlos_scores.csv``, report/outlier_scores.py): a table of
+    its own, its outliers being another label than NLOS; methods in the file's order."""
+    frame = nlos_scores if pairs is None else nlos_scores[nlos_scores["pair"].isin(list(pairs))]
+    frame = frame[_fusion_rows(frame)]
+    frame = frame.rename(columns={"detected": "down_weighted", "events": "rejected"})
+    return _build(
+        frame,
+        "pair",
+        [c for c in columns if c in frame.columns],
+        key="fusion_outliers",
+        title="Fusion outlier decisions (IGG-III) against the reference: > 3 sigma off",
+        group_label="Pair",
+        with_change=False,
+        order=tuple(dict.fromkeys(str(m) for m in frame["method"])),
+    )
+
+
 def _check_metrics(names: Sequence[str]) -> None:
-    known = [*_DISTANCE_DEFAULT, *POSITION_ALL, *_AXIS_ALL, *_NLOS_DEFAULT, "tp", "fp", "fn"]
+    known = [*_DISTANCE_DEFAULT, *POSITION_ALL, *_AXIS_ALL, *_NLOS_DEFAULT, *_OUTLIER_DEFAULT]
+    known += ["tp", "fp", "fn"]
     for name in names:
         if name not in known:
             near = difflib.get_close_matches(name, known, n=1)
@@ -375,4 +411,5 @@ def build_tables(
         tables.append(axis_table(run, picked, platforms, order["table3"]))
     if run.nlos_scores is not None and len(run.nlos_scores):
         tables.append(nlos_table(run.nlos_scores, metrics or _NLOS_DEFAULT, pairs, order["nlos"]))
+        tables.append(fusion_outlier_table(run.nlos_scores, metrics or _OUTLIER_DEFAULT, pairs))
     return [t for t in tables if t.metrics and t.rows]

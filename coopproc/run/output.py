@@ -101,6 +101,7 @@ def run_tables(
         rpe=relative,
         states=r.states,
         dr_states=r.dr_states,
+        range_weights=r.range_weights,
         outages=outages.table if (outages := _outage_report(output)) is not None else None,
     )
 

@@ -40,6 +40,7 @@ from coopproc.model import (
     Session,
 )
 from coopproc.report.metrics import distance_metrics, nlos_scores, position_metrics
+from coopproc.report.outlier_scores import fusion_outlier_scores
 from coopproc.report.scores import nlos_event_scores
 from coopproc.run.chain import Step, resolve
 from coopproc.run.concurrent_steps import group_label, group_steps, run_concurrently, workers
@@ -53,6 +54,7 @@ from coopproc.run.tags import tag_pipeline, tag_rows, widen, without_tags
 from coopproc.stages.base import PositionInput, PositionProduct, RangeInput, RangeProduct
 from coopproc.stages.fusion.dr_quality import DeadReckoningQuality, dead_reckoning_quality
 from coopproc.stages.fusion.dr_states import dr_states_of
+from coopproc.stages.fusion.range_weights import range_weights_of
 from coopproc.stages.ranging.table import observed_table
 from coopproc.stages.registry import POSITION_STAGES, RANGE_STAGES
 
@@ -81,6 +83,9 @@ class PipelineOutput:
     methods: Mapping[str, tuple[str, ...]] | None = None
     #: the range methods that detect NLOS, in chain order
     nlos_methods: tuple[str, ...] = ()
+    #: the fusion's outlier decisions scored (report/outlier_scores.py): the
+    #: ``fusion:<method>`` rows of ``nlos_scores`` and their ``rejected_tp``
+    fusion_outlier_scores: pd.DataFrame | None = None
 
 
 def run_pipeline(
@@ -181,6 +186,11 @@ def run_pipeline(
         del cp_positions
         states = states_table(session, products)
         dr_states = dr_states_of(products)
+        range_weights = range_weights_of(products)
+        # each product's frame is in the table now: not held twice
+        for method, weighed in list(products.items()):
+            if weighed.range_weights is not None:
+                products[method] = dataclasses.replace(weighed, range_weights=None)
         table = _range_table(base, columns, range_products)
         del base  # the table holds its columns
         # positions.csv's table reads the navigation and reference it takes now; the rest
@@ -205,6 +215,13 @@ def run_pipeline(
         scores = nlos_scores(
             table, events, label_sigma, methods=nlos_methods, event_scores=event_scores
         )
+        # the fusion's own outlier decisions, scored the same way (report/outlier_scores.py)
+        with_weights = set() if range_weights is None else _methods_of(range_weights)
+        weighted = tuple(m for m in products if m in with_weights)  # in chain order
+        outliers = fusion_outlier_scores(table, range_weights, label_sigma, methods=weighted)
+        if len(outliers):
+            rows = outliers[list(scores.columns)]
+            scores = pd.concat([scores, rows], ignore_index=True) if len(scores) else rows
         di = next((p.di for p in range_products if p.di is not None), None)
         result = Result(
             ranges=table,
@@ -218,6 +235,7 @@ def run_pipeline(
             position_metrics=position_metrics(positions, methods=tuple(products)),
             states=states,
             dr_states=dr_states,
+            range_weights=range_weights,
         )
     return PipelineOutput(
         result=result,
@@ -238,6 +256,7 @@ def run_pipeline(
             "nlos": nlos_methods,
         },
         nlos_methods=nlos_methods,
+        fusion_outlier_scores=outliers,
     )
 
 
@@ -349,6 +368,11 @@ def _range_table(
     data["outlier"] = outlier
     # the columns as they are (no copy: a day's table is ~270 MB, held once)
     return pd.DataFrame(data, copy=False)
+
+
+def _methods_of(weights: pd.DataFrame) -> set[str]:
+    """The methods of a range_weights table."""
+    return {str(m) for m in weights["method"].unique()}
 
 
 def _concat_or_empty(frames: list[pd.DataFrame | None], columns: tuple[str, ...]) -> pd.DataFrame:

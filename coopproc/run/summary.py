@@ -9,12 +9,14 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from coopproc.report.change import change_of
+from coopproc.report.outlier_scores import FUSION_PREFIX
 from coopproc.run.pipeline import PipelineOutput
 
-__all__ = ["RunSummary", "summarize"]
+__all__ = ["RunSummary", "fusion_outliers", "summarize"]
 
 
 @dataclass(frozen=True)
@@ -140,6 +142,12 @@ def summarize(output: PipelineOutput) -> RunSummary:
             lines.append(
                 f"  {pair}: {_count(n_events, 'event')} (no reference: no error statistics)"
             )
+    outliers = fusion_outliers(
+        result.range_weights, output.fusion_outlier_scores, tuple(methods.get("positions", ()))
+    )
+    if outliers:
+        facts["fusion_outliers"] = outliers
+        lines.append(_outlier_line(outliers))
     pm = result.position_metrics
     primary = _primary(tuple(methods["positions"]))
     worse: list[str] = []
@@ -177,3 +185,72 @@ def summarize(output: PipelineOutput) -> RunSummary:
             "declared drift_sigma"
         )
     return RunSummary(lines=tuple(lines), facts=facts)
+
+
+def fusion_outliers(
+    weights: pd.DataFrame | None, scores: pd.DataFrame | None, order: tuple[str, ...] = ()
+) -> dict[str, dict[str, Any]]:
+    """Per fusion method (range_weights.csv's, in ``order``, then by name), the ranges it
+    used, down-weighted (gamma < 1) and rejected, and from the ``fusion:<method>`` rows of
+    nlos_scores.csv (``scores``: :func:`~coopproc.report.outlier_scores.fusion_outlier_scores`)
+    those with a reference (``scored``), the outliers among them (> 3 sigma off the
+    reference, ``outliers``), the down-weighted and the rejected outliers
+    (``down_weighted_outliers``, the rows' tp; ``rejected_outliers``); run.json
+    ``summary.fusion_outliers``."""
+    if weights is None or not len(weights):
+        return {}
+    out: dict[str, dict[str, Any]] = {}
+    method = weights["method"].astype(str).to_numpy()
+    gamma = weights["gamma"].to_numpy(dtype=float)
+    rejected = weights["rejected"].to_numpy()
+    codes, uniques = pd.factorize(method)
+    names = [str(n) for n in uniques]
+    down = np.bincount(codes, weights=(gamma < 1.0).astype(float), minlength=len(names))
+    rej = np.bincount(codes, weights=(rejected == 1).astype(float), minlength=len(names))
+    total = np.bincount(codes, minlength=len(names))
+    rank = {m: i for i, m in enumerate(order)}
+    for k in sorted(range(len(names)), key=lambda k: (rank.get(names[k], len(rank)), names[k])):
+        name = names[k]
+        facts: dict[str, Any] = {
+            "ranges": int(total[k]),
+            "down_weighted": int(down[k]),
+            "rejected": int(rej[k]),
+        }
+        if scores is not None and len(scores):
+            mine = scores[scores["method"] == FUSION_PREFIX + str(name)]
+            facts |= {
+                "scored": int(mine["epochs"].sum()),
+                "outliers": int(mine["nlos_true"].sum()),
+                "down_weighted_outliers": int(mine["tp"].sum()),
+                "rejected_outliers": int(mine["rejected_tp"].sum()),
+            }
+        out[str(name)] = facts
+    return out
+
+
+def _outlier_line(outliers: dict[str, dict[str, Any]]) -> str:
+    """One line: ``fusion down-weighted 12 of 1764 ranges (2 rejected) in observed, 10 (2)
+    of the 66 > 3 sigma off the reference; RN 3 (0), 3 (0) of 18; DI 0 (0), 0 (0) of 0
+    (range_weights.csv)``: the first method in words, the others in the same order."""
+    parts = []
+    for k, (method, f) in enumerate(outliers.items()):
+        name = _SHORT.get(method, method)
+        scored = "scored" in f and f["scored"] > 0
+        if k == 0:
+            text = (
+                f"fusion down-weighted {f['down_weighted']} of {_count(f['ranges'], 'range')} "
+                f"({f['rejected']} rejected) in {name}"
+            )
+            if scored:
+                text += (
+                    f", {f['down_weighted_outliers']} ({f['rejected_outliers']}) of the "
+                    f"{f['outliers']} > 3 sigma off the reference"
+                )
+        else:
+            text = f"{name} {f['down_weighted']} ({f['rejected']})"
+            if scored:
+                text += (
+                    f", {f['down_weighted_outliers']} ({f['rejected_outliers']}) of {f['outliers']}"
+                )
+        parts.append(text)
+    return "; ".join(parts) + " (range_weights.csv)"

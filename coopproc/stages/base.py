@@ -150,6 +150,9 @@ class PositionProduct:
     #: the followers' dead-reckoning errors, for estimators that estimate them
     #: (DR_STATES_COLUMNS with an empty method; dr_states.csv)
     dr_states: pd.DataFrame | None = None
+    #: each range the estimator used and its robust factor, for estimators that weigh
+    #: them (RANGE_WEIGHTS_COLUMNS but method and rejected; range_weights.csv)
+    range_weights: pd.DataFrame | None = None
 
 
 @dataclass(frozen=True)

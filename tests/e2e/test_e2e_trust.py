@@ -193,3 +193,12 @@ def test_real_tiers_names_the_body_blocked_robot(tmp_path: Path) -> None:
     assert len(bias) == 1 and "the ranges of tb4 disagree" in bias[0], notes
     pm = pd.read_csv(out / "position_metrics.csv").set_index(["platform", "method"])["mean"]
     assert pm[("tb4", "observed")] <= 0.7 * pm[("tb4", "nav")]
+    # the fusion's own outlier decisions (range_weights.csv, issue 30 item 7): what it
+    # rejects is off the reference (measured: 28 rejected, 27 > 3 sigma; 108 of the
+    # scored ranges down-weighted, 99 > 3 sigma)
+    facts = info["summary"]["fusion_outliers"]["observed"]
+    assert facts["rejected"] >= 10
+    assert facts["rejected_outliers"] >= 0.9 * facts["rejected"]
+    scores = pd.read_csv(out / "nlos_scores.csv")
+    mine = scores[scores["method"] == "fusion:observed"]
+    assert mine["tp"].sum() >= 0.85 * mine["detected"].sum()

@@ -83,7 +83,7 @@ def test_cli_errors_are_one_line(out_dir: Path, tmp_path: Path) -> None:
         "error: unknown metric 'rmes'; did you mean 'rmse'? (known: max, mean, rmse, snr_db, "
         "smoothness, n, rms_east, rms_north, cep50, cep95, rms_up, max_east, max_north, max_up, "
         "rms_vel_east, rms_vel_north, rms_vel_up, rms_roll, rms_pitch, rms_yaw, precision, "
-        "recall, f1, events, estimate_mae, tp, fp, fn)\n"
+        "recall, f1, events, estimate_mae, down_weighted, rejected, tp, fp, fn)\n"
     )
     missing = CliRunner().invoke(main, ["report", str(tmp_path)])
     assert missing.exit_code == 1

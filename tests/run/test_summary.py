@@ -10,7 +10,13 @@ import pandas as pd
 from coopproc.run.summary import summarize
 
 
-def _output(nav: float, observed: float, di: float) -> Any:
+def _output(
+    nav: float,
+    observed: float,
+    di: float,
+    weights: pd.DataFrame | None = None,
+    outlier_scores: pd.DataFrame | None = None,
+) -> Any:
     pm = pd.DataFrame(
         {
             "platform": ["A"] * 3 + ["B"] * 3,
@@ -25,11 +31,13 @@ def _output(nav: float, observed: float, di: float) -> Any:
         ranges=pd.DataFrame({"pair": ["A-B"]}),
         metrics=metrics,
         position_metrics=pm,
+        range_weights=weights,
     )
     return SimpleNamespace(
         result=result,
         methods={"ranges": ("observed", "di"), "positions": ("observed", "di")},
         nlos_methods=("di",),
+        fusion_outlier_scores=outlier_scores,
     )
 
 
@@ -92,3 +100,40 @@ def test_changes_say_no_change_and_metres_near_zero() -> None:
     # a platform whose fused error equals its observed one to the printed digits
     same = summarize(_output(0.025, 0.0250, 0.025004)).lines[2]
     assert same.endswith("fused DI 0.025 m (no change)"), same
+
+
+def test_fusion_outliers_line_and_facts() -> None:
+    """One line for the fusion's IGG-III decisions, the methods in the run's order, and
+    the counts in the facts (run.json summary.fusion_outliers)."""
+    weights = pd.DataFrame(
+        {
+            "method": ["di"] * 3 + ["observed"] * 4,
+            "gamma": [1.0, 0.5, 1.0, 1.0, 0.3, 1e-30, 1e-30],
+            "rejected": [0, 0, 0, 0, 0, 1, 1],
+        }
+    )
+    scores = pd.DataFrame(
+        {
+            "method": ["fusion:observed", "fusion:di"],
+            "epochs": [4, 3],
+            "nlos_true": [2, 0],
+            "tp": [2, 0],
+            "rejected_tp": [1, 0],
+        }
+    )
+    summary = summarize(_output(0.3, 0.2, 0.1, weights, scores))
+    line = next(x for x in summary.lines if x.startswith("fusion down-weighted"))
+    assert line == (
+        "fusion down-weighted 3 of 4 ranges (2 rejected) in observed, 2 (1) of the 2 > 3 "
+        "sigma off the reference; DI 1 (0), 0 (0) of 0 (range_weights.csv)"
+    )
+    assert summary.facts["fusion_outliers"]["observed"] == {
+        "ranges": 4,
+        "down_weighted": 3,
+        "rejected": 2,
+        "scored": 4,
+        "outliers": 2,
+        "down_weighted_outliers": 2,
+        "rejected_outliers": 1,
+    }
+    assert list(summary.facts["fusion_outliers"]) == ["observed", "di"]

@@ -169,7 +169,7 @@ def ekf_forward(
     gamma_in: FloatArray,
 ) -> tuple[
     FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
-    FloatArray, FloatArray,
+    FloatArray, FloatArray, FloatArray,
 ]:  # fmt: skip
     """Forward EKF over K epochs (K = ``dt.shape[0]``; each platform's navigation samples
     ``nav_t``/``nav_v``/``nav_ptr`` as :func:`nav_at` reads them, ``nav_v`` (S, dim)).
@@ -187,7 +187,10 @@ def ekf_forward(
     innovation's variance H C H^T + R (M,), and the smoother checkpoints: state (B, n) and
     covariance (B, n, n) before epoch ``b * block`` (``block <= 0``: none kept); then the
     DR states (every state after the positions, ``n - P dim``) and their variances at the
-    epochs ``dr_rec`` (ascending), (len(dr_rec), n - P dim) each. ``dr_idx``, ``dr_q``: see
+    epochs ``dr_rec`` (ascending), (len(dr_rec), n - P dim) each; last, every
+    observation's standardized innovation (M,), the value eq. (18) turned into its robust
+    factor: v / (sigma sqrt(H C H^T + R)) with eq. (20)'s MAD sigma (without the robust
+    factor, or with ``gamma_in``, sigma = 1). ``dr_idx``, ``dr_q``: see
     :func:`time_update` (all -1: the position-only filter). ``gamma_in``: every
     observation's robust factor, given (an iteration of the robust smoother,
     :mod:`~coopproc.stages.fusion.robust_refit`), instead of eq. (18)-(20) at the prior
@@ -209,6 +212,7 @@ def ekf_forward(
         robust = False
     innov = np.zeros(n_obs)
     innov_var = np.zeros(n_obs)
+    std_innov = np.zeros(n_obs)
     x = x0.copy()
     c = c0.copy()
     max_m = max_epoch_obs(obs_ptr)
@@ -248,6 +252,7 @@ def ekf_forward(
         for j in range(m):
             innov[lo + j] = v[j]
             innov_var[lo + j] = d[j]
+            std_innov[lo + j] = v[j] / np.sqrt(d[j])
         if robust and m > 0 and (mad_window <= 0 or m >= MAD_EPOCH_MIN):
             # eq. (20) -> (19) -> (18) over the epoch's own innovations
             sigma = mad_sigma_nb(v[:m], d[:m], sigma_floor)
@@ -268,7 +273,8 @@ def ekf_forward(
                 sigma = mad_sigma_nb(pool[:used], ones[:used], sigma_floor)
         if robust and m > 0:
             for j in range(m):
-                gamma[lo + j] = igg3_scalar(v[j] / (sigma * np.sqrt(d[j])), k0, k1)
+                std_innov[lo + j] = v[j] / (sigma * np.sqrt(d[j]))
+                gamma[lo + j] = igg3_scalar(std_innov[lo + j], k0, k1)
                 if mad_window > 0:
                     window_push(ring, ring_sorted, ring_state, abs(v[j]) / np.sqrt(d[j]))
         epoch_update(
@@ -285,4 +291,4 @@ def ekf_forward(
                 dr_x[dr_next, j] = x[n_pos + j]
                 dr_var[dr_next, j] = c[n_pos + j, n_pos + j]
             dr_next += 1
-    return xs, var, gamma, innov, innov_var, cp_x, cp_c, dr_x, dr_var
+    return xs, var, gamma, innov, innov_var, cp_x, cp_c, dr_x, dr_var, std_innov

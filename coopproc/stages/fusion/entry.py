@@ -7,7 +7,8 @@
   On the observed ranges it also gives the cooperative solution the ranging stage needs.
   A processed set that holds the observed ranges (the range processing changed none: same
   :func:`~coopproc.stages.fusion.range_digest.range_rows_digest`) gets the observed
-  fusion's solution instead of a second, identical fusion.
+  fusion's solution instead of a second, identical fusion. Its IGG-III factor per range
+  goes to range_weights.csv (:mod:`~coopproc.stages.fusion.range_weights`).
 - ``lsq``: robust least squares from fixed anchors (paper 003 sec. 2.2,
   :func:`coopproc.stages.fusion.lsq.robust_lsq_positions`), epoch by epoch; method
   ``lsq`` on the observed ranges, ``lsq_<set>`` on a processed set.
@@ -32,6 +33,7 @@ from coopproc.stages.fusion.data import range_sigma_default, shared_nav
 from coopproc.stages.fusion.fuse import FusionParams
 from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
 from coopproc.stages.fusion.range_digest import range_rows_digest
+from coopproc.stages.fusion.range_weights import range_weights_frame
 from coopproc.stages.fusion.uwb_kf import uwb_kf_positions
 
 __all__ = ["FUSION", "LSQ", "LSQ_KF", "LSQ_RTS", "fusion_stage", "lsq_stage"]
@@ -85,6 +87,7 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
         calibration=cal,
         notes=cal.notes,
         dr_states=fused.dr_states,
+        range_weights=range_weights_frame(inp.ranges, fused),
     )
 
 
@@ -110,6 +113,7 @@ def _same_as_observed(
         calibration=dataclasses.replace(cal, notes=notes),
         notes=notes,
         dr_states=observed.dr_states,
+        range_weights=observed.range_weights,  # the same fusion's decisions
     )
 
 

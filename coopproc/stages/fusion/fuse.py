@@ -53,7 +53,7 @@ from coopproc.stages.fusion.params import FusionParams, fusion_params_from_toml
 from coopproc.stages.fusion.robust_refit import smoothed_gammas
 from coopproc.stages.fusion.smoother import mbf_backward
 
-__all__ = ["FusionOutput", "FusionParams", "fuse", "fusion_params_from_toml"]
+__all__ = ["FusionOutput", "FusionParams", "RangeDecisions", "fuse", "fusion_params_from_toml"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,6 +75,28 @@ class FusionOutput:
     #: (:func:`~coopproc.stages.fusion.dr_states.dr_states_table`); None with state
     #: "position".
     dr_states: pd.DataFrame | None = None
+    #: The robust factor of every range as the returned solution used it (the final
+    #: pass's: with the robust smoother's refits, the factors of the last refit), for
+    #: range_weights.csv; None when the solution was discarded (``discard``).
+    decisions: RangeDecisions | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class RangeDecisions:
+    """The IGG-III decision on each range row of a fusion (the rows of ``observations``).
+
+    ``source``: each row's row in the range table given to :func:`fuse`; ``residual_m``:
+    what the factor judged, the innovation at the prior (paper 002 eq. (18)-(20) in the
+    forward filter) or, with the robust smoother (:mod:`~coopproc.stages.fusion.robust_refit`),
+    the range's residual against the smoothed solution; ``standardized``: that over its
+    sigma and the MAD unit-weight sigma; ``gamma``: the factor (1 full weight, 1e-30
+    rejected: beyond ``k1``).
+    """
+
+    source: np.ndarray
+    residual_m: FloatArray
+    standardized: FloatArray
+    gamma: FloatArray
 
 
 def fuse(
@@ -122,6 +144,7 @@ def fuse(
     dim = params.dims
     moving, epochs, ep_idx = inputs.moving, inputs.epochs, inputs.ep_idx
     obs, rec_ptr, rec_plat = inputs.obs, inputs.rec_ptr, inputs.rec_plat
+    source = inputs.source
     nav_t, nav_v, nav_ptr = inputs.nav
     from_id, to_id = inputs.from_id, inputs.to_id
     n_ep = epochs.shape[0]
@@ -161,7 +184,7 @@ def fuse(
     if q_squared and dr.active:  # the kernel squares every q_coef
         q_coef = np.where(dr.idx >= 0, np.sqrt(dr.position_q), q_coef)
     noise = (epochs, nav_t, nav_v, nav_ptr, q_coef, q_squared, dt)
-    xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c, dr_xf, dr_vf = ekf_forward(
+    xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c, dr_xf, dr_vf, std_innov = ekf_forward(
         x0, c0, *noise, *kernel_obs, params.dims, params.robust, params.k0, params.k1,
         params.mad_floor, params.mad_window, *forward_slots, block, dr.idx, dr.q, dr.rec,
         np.zeros(0),
@@ -180,12 +203,15 @@ def fuse(
         },
         copy=False,  # memory (issue 11): fresh arrays and immutable id columns, not copied
     )
-    del innov, innov_var, at, from_id, to_id  # memory (issue 11): what the table took is spent
+    # the forward pass's decisions: the innovation at the prior and its standardized value
+    judged: tuple[FloatArray, FloatArray] | None = (table["innovation"].to_numpy(), std_innov[at])
+    del innov, innov_var, std_innov, from_id, to_id  # memory (issue 11): the table took them
     release_freed_memory()  # the forward pass's working arrays, before the smoother's
     if smooth and discard is not None and discard(table):
         if not record_forward:  # the caller reads the table only: no trajectories
             return FusionOutput(smoothed={}, forward={}, epochs_s=epochs, observations=table)
         smooth = False
+        judged = None  # the caller reads the table only: no decisions kept
     if smooth:
         refits = params.robust_smoother_iterations if params.state == "dr" and params.robust else 0
         # a smoother pass that a refit follows gives its states only: no variances, no DR
@@ -199,12 +225,16 @@ def fuse(
             # the robust factors against the smoothed solution, then the filter and the
             # smoother again with them (robust_refit.py); the forward trajectories stay
             # the causal filter's
-            gamma = smoothed_gammas(
+            gamma, resid_m, std_s = smoothed_gammas(
                 obs, rec_ptr, rec_plat, xs_s, len(moving), dim, gamma, params.k0,
                 params.k1, params.mad_floor,
             )  # fmt: skip
+            # the last refit's decisions (a range without a smoothed residual keeps the
+            # forward pass's factor, and its innovation)
+            judged = _refit_judged(judged, resid_m[at], std_s[at])
+            del resid_m, std_s
             del xs_s, var_s, dr_xs, dr_vs, cp_x, cp_c
-            *_, cp_x, cp_c, _, _ = ekf_forward(
+            *_, cp_x, cp_c, _, _, _ = ekf_forward(
                 x0, c0, *noise, *kernel_obs, params.dims, params.robust, params.k0,
                 params.k1, params.mad_floor, params.mad_window, np.zeros_like(rec_ptr),
                 rec_plat[:0], block, dr.idx, dr.q, dr.rec[:0], gamma,
@@ -215,6 +245,10 @@ def fuse(
             )  # fmt: skip
     else:
         xs_s, var_s, dr_xs, dr_vs = xs_f, var_f, dr_xf, dr_vf
+    decisions = None
+    if judged is not None:
+        decisions = RangeDecisions(source, judged[0], judged[1], gamma[at])
+    del at, judged
     dr_table = dr_states_table(moving, epochs, dr, (dr_xs, dr_vs)) if dr.active else None
     del dr_xf, dr_vf, dr_xs, dr_vs
     # memory (issue 11): the observations and the range rows are spent (unless the caller
@@ -232,8 +266,23 @@ def fuse(
     built = solutions_from_slots(*slots, solutions)
     held = built.pop(0) if forward else {}
     return FusionOutput(
-        smoothed=built[0], forward=held, epochs_s=epochs, observations=table, dr_states=dr_table
-    )
+        smoothed=built[0], forward=held, epochs_s=epochs, observations=table,
+        dr_states=dr_table, decisions=decisions,
+    )  # fmt: skip
+
+
+def _refit_judged(
+    forward: tuple[FloatArray, FloatArray] | None, resid_m: FloatArray, std: FloatArray
+) -> tuple[FloatArray, FloatArray] | None:
+    """The residuals and standardized values of a refit's factors, the forward pass's
+    where the refit kept the forward factor (NaN)."""
+    if forward is None:
+        return None
+    kept = np.isnan(std)
+    if kept.any():
+        resid_m = np.where(kept, forward[0], resid_m)
+        std = np.where(kept, forward[1], std)
+    return resid_m, std
 
 
 def _drift(session: Session, pid: str, params: FusionParams) -> float:

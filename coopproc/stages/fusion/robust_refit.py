@@ -50,9 +50,13 @@ def smoothed_gammas(
     k0: float,
     k1: float,
     mad_floor: float,
-) -> FloatArray:
+) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Every observation's robust factor from the smoothed states ``xs`` (R, dim) at the
-    recorded slots (module doc); ``gamma_forward`` where the smoothed one cannot be had."""
+    recorded slots (module doc); ``gamma_forward`` where the smoothed one cannot be had.
+
+    Also each observation's residual against the smoothed solution (m) and the
+    standardized value its factor was taken from (residual / sigma / the MAD sigma), NaN
+    where the forward factor stays: the decisions ``range_weights.csv`` shows."""
     ptr = obs["ptr"]
     n_ep = ptr.shape[0] - 1
     epoch = np.repeat(np.arange(n_ep, dtype=np.int64), np.diff(ptr))
@@ -69,11 +73,15 @@ def smoothed_gammas(
     xa = xs[at_a]
     diff = np.where((kind == OBS_RANGE)[:, None], xa - xs[at_b] - offset, xa - offset)
     rho = np.sqrt(np.maximum(np.sum(diff * diff, axis=1) + obs["dz2"], 1e-12))
-    resid = (obs["z"] - rho) / np.sqrt(obs["var"])
+    resid_m = obs["z"] - rho
+    resid = resid_m / np.sqrt(obs["var"])
     gamma = gamma_forward.copy()
     use = found & np.isfinite(resid)
+    standardized = np.full(resid.shape[0], np.nan)
     if np.count_nonzero(use) == 0:
-        return gamma
+        return gamma, standardized, standardized.copy()
     sigma = max(MAD_SCALE * float(np.median(np.abs(resid[use]))), mad_floor)
-    gamma[use] = igg3_factor(resid[use] / sigma, k0, k1)
-    return gamma
+    standardized[use] = resid[use] / sigma
+    gamma[use] = igg3_factor(standardized[use], k0, k1)
+    resid_m[~use] = np.nan
+    return gamma, resid_m, standardized

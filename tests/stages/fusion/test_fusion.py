@@ -152,6 +152,36 @@ def test_robust_filter_resists_a_2m_gross_error(base) -> None:
     assert (obs["gamma"] == 1.0).mean() > 0.95
 
 
+def test_decisions_are_the_final_pass_factors(base) -> None:
+    """range_weights.csv's source: each range's factor as the reported solution used it.
+    With the robust smoother (default) the last refit's, judged on the residual against
+    the smoothed solution; without it the forward pass's, the observations' gamma."""
+    session, _, _ = base
+    bad = session.ranges.frame.copy()
+    row = bad.index[(bad["time"] == 150.0) & (bad["pair"] == "A-B")][0]
+    bad.loc[row, "range"] += 2.0
+    out = fuse(session, bad, FusionParams())
+    d = out.decisions
+    assert d is not None
+    hit = int(np.flatnonzero(d.source == row)[0])
+    assert d.gamma[hit] == pytest.approx(1e-30)
+    assert d.residual_m[hit] == pytest.approx(2.0, abs=0.1)  # against the smoothed positions
+    assert abs(d.standardized[hit]) > FusionParams().k1  # rejected: beyond k1
+    assert np.count_nonzero(d.gamma < 1.0) <= 0.02 * d.gamma.shape[0]
+    plain = fuse(session, bad, FusionParams(robust_smoother_iterations=0))
+    assert plain.decisions is not None
+    # the refit judged the smoothed residuals, not the forward innovations (the same
+    # forward pass as ``plain``'s): other values, the same verdict on this clean session
+    assert not np.array_equal(d.residual_m, plain.decisions.residual_m)
+    assert not np.array_equal(d.standardized, plain.decisions.standardized)
+    assert np.array_equal(d.gamma < 1.0, plain.decisions.gamma < 1.0)
+    assert np.array_equal(plain.decisions.gamma, plain.observations["gamma"].to_numpy())
+    assert np.array_equal(plain.decisions.residual_m, plain.observations["innovation"].to_numpy())
+    v, var = plain.observations["innovation"], plain.observations["innovation_var"]
+    # standardized = v / (MAD sigma sqrt(d)), the MAD sigma floored at mad_floor = 1
+    assert np.all(np.abs(plain.decisions.standardized) <= np.abs(v / np.sqrt(var)) + 1e-12)
+
+
 def test_range_sigma_per_row_weights_the_update(base) -> None:
     session, _, _ = base
     frame = session.ranges.frame
