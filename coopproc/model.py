@@ -416,6 +416,5 @@ class Result:
     metrics: pd.DataFrame  # METRICS_COLUMNS -> metrics.csv
     position_metrics: pd.DataFrame  # POSITION_METRICS_COLUMNS -> position_metrics.csv
     states: pd.DataFrame | None = None  # STATES_COLUMNS -> states.csv (INS methods)
-    #: DR_STATES_COLUMNS -> dr_states.csv (the fusion's DR-error states, [fusion] state "dr")
-    dr_states: pd.DataFrame | None = None
+    dr_states: pd.DataFrame | None = None  # DR_STATES_COLUMNS -> dr_states.csv (state "dr")
     range_weights: pd.DataFrame | None = None  # names.RANGE_WEIGHTS_COLUMNS -> range_weights.csv
