@@ -21,10 +21,13 @@ def validate(session: Path, quiet: bool) -> None:
     that reads cleanly is also checked for what would spoil a run without being an
     error, printed as warnings (exit status 0): gaps in a platform's navigation, and
     navigation that starts after or ends before the ranges, with the count of ranges it
-    does not cover, and files left out (copies and backups such as nav_A_backup.csv);
-    and notes: raw-sensor files this version does not use, and a platform whose
-    navigation seems to be in a frame of its own.
+    does not cover, files left out (copies and backups such as nav_A_backup.csv), and
+    files whose clock runs ahead of or behind the others' (estimated from the data,
+    with its likely cause; docs/formats.md "Clock offsets"); and notes: raw-sensor files
+    this version does not use, a platform whose navigation seems to be in a frame of its
+    own, and clock offsets that are not observable or were applied.
     """
+    from coopproc.checks.clock import clock_lines, estimate_clock
     from coopproc.checks.coverage import coverage_warnings, session_start_s
     from coopproc.checks.framecheck import frame_notes
     from coopproc.io.raw_sensors import sensor_notes
@@ -46,9 +49,12 @@ def validate(session: Path, quiet: bool) -> None:
         click.echo(f"note: times below are seconds from the session start, {start:.3f}")
     if data.root.is_dir():  # copies and backups left out (io/file_names.py)
         warnings += find_files(data.root, data.config).notes
+    clock_warnings, clock_notes = clock_lines(data, data.clock or estimate_clock(data))
+    warnings += clock_warnings
+    offsets = [n for n in data.notes if n.startswith("[time.offsets]")]
     for line in warnings:
         click.echo(f"warning: {line}")
-    for note in [*sensor_notes(data), *frame_notes(data)]:
+    for note in [*sensor_notes(data), *frame_notes(data), *offsets, *clock_notes]:
         click.echo(f"note: {note}")
     counted = f" ({len(warnings)} warning{'s' * (len(warnings) != 1)})" if warnings else ""
     click.echo(f"{session}: ok{counted}")

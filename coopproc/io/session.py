@@ -7,6 +7,7 @@ and ``read_session`` raises the first.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
@@ -14,7 +15,7 @@ from typing import Literal
 
 import numpy as np
 
-from coopproc.errors import CoopprocError, InputError
+from coopproc.errors import ConfigError, CoopprocError, InputError
 from coopproc.io import assemble
 from coopproc.io._common import (
     InputProblems,
@@ -33,7 +34,7 @@ from coopproc.io.rosbag_scan import bag_files, is_bag
 from coopproc.io.session_toml import TomlRead, mcap_mapping, parse_session_toml, read_session_toml
 from coopproc.io.timebase import TimedFile, WeekSource, check_times, infer_time_base
 from coopproc.memory import release_freed_memory
-from coopproc.model import SensorFile, Session, SessionConfig, Trajectory
+from coopproc.model import RangeTable, SensorFile, Session, SessionConfig, Trajectory
 
 __all__ = ["inspect_session", "read_session", "validate_session"]
 
@@ -225,7 +226,7 @@ class _Loader:
         if ranges is None and "<ranges>" not in self.failed:
             self.add(InputError(root, "no ranges; expected ranges.csv (or .mcap /uwb/range)"))
         # Time base.
-        config, bad_times = self._time_base(config, toml, nav_raw, ref_raw, ranges)
+        config, bad_times, ranges = self._time_base(config, toml, nav_raw, ref_raw, ranges)
         # Reference quality filter.
         for pid in sorted(ref_raw):
             kept, note = assemble.filter_quality(ref_raw[pid], tuple(config.reference_quality))
@@ -279,7 +280,7 @@ class _Loader:
         )
         if self.problems or ranges is None:
             return None
-        return Session(
+        session = Session(
             config=config,
             platforms=platforms,
             nav=nav,
@@ -294,6 +295,11 @@ class _Loader:
             odometer=odometer,
             gnss=gnss,
         )
+        if config.time_offsets == "estimate":  # the estimates applied (checks.clock)
+            from coopproc.checks.clock import apply_estimates
+
+            session = apply_estimates(session)
+        return session
 
     def _time_base(
         self,
@@ -302,11 +308,12 @@ class _Loader:
         nav_raw: dict[str, RawTrajectory],
         ref_raw: dict[str, RawTrajectory],
         ranges: RangesRead | None,
-    ) -> tuple[SessionConfig, set[str]]:
-        """Choose the base and week, convert GPST files to it, check every file's times.
+    ) -> tuple[SessionConfig, set[str], RangesRead | None]:
+        """Choose the base and week, convert GPST files to it, subtract the
+        ``[time.offsets]``, check every file's times.
 
-        Returns the config with the base and week used, and the files whose times do not
-        fit (their span checks would only repeat the problem).
+        Returns the config with the base and week used, the files whose times do not
+        fit (their span checks would only repeat the problem), and the ranges.
         """
         own = [
             TimedFile(r.source, r.time_s, "nav")
@@ -347,12 +354,61 @@ class _Loader:
                     continue
                 absolute = raw.gps_week if raw.time_kind == "gpst" else None
                 files.append(TimedFile(raw.source, group[pid].time_s, role, absolute))
+        if isinstance(config.time_offsets, Mapping) and config.time_offsets:
+            ranges = self._offsets(config.time_offsets, toml, nav_raw, ref_raw, ranges, files)
+            own = [f for f in own if f.role != "ranges"]
+            if ranges is not None:
+                times = ranges.table.frame["time"].to_numpy(dtype=np.float64)
+                own.append(TimedFile(ranges.where.path, times, "ranges"))
         files += [f for f in own if f.role == "ranges"]
         problems, bad = check_times(
             files, base, base_given=given, inferred_from=inferred_from, week=week
         )
         self.problems.extend(problems)
-        return config, bad
+        return config, bad, ranges
+
+    def _offsets(
+        self,
+        offsets: Mapping[str, float],
+        toml: TomlRead | None,
+        nav_raw: dict[str, RawTrajectory],
+        ref_raw: dict[str, RawTrajectory],
+        ranges: RangesRead | None,
+        files: list[TimedFile],
+    ) -> RangesRead | None:
+        """``[time.offsets]``: each file's seconds subtracted from its times (in the session
+        base, before the time checks); a key naming no file is a problem. Returns the
+        ranges, shifted when ``ranges`` is given."""
+        where = toml.source if toml else "session.toml"
+        for key, seconds in offsets.items():
+            if key == "ranges":
+                if ranges is not None:
+                    frame = ranges.table.frame.copy()
+                    frame["time"] = frame["time"].to_numpy(dtype=np.float64) - seconds
+                    table = RangeTable.with_id_codes(
+                        frame, ranges.table.source, ranges.table.id_codes
+                    )
+                    ranges = RangesRead(table, ranges.notes, ranges.where, ranges.order)
+                    self.notes.append(f"[time.offsets] ranges: {seconds:+g} s subtracted")
+                continue
+            kind, pid = key.split(".", 1)
+            group = nav_raw if kind == "nav" else ref_raw
+            if pid not in group:
+                if not (kind == "nav" and pid in self.failed):
+                    self.add(
+                        ConfigError(
+                            f"{where} [time.offsets] {key}: no {kind} file of {pid}; expected "
+                            f"one of {', '.join(sorted(f'{kind}.{p}' for p in group)) or 'none'}"
+                        )
+                    )
+                continue
+            raw = group[pid]
+            group[pid] = replace(raw, time_s=raw.time_s - seconds)
+            for i, f in enumerate(files):
+                if f.source == raw.source:
+                    files[i] = replace(f, time_s=group[pid].time_s)
+            self.notes.append(f"[time.offsets] {key}: {seconds:+g} s subtracted ({raw.source})")
+        return ranges
 
     def _check_overlap(self, nav: Trajectory, ref: Trajectory) -> None:
         a, b = nav.span_s
