@@ -390,7 +390,7 @@ class ClockReport:
     #: offset of the session clock kept (the one most files share) against the ranges', s
     kept_s: float
     #: seconds each file's times run ahead of the kept clock, by key, where that exceeds
-    #: the bound and its 3 sigma (what ``[time] offsets = "estimate"`` subtracts)
+    #: the bound and 5 sigma (checks.clock; what ``[time] offsets = "estimate"`` subtracts)
     corrections: Mapping[str, float]
     #: what was subtracted on reading, by key ([time] offsets), s
     applied: Mapping[str, float] = field(default_factory=dict)

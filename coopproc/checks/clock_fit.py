@@ -49,6 +49,9 @@ from coopproc.model import FloatArray, Trajectory
 __all__ = [
     "BLOCKS_S",
     "MIN_OVERLAP_FRACTION",
+    "NEAR_LAG_S",
+    "PEAK_STEP_S",
+    "SEARCH_STEP_S",
     "VELOCITY_HALF_S",
     "WINDOW_S",
     "Fit",
@@ -69,21 +72,25 @@ __all__ = [
 #: +4.0 +- 14.5 ms; land-vehicle 5 s 1.2 +- 1.6 ms, 60 s -6.2 +- 9.2 ms; paper-experiment's
 #: followers 5 s 12 and -26 +- 17 ms, 60 s -7 and 21 +- 55 ms: short blocks win where the
 #: navigation drifts, long ones where it is good and the distances change slowly.
-BLOCKS_S = (5.0, 10.0, 20.0, 60.0, math.inf)
+BLOCKS_S = (5.0, 20.0, math.inf)
 #: Half-width of the velocity difference of the Jacobian, s (see the module docstring).
 VELOCITY_HALF_S = 0.5
 #: Half-width of the rate difference of the coarse series, s: a range's noise (8-15 cm)
 #: over 1 s is a rate noise larger than the platforms' 0.1-1 m/s; over +-1 s it is halved.
 RATE_HALF_S = 1.0
 #: Window of the one-platform search (2), s.
-WINDOW_S = 1200.0
+WINDOW_S = 600.0
 #: Smallest overlap of a lag of (2), as a fraction of the ranges' samples, and in s.
 MIN_OVERLAP_FRACTION = 0.3
 MIN_OVERLAP_S = 60.0
 #: Lags searched by (2): 15 h each way (the widest time zone, UTC+14, and its margin).
 MAX_LAG_S = 15 * 3600.0
-#: One-platform search: +-60 s at 0.5 s (the 18 s leap seconds, a minute of margin).
+#: One-platform search: +-60 s (the 18 s leap seconds, a minute of margin) in steps of
+#: 1 s (the rate differences over +-1 s make the correlation peak 2-3 s wide), then
+#: +-1.5 s in steps of 0.25 s around the best; on a grid of 0.5 s.
 NEAR_LAG_S = 60.0
+SEARCH_STEP_S = 1.0
+PEAK_STEP_S = 0.25
 FINE_STEP_S = 0.5
 #: The integrated autocorrelation of :func:`_ess_factor` ends where rho falls below this.
 ESS_FLOOR = 0.05
@@ -107,6 +114,21 @@ class PairData:
     b: str
     time_s: FloatArray
     range_m: FloatArray
+
+
+class Motion:
+    """A trajectory's positions and velocities (differenced over +-:data:`VELOCITY_HALF_S`
+    at its epochs, once) interpolated at any time: what eq. (1) and its Jacobian read."""
+
+    def __init__(self, traj: Trajectory) -> None:
+        self.traj = traj
+        self._vel = velocity(traj, traj.time_s)
+
+    def at(self, time_s: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """(positions, velocities) at ``time_s``; positions NaN outside the span."""
+        t = self.traj.time_s
+        vel = np.column_stack([np.interp(time_s, t, self._vel[:, i]) for i in range(3)])
+        return self.traj.interpolate(time_s), vel
 
 
 def velocity(traj: Trajectory, time_s: FloatArray, half_s: float = VELOCITY_HALF_S) -> FloatArray:
@@ -341,6 +363,7 @@ def refine(
     free: Sequence[str],
     block_s: float,
     max_iter: int = 30,
+    tolerance_s: float = 1e-4,
 ) -> Fit:
     """Step 3: Gauss-Newton on eq. (1) for the offsets of ``free`` (the others held at
     ``start``), biases per pair and ``block_s`` block profiled out, Huber weights."""
@@ -353,6 +376,7 @@ def refine(
     ends = [np.repeat([p.a for p in pairs], sizes), np.repeat([p.b for p in pairs], sizes)]
     rows = {pid: [np.flatnonzero(e == pid) for e in ends] for pid in positions}
     tau = {pid: float(start.get(pid, 0.0)) for pid in positions}
+    motion = {pid: Motion(v) for pid, v in positions.items() if isinstance(v, Trajectory)}
     index = {pid: j for j, pid in enumerate(free)}
     w = np.ones(t.shape[0])
     scale = np.ones(len(pairs))
@@ -365,11 +389,9 @@ def refine(
             for r, pos, vel in ((ra, pa, va), (rb, pb, vb)):
                 if not r.size:
                     continue
-                if isinstance(src, Trajectory):
-                    at = t[r] + tau[pid]
-                    pos[r] = src.interpolate(at)
-                    vel[r] = velocity(src, at)
-                else:
+                if pid in motion:
+                    pos[r], vel[r] = motion[pid].at(t[r] + tau[pid])
+                elif not isinstance(src, Trajectory):  # an anchor
                     pos[r] = src
         diff = pa - pb
         d = np.linalg.norm(diff, axis=1)
@@ -401,7 +423,9 @@ def refine(
         step = np.linalg.lstsq(normal, (jt * w[:, None]).T @ r, rcond=None)[0]
         for pid, j in index.items():
             tau[pid] += float(step[j])
-        if np.max(np.abs(step)) < 1e-5:
+        # converged: every step below the tolerance or a 20th of its (white) 1-sigma
+        white = np.sqrt(np.abs(np.diag(np.linalg.pinv(normal))) * float(np.mean(w * r**2)))
+        if np.all(np.abs(step) < np.maximum(tolerance_s, white / 20)):
             break
     d, jac = model()
     valid = np.isfinite(d) & np.all(np.isfinite(jac), axis=1)
