@@ -55,7 +55,6 @@ __all__ = [
     "RANGE_COLUMNS",
     "ROLES",
     "STATES_COLUMNS",
-    "ClockReport",
     "FloatArray",
     "ImuNoise",
     "Platform",
@@ -64,7 +63,6 @@ __all__ = [
     "SensorFile",
     "Session",
     "SessionConfig",
-    "TimeOffset",
     "Trajectory",
     "gap_limit_s",
     "pair_members",
@@ -279,8 +277,7 @@ class RangeTable:
     def with_id_codes(
         cls, frame: pd.DataFrame, source: str, id_codes: tuple[np.ndarray, np.ndarray, np.ndarray]
     ) -> RangeTable:
-        """A table whose :attr:`id_codes` its reader already has (the same values as
-        computed from ``frame``: the ids that occur, sorted, and every row's codes)."""
+        """A table whose :attr:`id_codes` its reader already has (what ``frame`` gives)."""
         table = cls(frame, source=source)
         table.__dict__["id_codes"] = id_codes
         return table
@@ -352,48 +349,7 @@ class SessionConfig:
     files: Mapping[str, str] = field(default_factory=dict)
     #: MCAP topic / field mapping (``[mcap]`` table), as given.
     mcap: Mapping[str, object] = field(default_factory=dict)
-    #: ``[time] offsets``: "estimate" (apply the clock offsets estimated from the data,
-    #: coopproc.checks.clock), or seconds each file's times run ahead, by key (``ranges``,
-    #: ``nav.A``, ``ref.A``), subtracted on reading; empty: none.
     time_offsets: Literal["estimate"] | Mapping[str, float] = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
-class TimeOffset:
-    """The clock offset of one file, estimated from the data (coopproc.checks.clock).
-
-    ``offset_s``: how far the file's times run ahead of the range clock (navigation:
-    against the ranges; reference: against the ranges through its navigation, or against
-    its navigation when that one's is not observable); None when it is not observable
-    (``why`` says why).
-    """
-
-    #: ``[time.offsets]`` key: ``nav.A``, ``ref.A``
-    key: str
-    platform: str
-    #: the file (or MCAP channel) it was read from
-    source: str
-    offset_s: float | None
-    sigma_s: float | None
-    #: ranges (navigation) or reference epochs (reference) used
-    count: int = 0
-    why: str = ""
-    #: reference: its offset against its own navigation, s (None for navigation)
-    against_nav_s: float | None = None
-
-
-@dataclass(frozen=True)
-class ClockReport:
-    """Every file's estimated clock offset, the session clock kept, the corrections."""
-
-    offsets: tuple[TimeOffset, ...]
-    #: offset of the session clock kept (the one most files share) against the ranges', s
-    kept_s: float
-    #: seconds each file's times run ahead of the kept clock, by key, where that exceeds
-    #: the bound and 5 sigma (checks.clock; what ``[time] offsets = "estimate"`` subtracts)
-    corrections: Mapping[str, float]
-    #: what was subtracted on reading, by key ([time] offsets), s
-    applied: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -422,8 +378,7 @@ class Session:
     odometer: Mapping[str, OdometerData] = field(default_factory=dict)
     #: GPS observations by platform (obs_<ID>.*): coopproc.gnss.receiver.GnssReceiver
     gnss: Mapping[str, Any] = field(default_factory=dict)
-    #: The clock offsets estimated (coopproc.checks.clock); None: not estimated yet.
-    clock: ClockReport | None = None
+    clock: Any = None  # coopproc.clocks.ClockReport, once estimated (coopproc.checks.clock)
 
     @property
     def name(self) -> str:

@@ -11,7 +11,7 @@ complex horizontal velocities (east + i north) of both, cross-correlated over ev
 (:func:`coopproc.checks.clock_fit.lag_correlation`; the modulus is blind to theta, the
 phase at the peak gives it). Refinement: Gauss-Newton on (3) for rho with a 3-D bias per
 block (the navigation's drift), Huber weights on the residual's length, the block of
-:data:`~coopproc.checks.clock_fit.BLOCKS_S` with the smallest 1-sigma kept, the 1-sigma
+:data:`~coopproc.checks.clock_refine.BLOCKS_S` with the smallest 1-sigma kept, the 1-sigma
 inflated by the AR(1) effective-sample-size factor of the residuals (as for the ranges).
 """
 
@@ -21,18 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from coopproc.checks.clock_fit import (
-    BLOCKS_S,
-    HUBER_K,
-    Motion,
-    _best,
-    _ess_factor,
-    _groups,
-    _on_grid,
-    _rate,
-    grid_step,
-    lag_correlation,
-)
+from coopproc.checks.clock_fit import _best, _on_grid, _rate, grid_step, lag_correlation
+from coopproc.checks.clock_refine import BLOCKS_S, HUBER_K, Motion, demean, ess_factor
 from coopproc.model import FloatArray, Trajectory
 
 __all__ = ["RefFit", "reference_offset"]
@@ -124,7 +114,7 @@ def _refine(
         rc = np.where(valid[:, None], r_enu, 0.0)
         vc = np.where(valid[:, None], v, 0.0)
         # the rotation about the vertical (weighted Procrustes of the block-demeaned tracks)
-        pd_, rd = _groups(block, wv, pc), _groups(block, wv, rc)
+        pd_, rd = demean(block, wv, pc), demean(block, wv, rc)
         pz = pd_[:, 0] + 1j * pd_[:, 1]
         rz = rd[:, 0] + 1j * rd[:, 1]
         theta = float(np.angle(np.sum(wv * rz * np.conj(pz))))
@@ -132,7 +122,7 @@ def _refine(
         model_z = rot * pz
         vz = rot * (vc[:, 0] + 1j * vc[:, 1])
         e = np.column_stack([rz.real - model_z.real, rz.imag - model_z.imag, rd[:, 2] - pd_[:, 2]])
-        jac = _groups(block, wv, np.column_stack([vz.real, vz.imag, vc[:, 2]]))
+        jac = demean(block, wv, np.column_stack([vz.real, vz.imag, vc[:, 2]]))
         size = np.linalg.norm(e, axis=1)
         scale = max(1.4826 * float(np.median(size[valid])), 1e-4)
         w = np.where(valid, np.minimum(1.0, HUBER_K * scale / np.maximum(size, 1e-12)), 0.0)
@@ -149,7 +139,7 @@ def _refine(
     n = int(valid.sum())
     dof = max(3 * n - 1 - 3 * np.unique(block[valid]).shape[0], 1)
     s2 = float(np.sum(w[:, None] * e**2)) / dof
-    ess = max(_ess_factor(e[:, k], w, np.zeros(t.shape[0], dtype=np.int64)) for k in range(3))
+    ess = max(ess_factor(e[:, k], w, np.zeros(t.shape[0], dtype=np.int64)) for k in range(3))
     speed = np.where(valid, np.linalg.norm(vc, axis=1), 0.0)
     slope = float(np.sqrt(np.sum(w * speed**2) / max(float(np.sum(w)), 1e-12)))
     return RefFit(

@@ -27,7 +27,7 @@ def validate(session: Path, quiet: bool) -> None:
     this version does not use, a platform whose navigation seems to be in a frame of its
     own, and clock offsets that are not observable or were applied.
     """
-    from coopproc.checks.clock import clock_lines, estimate_clock
+    from coopproc.checks.clock import clock_lines, prepared
     from coopproc.checks.coverage import coverage_warnings, session_start_s
     from coopproc.checks.framecheck import frame_notes
     from coopproc.io.raw_sensors import sensor_notes
@@ -43,13 +43,15 @@ def validate(session: Path, quiet: bool) -> None:
         sys.exit(1)
     if quiet:
         return
+    data = prepared(data)  # clock offsets estimated ([time] offsets = "estimate": applied)
     warnings = coverage_warnings(data)
     if warnings:
         start = session_start_s(data)
         click.echo(f"note: times below are seconds from the session start, {start:.3f}")
     if data.root.is_dir():  # copies and backups left out (io/file_names.py)
         warnings += find_files(data.root, data.config).notes
-    clock_warnings, clock_notes = clock_lines(data, data.clock or estimate_clock(data))
+    assert data.clock is not None
+    clock_warnings, clock_notes = clock_lines(data, data.clock)
     warnings += clock_warnings
     offsets = [n for n in data.notes if n.startswith("[time.offsets]")]
     for line in warnings:

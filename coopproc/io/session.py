@@ -7,7 +7,6 @@ and ``read_session`` raises the first.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
@@ -15,7 +14,7 @@ from typing import Literal
 
 import numpy as np
 
-from coopproc.errors import ConfigError, CoopprocError, InputError
+from coopproc.errors import CoopprocError, InputError
 from coopproc.io import assemble
 from coopproc.io._common import (
     InputProblems,
@@ -32,9 +31,10 @@ from coopproc.io.registry import find_files, read_trajectory, sensor_note
 from coopproc.io.rosbag_read import BagContent, session_bag
 from coopproc.io.rosbag_scan import bag_files, is_bag
 from coopproc.io.session_toml import TomlRead, mcap_mapping, parse_session_toml, read_session_toml
+from coopproc.io.time_offsets import subtract_offsets
 from coopproc.io.timebase import TimedFile, WeekSource, check_times, infer_time_base
 from coopproc.memory import release_freed_memory
-from coopproc.model import RangeTable, SensorFile, Session, SessionConfig, Trajectory
+from coopproc.model import SensorFile, Session, SessionConfig, Trajectory
 
 __all__ = ["inspect_session", "read_session", "validate_session"]
 
@@ -280,7 +280,7 @@ class _Loader:
         )
         if self.problems or ranges is None:
             return None
-        session = Session(
+        return Session(
             config=config,
             platforms=platforms,
             nav=nav,
@@ -295,11 +295,6 @@ class _Loader:
             odometer=odometer,
             gnss=gnss,
         )
-        if config.time_offsets == "estimate":  # the estimates applied (checks.clock)
-            from coopproc.checks.clock import apply_estimates
-
-            session = apply_estimates(session)
-        return session
 
     def _time_base(
         self,
@@ -354,8 +349,11 @@ class _Loader:
                     continue
                 absolute = raw.gps_week if raw.time_kind == "gpst" else None
                 files.append(TimedFile(raw.source, group[pid].time_s, role, absolute))
-        if isinstance(config.time_offsets, Mapping) and config.time_offsets:
-            ranges = self._offsets(config.time_offsets, toml, nav_raw, ref_raw, ranges, files)
+        if config.time_offsets and not isinstance(config.time_offsets, str):  # [time.offsets]
+            where = toml.source if toml else "session.toml"
+            ranges = subtract_offsets(
+                config.time_offsets, where, nav_raw, ref_raw, ranges, files, self
+            )
             own = [f for f in own if f.role != "ranges"]
             if ranges is not None:
                 times = ranges.table.frame["time"].to_numpy(dtype=np.float64)
@@ -366,49 +364,6 @@ class _Loader:
         )
         self.problems.extend(problems)
         return config, bad, ranges
-
-    def _offsets(
-        self,
-        offsets: Mapping[str, float],
-        toml: TomlRead | None,
-        nav_raw: dict[str, RawTrajectory],
-        ref_raw: dict[str, RawTrajectory],
-        ranges: RangesRead | None,
-        files: list[TimedFile],
-    ) -> RangesRead | None:
-        """``[time.offsets]``: each file's seconds subtracted from its times (in the session
-        base, before the time checks); a key naming no file is a problem. Returns the
-        ranges, shifted when ``ranges`` is given."""
-        where = toml.source if toml else "session.toml"
-        for key, seconds in offsets.items():
-            if key == "ranges":
-                if ranges is not None:
-                    frame = ranges.table.frame.copy()
-                    frame["time"] = frame["time"].to_numpy(dtype=np.float64) - seconds
-                    table = RangeTable.with_id_codes(
-                        frame, ranges.table.source, ranges.table.id_codes
-                    )
-                    ranges = RangesRead(table, ranges.notes, ranges.where, ranges.order)
-                    self.notes.append(f"[time.offsets] ranges: {seconds:+g} s subtracted")
-                continue
-            kind, pid = key.split(".", 1)
-            group = nav_raw if kind == "nav" else ref_raw
-            if pid not in group:
-                if not (kind == "nav" and pid in self.failed):
-                    self.add(
-                        ConfigError(
-                            f"{where} [time.offsets] {key}: no {kind} file of {pid}; expected "
-                            f"one of {', '.join(sorted(f'{kind}.{p}' for p in group)) or 'none'}"
-                        )
-                    )
-                continue
-            raw = group[pid]
-            group[pid] = replace(raw, time_s=raw.time_s - seconds)
-            for i, f in enumerate(files):
-                if f.source == raw.source:
-                    files[i] = replace(f, time_s=group[pid].time_s)
-            self.notes.append(f"[time.offsets] {key}: {seconds:+g} s subtracted ({raw.source})")
-        return ranges
 
     def _check_overlap(self, nav: Trajectory, ref: Trajectory) -> None:
         a, b = nav.span_s
