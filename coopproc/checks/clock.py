@@ -21,8 +21,8 @@ along its lines of sight (RMS: a 1 s offset changes its distances by less than 3
 with fewer than :data:`MIN_COUNT` ranges, or whose 1-sigma exceeds :data:`MAX_SIGMA_S`,
 gets "offset not observable" and no number. A common offset of every navigation is seen
 only through the distances' changes (a rigid formation shows none); lags beyond the
-data's span, or where less than 30 % of the ranges overlap, are not searched: a
-whole-hour time zone is found only in a session longer than about 1.5 hours.
+data's span, or where less than half of the ranges (or 30 s) overlap, are not searched:
+a whole-hour time zone is found only in a session longer than 2 hours.
 
 **Reported** (``coopproc validate``, ``coopproc run``): the files whose times run ahead
 of (or behind) the session clock by more than :data:`BOUND_S` and 5 sigma (below 1 s,
@@ -76,6 +76,11 @@ REPORT_SIGMA_S = 0.025
 MIN_SLOPE_MPS = 0.03
 #: Observability: ranges of the platform.
 MIN_COUNT = 20
+#: Observability: largest robust RMS of the ranges against the navigation's distances at
+#: the offset found, m (simulated sessions: 0.02-0.2; plaza2's dead reckoning: 11).
+MAX_MISFIT_M = 1.0
+#: Observability: largest move of the refinement from the coarse estimate, s.
+MAX_MOVE_S = 2.0
 #: Observability: largest 1-sigma of an estimate worth a number, s.
 MAX_SIGMA_S = 0.5
 #: Refinement on at most this many ranges (whole windows, evenly spread): the offset is
@@ -142,20 +147,25 @@ def estimate_clock(session: Session) -> ClockReport:
         peak = common_lag(pairs, positions)
         common = peak.lag_s if peak is not None else 0.0
         start = dict.fromkeys(free, common)
+        unseen: set[str] = set()  # no cross-correlation peak: under 30 s of overlap
         near = np.arange(-NEAR_LAG_S, NEAR_LAG_S + SEARCH_STEP_S / 2, SEARCH_STEP_S)
         around = [common + near] if abs(common) < NEAR_LAG_S else [common + near, near]
         candidates = np.unique(np.concatenate(around))
         for pid in free:  # one sweep: each alone, the others at their estimate so far
             found = platform_lag(pid, pairs, positions, start, candidates)
+            if found is None and peak is None:
+                unseen.add(pid)
             if found is not None:  # then finer steps around the best
                 fine = found.lag_s + np.arange(-1.5, 1.5 + 1e-9, PEAK_STEP_S)
                 found = platform_lag(pid, pairs, positions, start, fine) or found
                 start[pid] = found.lag_s
+        coarse = dict(start)
         fits = []
         for block in BLOCKS_S:  # each from the last one's offsets: a few iterations
             fits.append(refine(pairs, positions, start, free, block))
             start = {**start, **fits[-1].offset_s}
         fit = min(fits, key=lambda f: float(np.mean([f.sigma_s[p] for p in free])))
+        misfit = _misfit(pairs, positions, {**start, **fit.offset_s}, free)
     for pid in sorted(session.nav):
         source = session.nav[pid].source
         key = f"nav.{pid}"
@@ -176,6 +186,18 @@ def estimate_clock(session: Session) -> ClockReport:
             )
         elif not sigma <= MAX_SIGMA_S:
             why = f"1-sigma {sigma:.2f} s (more than {MAX_SIGMA_S} s)"
+        elif misfit[pid] > MAX_MISFIT_M:
+            why = (
+                f"its navigation does not follow its ranges ({misfit[pid]:.2f} m robust RMS "
+                "at the best offset: a frame of its own, or drift)"
+            )
+        elif pid in unseen:
+            why = "under 30 s of its ranges and navigation overlap at any lag"
+        elif abs(fit.offset_s[pid] - coarse[pid]) > MAX_MOVE_S:
+            why = (
+                f"the refinement went {fit.offset_s[pid] - coarse[pid]:+.1f} s from the "
+                f"cross-correlation's {coarse[pid]:+.1f} s"
+            )
         if why:
             offsets.append(TimeOffset(key, pid, source, None, None, fit.count[pid], why))
         else:
@@ -185,6 +207,33 @@ def estimate_clock(session: Session) -> ClockReport:
         offsets.append(_reference(session, pid, nav_fit))
     kept, corrections = _corrections(offsets)
     return ClockReport(tuple(offsets), kept, corrections)
+
+
+def _misfit(
+    pairs: list[PairData],
+    positions: Mapping[str, Trajectory | FloatArray],
+    offsets: Mapping[str, float],
+    free: list[str],
+) -> dict[str, float]:
+    """Per platform, the median over its pairs of the robust RMS (1.4826 MAD) of the
+    ranges less the navigation's distances at ``offsets``, one bias per pair."""
+    spread: dict[str, list[float]] = {pid: [] for pid in free}
+    for p in pairs:
+        ends = []
+        for pid in (p.a, p.b):
+            v = positions[pid]
+            ends.append(
+                v.interpolate(p.time_s + offsets.get(pid, 0.0)) if isinstance(v, Trajectory) else v
+            )
+        r = p.range_m - np.linalg.norm(ends[0] - ends[1], axis=1)
+        r = r[np.isfinite(r)]
+        if r.size < 4:
+            continue
+        mad = 1.4826 * float(np.median(np.abs(r - np.median(r))))
+        for pid in (p.a, p.b):
+            if pid in spread:
+                spread[pid].append(mad)
+    return {pid: float(np.median(v)) if v else 0.0 for pid, v in spread.items()}
 
 
 def _reference(

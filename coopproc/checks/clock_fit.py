@@ -69,8 +69,10 @@ RATE_HALF_S = 1.0
 #: Window of the one-platform search (2), s.
 WINDOW_S = 600.0
 #: Smallest overlap of a lag of (2), as a fraction of the ranges' samples, and in s.
-MIN_OVERLAP_FRACTION = 0.3
-MIN_OVERLAP_S = 60.0
+MIN_OVERLAP_FRACTION = 0.5
+MIN_OVERLAP_S = 30.0
+#: A lag nearer 0 is kept when its correlation is within this fraction of the best one.
+PEAK_MARGIN = 0.05
 #: Lags searched by (2): 15 h each way (the widest time zone, UTC+14, and its margin).
 MAX_LAG_S = 15 * 3600.0
 #: One-platform search: +-60 s (the 18 s leap seconds, a minute of margin) in steps of
@@ -180,14 +182,18 @@ def lag_correlation(
     return lags * step_s, rho.astype(np.float64), np.rint(np.real(k)).astype(np.float64)
 
 
-def _best(lags: FloatArray, rho: FloatArray, overlap: FloatArray, step_s: float) -> LagPeak | None:
-    """The highest rho among the lags with enough overlap, parabola-interpolated."""
-    need = max(MIN_OVERLAP_S / step_s, MIN_OVERLAP_FRACTION * float(overlap.max(initial=0)))
+def _best(
+    lags: FloatArray, rho: FloatArray, overlap: FloatArray, step_s: float, series: int = 1
+) -> LagPeak | None:
+    """The highest rho among the lags with enough overlap (``overlap`` summed over
+    ``series`` series: :data:`MIN_OVERLAP_S` each), parabola-interpolated."""
+    need = max(
+        series * MIN_OVERLAP_S / step_s, MIN_OVERLAP_FRACTION * float(overlap.max(initial=0))
+    )
     ok = (overlap >= need) & (np.abs(lags) <= MAX_LAG_S) & np.isfinite(rho)
     if not ok.any():
         return None
-    score = np.where(ok, rho, -np.inf)
-    i = int(np.argmax(score))
+    i = _nearest_good(lags, np.where(ok, rho, -np.inf))
     lag = float(lags[i])
     if 0 < i < lags.shape[0] - 1 and ok[i - 1] and ok[i + 1]:
         y0, y1, y2 = rho[i - 1], rho[i], rho[i + 1]
@@ -217,7 +223,7 @@ def common_lag(
         d = np.linalg.norm(cache[pair.a] - cache[pair.b], axis=1)
         xs.append(_rate(_on_grid(pair.time_s, pair.range_m, grid, _gap_of(pair.time_s)), h))
         ys.append(_rate(d, h))
-    return _best(*lag_correlation(xs, ys, h), h)
+    return _best(*lag_correlation(xs, ys, h), h, len(xs))
 
 
 def platform_lag(
@@ -263,17 +269,19 @@ def platform_lag(
         cnt += both.sum(axis=1)
     rho = num / np.sqrt(np.maximum(den_x * den_y, 1e-300))
     order = np.argsort(candidates_s)
-    return _best_unordered(candidates_s[order], rho[order], cnt[order], h)
+    return _best_unordered(candidates_s[order], rho[order], cnt[order], h, len(mine))
 
 
-def _best_unordered(lags: FloatArray, rho: FloatArray, cnt: FloatArray, h: float) -> LagPeak | None:
+def _best_unordered(
+    lags: FloatArray, rho: FloatArray, cnt: FloatArray, h: float, series: int
+) -> LagPeak | None:
     """:func:`_best` on sorted but unevenly spaced lags (parabola only between neighbours
     one step apart)."""
-    need = max(MIN_OVERLAP_S / h, MIN_OVERLAP_FRACTION * float(cnt.max(initial=0)))
+    need = max(series * MIN_OVERLAP_S / h, MIN_OVERLAP_FRACTION * float(cnt.max(initial=0)))
     ok = (cnt >= need) & np.isfinite(rho)
     if not ok.any():
         return None
-    i = int(np.argmax(np.where(ok, rho, -np.inf)))
+    i = _nearest_good(lags, np.where(ok, rho, -np.inf))
     lag = float(lags[i])
     if 0 < i < lags.shape[0] - 1 and ok[i - 1] and ok[i + 1]:
         left, right = lags[i] - lags[i - 1], lags[i + 1] - lags[i]
@@ -281,6 +289,18 @@ def _best_unordered(lags: FloatArray, rho: FloatArray, cnt: FloatArray, h: float
         if abs(left - h) < 1e-9 and abs(right - h) < 1e-9 and den < 0:
             lag += 0.5 * float(rho[i - 1] - rho[i + 1]) / float(den) * h
     return LagPeak(lag, float(rho[i]), int(cnt[i]))
+
+
+def _nearest_good(lags: FloatArray, score: FloatArray) -> int:
+    """The peak nearest 0 whose score is within :data:`PEAK_MARGIN` of the best: a platform
+    driving loops correlates with itself one lap later nearly as well as at the true lag;
+    the lap is never the likelier offset."""
+    best = float(np.max(score))
+    left = np.concatenate([[-np.inf], score[:-1]])
+    right = np.concatenate([score[1:], [-np.inf]])
+    peaks = (score >= left) & (score >= right) & (score >= best - PEAK_MARGIN * abs(best))
+    good = np.flatnonzero(peaks)
+    return int(good[np.argmin(np.abs(lags[good]))])
 
 
 def _busiest(t: FloatArray, lo: float, hi: float) -> float:

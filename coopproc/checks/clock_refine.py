@@ -28,6 +28,8 @@ BLOCKS_S = (5.0, 20.0, math.inf)
 #: The integrated autocorrelation of :func:`_ess_factor` ends where rho falls below this.
 ESS_FLOOR = 0.05
 ESS_MAX_LAG = 500
+#: Largest Gauss-Newton step, s: the coarse steps place the offset within a second.
+MAX_STEP_S = 0.5
 #: Huber's constant (in robust sigmas).
 HUBER_K = 1.5
 
@@ -142,6 +144,7 @@ def refine(
             break
         normal = (jt * w[:, None]).T @ jt
         step = np.linalg.lstsq(normal, (jt * w[:, None]).T @ r, rcond=None)[0]
+        step = np.clip(step, -MAX_STEP_S, MAX_STEP_S)  # a trust region: eq. (1) is local
         for pid, j in index.items():
             tau[pid] += float(step[j])
         # converged: every step below the tolerance or a 20th of its (white) 1-sigma

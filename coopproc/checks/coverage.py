@@ -229,8 +229,8 @@ def prepare_run(session: Session) -> tuple[Session, list[str]]:
     ``[time] offsets = "estimate"``) and notes those off the session clock, leaves out
     the ranges the navigation does not cover
     (:func:`restrict_to_coverage`) and checks each platform's navigation frame
-    (:func:`coopproc.checks.framecheck.frame_notes`). Returns the session (the same
-    object when there is nothing to note) and the new notes, which are also appended to
+    (:func:`coopproc.checks.framecheck.frame_notes`). Returns the session (with its
+    ``clock`` report) and the new notes, which are also appended to
     its ``notes`` (and so reach run.json). Tags are processed by the run
     (:mod:`coopproc.run.tags`).
     """
