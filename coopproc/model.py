@@ -278,8 +278,7 @@ class RangeTable:
     def with_id_codes(
         cls, frame: pd.DataFrame, source: str, id_codes: tuple[np.ndarray, np.ndarray, np.ndarray]
     ) -> RangeTable:
-        """A table whose :attr:`id_codes` its reader already has (the same values as
-        computed from ``frame``: the ids that occur, sorted, and every row's codes)."""
+        """A table whose :attr:`id_codes` its reader already has (what ``frame`` gives)."""
         table = cls(frame, source=source)
         table.__dict__["id_codes"] = id_codes
         return table
@@ -351,6 +350,7 @@ class SessionConfig:
     files: Mapping[str, str] = field(default_factory=dict)
     #: MCAP topic / field mapping (``[mcap]`` table), as given.
     mcap: Mapping[str, object] = field(default_factory=dict)
+    time_offsets: Literal["estimate"] | Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -379,6 +379,7 @@ class Session:
     odometer: Mapping[str, OdometerData] = field(default_factory=dict)
     #: GPS observations by platform (obs_<ID>.*): coopproc.gnss.receiver.GnssReceiver
     gnss: Mapping[str, Any] = field(default_factory=dict)
+    clock: Any = None  # coopproc.clocks.ClockReport, once estimated (coopproc.checks.clock)
 
     @property
     def name(self) -> str:
@@ -394,9 +395,8 @@ class Session:
 
     def without_samples(self) -> Session:
         """This session without its recorded samples (nav, reference, range rows, IMU,
-        odometer, GNSS): its name, platforms, files and notes, all that writing a run's
-        outputs reads once the pipeline is done. A day of 10 platforms holds about 1.1 GB
-        of samples; the figures' page workers need not inherit them (issue 11)."""
+        odometer, GNSS): all that writing a run's outputs reads once the pipeline is done
+        (a day of 10 platforms holds 1.1 GB of samples the page workers need not inherit)."""
         rows = self.ranges.frame.iloc[:0].copy()  # a copy: a view would keep the rows
         return dataclasses.replace(
             self, nav={}, reference={}, ranges=RangeTable(rows, self.ranges.source), imu={},

@@ -225,16 +225,23 @@ def restrict_to_coverage(session: Session) -> tuple[Session, list[str]]:
 def prepare_run(session: Session) -> tuple[Session, list[str]]:
     """What ``coopproc run`` does to a session before the stage chain.
 
-    Leaves out the ranges the navigation does not cover (:func:`restrict_to_coverage`)
-    and checks each platform's navigation frame
-    (:func:`coopproc.checks.framecheck.frame_notes`). Returns the session (the same
-    object when there is nothing to note) and the new notes, which are also appended to
+    Estimates the clock offsets (:func:`coopproc.checks.clock.prepared`; applied with
+    ``[time] offsets = "estimate"``) and notes those off the session clock, leaves out
+    the ranges the navigation does not cover
+    (:func:`restrict_to_coverage`) and checks each platform's navigation frame
+    (:func:`coopproc.checks.framecheck.frame_notes`). Returns the session (with its
+    ``clock`` report) and the new notes, which are also appended to
     its ``notes`` (and so reach run.json). Tags are processed by the run
     (:mod:`coopproc.run.tags`).
     """
+    from coopproc.checks.clock import clock_lines, prepared
     from coopproc.checks.framecheck import frame_notes
 
+    session = prepared(session)  # before the ranges are restricted
+    warnings, clock_notes = clock_lines(session, session.clock)
+    session = dataclasses.replace(session, notes=(*session.notes, *warnings, *clock_notes))
     session, notes = restrict_to_coverage(session)
+    notes = [*warnings, *clock_notes, *notes]
     frame = frame_notes(session)
     if frame:
         session = dataclasses.replace(session, notes=(*session.notes, *frame))

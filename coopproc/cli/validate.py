@@ -29,12 +29,15 @@ def validate(session: Path, strict: bool, quiet: bool) -> None:
     platform's navigation or reference (docs/formats.md "Plausibility"), gaps in a
     platform's navigation, and
     navigation that starts after or ends before the ranges, with the count of ranges it
-    does not cover, and files left out (copies and backups such as nav_A_backup.csv);
-    and notes: every decision of the readers that coopproc run prints too (rows sorted,
-    duplicates dropped, reference epochs dropped, a platform left out, defaults taken),
-    raw-sensor files this version does not use, and a platform whose navigation seems
-    to be in a frame of its own.
+    does not cover, files left out (copies and backups such as nav_A_backup.csv), and
+    files whose clock runs ahead of or behind the others' (estimated from the data,
+    with its likely cause; docs/formats.md "Clock offsets"); and notes: every decision
+    of the readers that coopproc run prints too (rows sorted, duplicates dropped,
+    reference epochs dropped, a platform left out, defaults taken), raw-sensor files this
+    version does not use, a platform whose navigation seems to be in a frame of its own,
+    and clock offsets that are not observable or were applied.
     """
+    from coopproc.checks.clock import clock_lines, prepared
     from coopproc.checks.coverage import coverage_warnings, session_start_s
     from coopproc.checks.framecheck import frame_notes
     from coopproc.io.plausible import WARNING
@@ -51,6 +54,7 @@ def validate(session: Path, strict: bool, quiet: bool) -> None:
         sys.exit(1)
     if quiet:
         return
+    data = prepared(data)  # clock offsets estimated ([time] offsets = "estimate": applied)
     coverage = coverage_warnings(data)
     if coverage:
         start = session_start_s(data)
@@ -60,13 +64,17 @@ def validate(session: Path, strict: bool, quiet: bool) -> None:
     warnings = [*found, *coverage]
     if data.root.is_dir():  # copies and backups left out (io/file_names.py)
         warnings += find_files(data.root, data.config).notes
+    assert data.clock is not None
+    clock_warnings, clock_notes = clock_lines(data, data.clock)
+    warnings += clock_warnings
     for line in warnings:
         click.echo(f"warning: {line}")
     # what the readers decided, as coopproc run prints it (rows sorted, duplicates
-    # dropped, reference epochs dropped, a platform left out, defaults taken, ...)
+    # dropped, reference epochs dropped, a platform left out, defaults taken, [time.offsets]
+    # applied, ...)
     notes = [n for n in data.notes if n not in warnings and not n.startswith(WARNING)]
     notes += [n for n in sensor_notes(data) if n not in notes]
-    for note in [*notes, *frame_notes(data)]:
+    for note in [*notes, *frame_notes(data), *[n for n in clock_notes if n not in notes]]:
         click.echo(f"note: {note}")
     counted = f" ({len(warnings)} warning{'s' * (len(warnings) != 1)})" if warnings else ""
     click.echo(f"{session}: ok{counted}")

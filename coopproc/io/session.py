@@ -32,9 +32,10 @@ from coopproc.io.registry import find_files, read_trajectory, sensor_note
 from coopproc.io.rosbag_read import BagContent, session_bag
 from coopproc.io.rosbag_scan import bag_files, is_bag
 from coopproc.io.session_toml import TomlRead, mcap_mapping, parse_session_toml, read_session_toml
-from coopproc.io.timebase import TimedFile, WeekSource, check_times, infer_time_base
+from coopproc.io.time_offsets import subtract_offsets
+from coopproc.io.timebase import TimedFile, WeekSource, check_times, infer_time_base, span_problem
 from coopproc.memory import release_freed_memory
-from coopproc.model import SensorFile, Session, SessionConfig, Trajectory
+from coopproc.model import SensorFile, Session, SessionConfig
 
 __all__ = ["inspect_session", "read_session", "validate_session"]
 
@@ -228,7 +229,7 @@ class _Loader:
         if ranges is None and "<ranges>" not in self.failed:
             self.add(InputError(root, "no ranges; expected ranges.csv (or .mcap /uwb/range)"))
         # Time base.
-        config, bad_times = self._time_base(config, toml, nav_raw, ref_raw, ranges)
+        config, bad_times, ranges = self._time_base(config, toml, nav_raw, ref_raw, ranges)
         # Reference quality filter.
         for pid in sorted(ref_raw):
             kept, note = assemble.filter_quality(ref_raw[pid], tuple(config.reference_quality))
@@ -260,7 +261,9 @@ class _Loader:
             self.notes.append(f"reference of {pid} has no navigation beside it")
         for pid in sorted(set(reference) & set(nav)):
             if not {nav[pid].source, reference[pid].source} & bad_times:
-                self._check_overlap(nav[pid], reference[pid])
+                apart = span_problem(nav[pid], reference[pid])
+                if apart is not None:
+                    self.add(apart)
         if ranges is not None:
             skip = self.failed - {"<ranges>"}
             if "<toml>" in self.failed:  # anchors unknown: do not blame ranges for them
@@ -312,11 +315,12 @@ class _Loader:
         nav_raw: dict[str, RawTrajectory],
         ref_raw: dict[str, RawTrajectory],
         ranges: RangesRead | None,
-    ) -> tuple[SessionConfig, set[str]]:
-        """Choose the base and week, convert GPST files to it, check every file's times.
+    ) -> tuple[SessionConfig, set[str], RangesRead | None]:
+        """Choose the base and week, convert GPST files to it, subtract the
+        ``[time.offsets]``, check every file's times.
 
-        Returns the config with the base and week used, and the files whose times do not
-        fit (their span checks would only repeat the problem).
+        Returns the config with the base and week used, the files whose times do not
+        fit (their span checks would only repeat the problem), and the ranges.
         """
         own = [
             TimedFile(r.source, r.time_s, "nav")
@@ -357,24 +361,21 @@ class _Loader:
                     continue
                 absolute = raw.gps_week if raw.time_kind == "gpst" else None
                 files.append(TimedFile(raw.source, group[pid].time_s, role, absolute))
+        if config.time_offsets and not isinstance(config.time_offsets, str):  # [time.offsets]
+            where = toml.source if toml else "session.toml"
+            ranges = subtract_offsets(
+                config.time_offsets, where, nav_raw, ref_raw, ranges, files, self
+            )
+            own = [f for f in own if f.role != "ranges"]
+            if ranges is not None:
+                times = ranges.table.frame["time"].to_numpy(dtype=np.float64)
+                own.append(TimedFile(ranges.where.path, times, "ranges"))
         files += [f for f in own if f.role == "ranges"]
         problems, bad = check_times(
             files, base, base_given=given, inferred_from=inferred_from, week=week
         )
         self.problems.extend(problems)
-        return config, bad
-
-    def _check_overlap(self, nav: Trajectory, ref: Trajectory) -> None:
-        a, b = nav.span_s
-        c, d = ref.span_s
-        if d < a or c > b:
-            self.add(
-                InputError(
-                    ref.source,
-                    f"time span {c:.3f}..{d:.3f} does not overlap the navigation's "
-                    f"{a:.3f}..{b:.3f} ({nav.source}); expected the same period and time base",
-                )
-            )
+        return config, bad, ranges
 
 
 def read_session(path: str | Path, *, strict: bool = False) -> Session:

@@ -146,9 +146,15 @@ def parse_session_toml(text: str, where: str = "session.toml") -> TomlRead:
     except tomllib.TOMLDecodeError as err:
         raise InputError(where, f"not valid TOML: {one_line(err)}") from err
     check_keys(doc, _TOP, where)
+    time_doc = doc.get("time")
+    offsets: Any = {}
+    if isinstance(time_doc, Mapping) and "offsets" in time_doc:
+        time_doc = dict(time_doc)
+        offsets = _offsets(time_doc.pop("offsets"), where)
     tables: dict[str, Any] = {}
     for name, cls in _TABLES.items():
-        tables[name] = from_table(cls, doc.get(name), f"{where} [{name}]")
+        table = time_doc if name == "time" else doc.get(name)
+        tables[name] = from_table(cls, table, f"{where} [{name}]")
     time_t: _TimeTable = tables["time"]
     if time_t.gps_week is not None and not 0 <= time_t.gps_week < 10000:
         raise ConfigError(f"{where} [time] gps_week: {time_t.gps_week}; expected 0..9999")
@@ -176,11 +182,43 @@ def parse_session_toml(text: str, where: str = "session.toml") -> TomlRead:
         reference_quality=tuple(quality),
         files=files,
         mcap=dict(doc.get("mcap", {})),
+        time_offsets=offsets,
     )
     topics = parse_topics(doc.get("topics"), where)
     return TomlRead(
         config, base_given=time_t.base is not None, source=where, forms=forms, topics=topics
     )
+
+
+def _offsets(value: Any, where: str) -> Literal["estimate"] | dict[str, float]:
+    """``[time] offsets``: "estimate", or ``[time.offsets]`` ``ranges`` / ``nav.<ID>`` /
+    ``ref.<ID>`` = seconds the file's times run ahead (subtracted on reading)."""
+    if value == "estimate":
+        return "estimate"
+    expected = (
+        'expected "estimate" or a table [time.offsets] with ranges, nav.<ID>, ref.<ID> = '
+        "seconds the file's times run ahead"
+    )
+    if not isinstance(value, Mapping):
+        raise ConfigError(f"{where} [time] offsets: {value!r}; {expected}")
+    check_keys(value, ("ranges", "nav", "ref"), f"{where} [time.offsets]")
+    out: dict[str, float] = {}
+    for key, item in value.items():
+        entries = {key: item} if key == "ranges" else item
+        if key != "ranges" and not isinstance(item, Mapping):
+            raise ConfigError(f"{where} [time.offsets] {key}: {item!r}; {expected}")
+        for name, seconds in entries.items():
+            full = name if key == "ranges" else f"{key}.{name}"
+            if key != "ranges" and not ID_PATTERN.match(name):
+                raise ConfigError(f"{where} [time.offsets] {full}: not a platform id; {expected}")
+            if isinstance(seconds, bool) or not isinstance(seconds, int | float):
+                raise ConfigError(f"{where} [time.offsets] {full}: {seconds!r}; {expected}")
+            if not abs(float(seconds)) < 1e6:
+                raise ConfigError(
+                    f"{where} [time.offsets] {full}: {seconds!r}; expected seconds, |s| < 1e6"
+                )
+            out[full] = float(seconds)
+    return out
 
 
 def _files(table: Any, where: str) -> dict[str, str]:
@@ -232,6 +270,17 @@ def session_toml_table(
     time: dict[str, Any] = {"base": config.time_base}
     if config.gps_week is not None:
         time["gps_week"] = config.gps_week
+    if config.time_offsets == "estimate":
+        time["offsets"] = "estimate"
+    elif config.time_offsets:
+        table: dict[str, Any] = {}
+        for key, seconds in config.time_offsets.items():
+            kind, _, pid = key.partition(".")
+            if pid:
+                table.setdefault(kind, {})[pid] = seconds
+            else:
+                table[key] = seconds
+        time["offsets"] = table
     doc["time"] = time
     origin = origin_llh or config.origin_llh
     if origin is not None:

@@ -23,7 +23,7 @@ import numpy as np
 
 from coopproc import timeconv
 from coopproc.errors import ConfigError, CoopprocError, InputError
-from coopproc.model import FloatArray
+from coopproc.model import FloatArray, Trajectory
 
 __all__ = [
     "MS_STEP",
@@ -33,6 +33,7 @@ __all__ = [
     "check_times",
     "infer_time_base",
     "looks_like",
+    "span_problem",
 ]
 
 #: Unix seconds at 1980-01-06; any time above this is taken for Unix seconds.
@@ -318,3 +319,16 @@ def _week_problems(
             )
         )
     return out
+
+
+def span_problem(nav: Trajectory, ref: Trajectory) -> InputError | None:
+    """The problem of a reference whose time span does not overlap its navigation's."""
+    a, b = nav.span_s
+    c, d = ref.span_s
+    if d < a or c > b:
+        return InputError(
+            ref.source,
+            f"time span {c:.3f}..{d:.3f} does not overlap the navigation's "
+            f"{a:.3f}..{b:.3f} ({nav.source}); expected the same period and time base",
+        )
+    return None

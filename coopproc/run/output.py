@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from coopproc import __version__
+from coopproc.checks.clock import clock_facts
 from coopproc.io.injected import session_injected
 from coopproc.io.outdir import atomic_output_dir, write_csv
 from coopproc.io.parquet import require_pyarrow, write_parquet
@@ -184,6 +185,8 @@ def write_run(
         "timings_s": timings,
         "start_time": started.isoformat(timespec="seconds"),
     }
+    if session.clock is not None:  # the clock offsets estimated (checks.clock)
+        info["clock"] = clock_facts(session.clock)
     outages = _outage_report(output)
     if outages is not None:  # [run] outages: the windows and the ranges withheld
         info["outages"] = outages.facts()
