@@ -32,11 +32,13 @@ from coopproc.stages.filters import MAD_SCALE
 __all__ = [
     "MAD_SCALE",
     "PairNoise",
+    "accumulated",
     "pair_noise",
     "posterior_sigma",
     "robust_sigma",
     "steady_gain",
     "white_sigma",
+    "window_ids",
 ]
 
 #: Fewer usable differences than this: no estimate (the caller keeps its prior).
@@ -54,6 +56,21 @@ class PairNoise:
     white_sigma_m: float  # sigma_w, the white UWB noise (structure-function intercept)
     growth_m2ps: float  # q, growth of V(tau) per second: DI random walk + coloured range error
     samples: int  # lagged differences behind the estimate
+
+
+def accumulated(increments_m: FloatArray) -> FloatArray:
+    """The running sum of a per-interval series (row k: from epoch k-1 to k; row 0 unused),
+    NaN taken as 0: the distance change the DI has accumulated since the first epoch."""
+    inc = np.where(np.isfinite(increments_m), increments_m, 0.0)
+    inc[:1] = 0.0
+    return np.cumsum(inc)
+
+
+def window_ids(time_s: FloatArray, window_s: float) -> np.ndarray:
+    """Calibration window (local.py) of each epoch, on the grid fixed at the first epoch."""
+    if time_s.shape[0] == 0:
+        return np.zeros(0, dtype=np.int64)
+    return np.floor((time_s - time_s[0]) / window_s + 1e-9).astype(np.int64)
 
 
 def robust_sigma(values: FloatArray) -> float:
@@ -132,9 +149,7 @@ def pair_noise(
     t = np.asarray(time_s, dtype=np.float64)
     if t.shape[0] < MIN_SAMPLES + 2:
         return PairNoise(float("nan"), float("nan"), 0)
-    inc = np.where(np.isfinite(di_m), di_m, 0.0)
-    inc[0] = 0.0
-    z = np.asarray(range_m, dtype=np.float64) - np.cumsum(inc)
+    z = np.asarray(range_m, dtype=np.float64) - accumulated(di_m)
     if white_m is None:
         white = np.fmin(white_sigma(t, range_m), white_sigma(t, z))
     else:

@@ -31,6 +31,7 @@ import numpy as np
 from numba import njit
 
 from coopproc.model import FloatArray
+from coopproc.stages.ranging.calibration import window_ids
 
 __all__ = [
     "DEFAULT_DRIFT_SIGMA_MPS",
@@ -280,7 +281,7 @@ def windowed_cp_noise_var(
     out = np.zeros(time_s.shape[0])
     if time_s.shape[0] == 0:
         return out
-    win = np.floor((time_s - time_s[0]) / window_s + 1e-9).astype(np.int64)
+    win = window_ids(time_s, window_s)
     bounds = np.searchsorted(win, np.arange(int(win[-1]) + 2))
     for lo, hi in itertools.pairwise(bounds.tolist()):
         out[lo:hi] = cp_noise_var(di_dr_m[lo:hi], di_cp_m[lo:hi])

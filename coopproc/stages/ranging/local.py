@@ -46,11 +46,13 @@ import numpy as np
 from coopproc.model import FloatArray
 from coopproc.stages.ranging.calibration import (
     MIN_SAMPLES,
+    accumulated,
     pair_noise,
     posterior_sigma,
     robust_sigma,
     steady_gain,
     white_sigma,
+    window_ids,
 )
 from coopproc.stages.ranging.nlos import EpochNoise, KernelParams, filter_distance
 
@@ -79,19 +81,9 @@ class LocalCalibration:
         return float(np.count_nonzero(self.noise.ranges_only)) / n if n else 0.0
 
 
-def window_ids(time_s: FloatArray, window_s: float) -> np.ndarray:
-    """Window index of each epoch on the grid fixed at the first epoch."""
-    if time_s.shape[0] == 0:
-        return np.zeros(0, dtype=np.int64)
-    return np.floor((time_s - time_s[0]) / window_s + 1e-9).astype(np.int64)
-
-
 def _white(time_s: FloatArray, range_m: FloatArray, dr_di_m: FloatArray) -> float:
-    inc = np.where(np.isfinite(dr_di_m), dr_di_m, 0.0)
-    inc[0] = 0.0
-    return float(
-        np.fmin(white_sigma(time_s, range_m), white_sigma(time_s, range_m - np.cumsum(inc)))
-    )
+    alone = white_sigma(time_s, range_m)
+    return float(np.fmin(alone, white_sigma(time_s, range_m - accumulated(dr_di_m))))
 
 
 def calibrate_windows(
@@ -153,9 +145,7 @@ def calibrate_windows(
     ranges_only = gain > passthrough_gain
     di_used = np.where(ranges_only[win], np.nan, di_m)
     epoch_white = white[win]
-    inc = np.where(np.isfinite(dr_di_m), dr_di_m, 0.0)
-    inc[:1] = 0.0
-    motion = np.cumsum(inc)
+    motion = accumulated(dr_di_m)
     probe_noise = EpochNoise(epoch_white, epoch_white, ranges_only[win].astype(np.int8), motion)
     probe = replace(params, gamma_sigma=1e9, suspect_epochs=0, backdate_s=0.0)
     resid = filter_distance(t, range_m, di_used, var, probe, probe_noise).residual_m

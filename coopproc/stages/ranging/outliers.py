@@ -49,6 +49,7 @@ from numpy.typing import NDArray
 
 from coopproc.model import FloatArray
 from coopproc.stages.filters import MAD_SCALE
+from coopproc.stages.ranging.calibration import accumulated
 
 __all__ = ["MOTION_STEPS", "OutlierParams", "gross_outliers"]
 
@@ -129,9 +130,7 @@ def gross_outliers(
     rng = np.asarray(range_m, dtype=np.float64)
     far, beyond_motion = _far(rng, params)
     if di_m is not None and far.any():
-        inc = np.where(np.isfinite(di_m), di_m, 0.0)
-        inc[0] = 0.0
-        far_z, beyond_z = _far(rng - np.cumsum(inc), params)
+        far_z, beyond_z = _far(rng - accumulated(di_m), params)
         far &= far_z
         beyond_motion &= beyond_z
     if not far.any():
