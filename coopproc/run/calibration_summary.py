@@ -59,6 +59,7 @@ def calibration_facts(output: PipelineOutput) -> dict[str, Any]:
             "passthrough": cal.passthrough,
             "ranges_only_fraction": _num(getattr(cal, "ranges_only_fraction", 0.0), 4),
             "source": cal.source,
+            "cp_source": getattr(cal, "cp_source", "all ranges"),
             "windows": _windows(getattr(cal, "local", None)),
         }
     fusion: dict[str, Any] = {}

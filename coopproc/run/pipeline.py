@@ -281,7 +281,7 @@ def _drop_spent(
         del range_sets[name]
     if cp_product is None or cp_product.cp is None or any(s.kind == "ranges" for s in later):
         return cp_product
-    spent = dataclasses.replace(cp_product, cp=None)
+    spent = dataclasses.replace(cp_product, cp=None, cp_left_out=None)
     for method, product in products.items():
         if product is cp_product:
             products[method] = spent
@@ -328,8 +328,14 @@ def _run_range_step(
         assert cp_product is not None and cp_product.cp is not None  # chain.resolve
         forward, smoothed = cp_product.cp
         cp = forward if config.run.cp_solution == "forward" else smoothed
+    # the leave-pair-out solutions are causal: with cp_solution "smoothed", paper 000's
+    left_out = (
+        cp_product.cp_left_out
+        if cp_product is not None and config.run.cp_solution == "forward"
+        else None
+    )
     product = stage.run(
-        RangeInput(session, base, cp), config.params_for(stage.section), step.methods
+        RangeInput(session, base, cp, left_out), config.params_for(stage.section), step.methods
     )
     for method in step.methods:
         values = product.values.get(method)

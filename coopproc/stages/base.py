@@ -29,6 +29,7 @@ from coopproc.model import FloatArray, Session, Trajectory
 
 __all__ = [
     "RESERVED_NAMES",
+    "LeftOutCP",
     "NavStates",
     "PositionInput",
     "PositionProduct",
@@ -45,6 +46,22 @@ RESERVED_NAMES: frozenset[str] = frozenset(
 )
 
 
+@dataclass(frozen=True)
+class LeftOutCP:
+    """The cooperative solution of each pair fused without the pair's own ranges
+    (:mod:`coopproc.stages.fusion.leave_out`).
+
+    ``trajectories``: pair -> {moving platform: forward positions at the pair's range
+    times}, for the pairs that have one; ``fold``: pair -> its fold (0-based), every pair;
+    ``folds``: how many; ``kept``: pair -> why it keeps the solution of all ranges.
+    """
+
+    trajectories: Mapping[str, Mapping[str, Trajectory]]
+    fold: Mapping[str, int]
+    folds: int
+    kept: Mapping[str, str]
+
+
 @dataclass(frozen=True, eq=False)
 class RangeInput:
     """What a range processor gets."""
@@ -56,6 +73,9 @@ class RangeInput:
     #: the cooperative solution (fusion with the observed ranges) when the stage
     #: declares ``needs_cp``, else None
     cp: Mapping[str, Trajectory] | None
+    #: each pair's cooperative solution without its own ranges (the causal one), when the
+    #: stage declares ``needs_cp`` and the fusion gives it; None: ``cp`` for every pair
+    cp_left_out: LeftOutCP | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -142,6 +162,9 @@ class PositionProduct:
     positions: Mapping[str, Trajectory]
     #: (causal, smoothed) solutions at the range epochs, when ``want_cp`` was asked
     cp: tuple[Mapping[str, Trajectory], Mapping[str, Trajectory]] | None = None
+    #: the causal solution of each pair without its own ranges, when ``want_cp`` was asked
+    #: and the estimator gives it
+    cp_left_out: LeftOutCP | None = None
     #: self-calibration facts for run.json (coopproc.stages.fusion.calibration), or None
     calibration: Any = None
     notes: tuple[str, ...] = ()

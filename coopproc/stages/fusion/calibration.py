@@ -104,6 +104,8 @@ class FusionCalibration:
     #: :func:`~coopproc.stages.fusion.range_digest.range_rows_digest` of the ranges fused
     #: ("" when not taken): a range set with the same digest has this fusion
     range_digest: str = ""
+    #: platform -> the range bias corrected in the fusion (m; the biased platforms only)
+    platform_bias_m: Mapping[str, float] = field(default_factory=dict)
 
 
 def _pair_figures(
@@ -362,4 +364,5 @@ def calibrated_fuse(
         notes=tuple(notes),
         dr_noise_factor=dr_factor,
         dr_noise_scores=dr_scores,
+        platform_bias_m={p: found[p] for p in platform_factor} if platform_factor else {},
     )

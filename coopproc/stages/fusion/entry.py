@@ -31,6 +31,7 @@ from coopproc.stages.base import PositionInput, PositionProduct, PositionStage
 from coopproc.stages.fusion.calibration import FusionCalibration, calibrated_fuse
 from coopproc.stages.fusion.data import range_sigma_default, shared_nav
 from coopproc.stages.fusion.fuse import FusionParams
+from coopproc.stages.fusion.leave_out import leave_pair_out
 from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
 from coopproc.stages.fusion.range_digest import range_rows_digest
 from coopproc.stages.fusion.range_weights import range_weights_frame
@@ -73,17 +74,24 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
             # the ranging stage's cooperative solution is paper 000's fusion (position
             # state), the DI method's own input: with the DR states' forward solution DI
             # flags 22 % of TIERS tb3-tb4's clean epochs (0-5 % with it; docs/methods-fusion.md)
-            at_ranges = fused
+            at_ranges, cp_cal = fused, cal
             if inp.output != "ranges" or params.state != "position":
-                at_ranges, _ = calibrated_fuse(
+                at_ranges, cp_cal = calibrated_fuse(
                     inp.session, inp.ranges, dataclasses.replace(params, state="position"),
                     output="ranges", smoothed_sigma=False,
                 )  # fmt: skip
             cp = (at_ranges.forward, at_ranges.smoothed)
+    left_out = None
+    if inp.want_cp:  # each pair's CP DI without its own ranges (leave_out.py, issue 30)
+        left_out = leave_pair_out(
+            inp.session, inp.ranges, params, cp_cal.pair_sigma_m, cp_cal.drift_scale,
+            cp_cal.platform_bias_m,
+        )  # fmt: skip
     cal = dataclasses.replace(cal, range_digest=digest)
     return PositionProduct(
         positions=fused.smoothed,
         cp=cp,
+        cp_left_out=left_out,
         calibration=cal,
         notes=cal.notes,
         dr_states=fused.dr_states,

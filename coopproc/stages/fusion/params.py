@@ -162,6 +162,14 @@ class FusionParams:
             "002/003 write it)"
         },
     )
+    cp_folds: int = field(
+        default=4,
+        metadata={
+            "help": "the ranging stage's CP DI of a pair comes from a fusion without its "
+            "own ranges: the pairs split into this many folds, one forward fusion each "
+            "(leave_out.py; 0: paper 000's cooperative solution of all ranges)"
+        },
+    )
     dr_states_every_s: float = field(
         default=1.0,
         metadata={"help": "state 'dr': the DR states are reported (dr_states.csv) this often (s)"},
@@ -194,6 +202,8 @@ class FusionParams:
             raise ValueError(
                 f"robust_smoother_iterations = {self.robust_smoother_iterations}, expected >= 0"
             )
+        if self.cp_folds < 0:
+            raise ValueError(f"cp_folds = {self.cp_folds}, expected >= 0")
         if not self.dr_states_every_s > 0:
             raise ValueError(f"dr_states_every_s = {self.dr_states_every_s}, expected > 0")
         if self.leader_fix not in ("epoch", "nav"):

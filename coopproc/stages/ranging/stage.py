@@ -47,6 +47,7 @@ from coopproc.model import (
     Session,
     Trajectory,
 )
+from coopproc.stages.base import LeftOutCP
 from coopproc.stages.ranging.config import RangingConfig, ranging_config_from_toml
 from coopproc.stages.ranging.di import (
     SmoothedDI,
@@ -94,6 +95,9 @@ class PairCalibration:
     ranges_only_fraction: float = 0.0
     #: the per-window calibration (None: not self-calibrated)
     local: LocalCalibration | None = None
+    #: where the CP DI came from: "fold k of K" (the fusion without the pair's own
+    #: ranges, leave_out.py) or "all ranges" (paper 000's, and why)
+    cp_source: str = "all ranges"
 
 
 @dataclass(frozen=True, eq=False)
@@ -245,16 +249,29 @@ _PREPARE_THREADS = min(2, len(os.sched_getaffinity(0)) if hasattr(os, "sched_get
 _TRIM_EVERY = 8
 
 
+def _cp_source(left_out: LeftOutCP | None, pair: str) -> str:
+    """PairCalibration.cp_source of ``pair``."""
+    if left_out is None or not left_out.folds:
+        return "all ranges"
+    if pair in left_out.trajectories:
+        return f"without its ranges: fold {left_out.fold[pair] + 1} of {left_out.folds}"
+    why = left_out.kept.get(pair, "no fold")
+    return f"all ranges ({why})"
+
+
 def run_ranging(
     session: Session,
     cp: Mapping[str, Trajectory],
     config: RangingConfig,
     methods: tuple[str, ...] = ("rn", "di"),
+    left_out: LeftOutCP | None = None,
 ) -> RangingOutput:
     """Process every pair's ranges with the DI-Based and the RN-Based methods (paper 000).
 
     ``methods``: which of ``rn``, ``di`` to give; the DI method always runs (its NLOS
     events mask the CP DI of the second pass), the RN filter only when asked for.
+    ``left_out``: each pair's cooperative solution without its own ranges (the CP DI of
+    the pairs it has; :mod:`coopproc.stages.fusion.leave_out`); None: ``cp`` for all.
 
     Two passes when ``[ranging.di] mask_nlos_cp`` (default): the cooperative solution was
     computed with the observed ranges, so during an NLOS event it is pulled by the NLOS
@@ -268,7 +285,8 @@ def run_ranging(
     tracks = PlatformTracks(session, config, session.ranges.pairs)
 
     def prepared(pair: str) -> PairInputs:
-        inputs = prepare_pair(session, cp, config, pair, tracks)
+        own = left_out.trajectories.get(pair) if left_out is not None else None
+        inputs = prepare_pair(session, cp if own is None else own, config, pair, tracks)
         tracks.done(pair)
         return inputs
 
@@ -299,6 +317,7 @@ def run_ranging(
     for i in range(len(queue)):
         p = queue.popleft()
         smoothed, di_dr, di_out, di_cal = results.pop(p.name)
+        di_cal = replace(di_cal, cp_source=_cp_source(left_out, p.name))
         calibration[(p.name, "di")] = di_cal
         outs = {"di": di_out}
         if "rn" in methods:
