@@ -30,6 +30,7 @@ def sessions(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
     return out
 
 
+@pytest.mark.slow
 def test_ctrl_c_after_the_first_session_is_one_line_and_leaves_whole_outputs(
     sessions: list[Path], tmp_path: Path
 ) -> None:

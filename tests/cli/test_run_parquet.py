@@ -111,6 +111,7 @@ def test_export_reads_a_parquet_run(runs: tuple[Path, Path, Path], tmp_path: Pat
         assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
 
 
+@pytest.mark.slow
 def test_config_key_gives_the_same_bytes_again(
     runs: tuple[Path, Path, Path], tmp_path: Path
 ) -> None:

@@ -45,6 +45,7 @@ def _mean(positions: pd.DataFrame, platform: str, method: str, lo: float, hi: fl
     return float(rows["error_h"].mean())
 
 
+@pytest.mark.slow
 def test_followers_error_is_bounded_over_two_hours(tmp_path: Path) -> None:
     """paper-experiment for 2 h (gyro biases up to 2.7 deg/h, odometer scale 0.3 %): own
     navigation 0.33 -> 3.9 m (A) from the first to the last 15 minutes; the fused error

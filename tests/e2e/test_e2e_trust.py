@@ -141,19 +141,28 @@ def test_exact_ranges_stay_exact(tmp_path: Path, scenario: str) -> None:
         assert rmse <= 0.02, (pair, rmse)
 
 
-def _real_run(name: str, tmp_path: Path) -> tuple[Path, Path]:
-    session = REAL / name
-    if not session.is_dir():
-        pytest.skip(f"no shared real session {session}")
-    out = tmp_path / f"{name}-out"
-    res = CliRunner().invoke(main, ["run", str(session), "-o", str(out), "--no-figures"])
-    assert res.exit_code == 0, res.output
-    return session, out
+@pytest.fixture(scope="module")
+def real_runs(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str], tuple[Path, Path]]:
+    """``coopproc run`` of a shared real session, once per module (the tests read it)."""
+    done: dict[str, tuple[Path, Path]] = {}
+
+    def run(name: str) -> tuple[Path, Path]:
+        if name not in done:
+            session = REAL / name
+            if not session.is_dir():
+                pytest.skip(f"no shared real session {session}")
+            out = tmp_path_factory.mktemp("real") / f"{name}-out"
+            res = CliRunner().invoke(main, ["run", str(session), "-o", str(out), "--no-figures"])
+            assert res.exit_code == 0, res.output
+            done[name] = (session, out)
+        return done[name]
+
+    return run
 
 
 @pytest.mark.parametrize("name", ["tiers", "tuc"])
-def test_real_sessions(tmp_path: Path, name: str) -> None:
-    session, out = _real_run(name, tmp_path)
+def test_real_sessions(real_runs: Callable[[str], tuple[Path, Path]], name: str) -> None:
+    session, out = real_runs(name)
     ranges = pd.read_csv(out / "ranges.csv")
     events = pd.read_csv(out / "nlos_events.csv")
     metrics = pd.read_csv(out / "metrics.csv").set_index(["pair", "method"])["rmse"]
@@ -167,11 +176,13 @@ def test_real_sessions(tmp_path: Path, name: str) -> None:
             assert pm[(platform, method)] <= pm[(platform, "nav")], (platform, method)
 
 
-def test_real_tuc_odometry_too_poor_to_smooth(tmp_path: Path) -> None:
+def test_real_tuc_odometry_too_poor_to_smooth(
+    real_runs: Callable[[str], tuple[Path, Path]],
+) -> None:
     """tuc's wheel odometry drifts 2.6 m in 30 s: neither method can smooth the ranges or
     tell NLOS from its own error; both pass them through and flag nothing (before, RN held
     a 0.55 m event over 45 % of robot-u109's line-of-sight epochs)."""
-    _, out = _real_run("tuc", tmp_path)
+    _, out = real_runs("tuc")
     info = pd.read_json(out / "run.json", typ="series")
     for pair, methods in info["calibration"]["ranging"].items():
         for method in ("di", "rn"):
@@ -183,10 +194,12 @@ def test_real_tuc_odometry_too_poor_to_smooth(tmp_path: Path) -> None:
     assert (ranges["rn"] == ranges["observed"]).all()
 
 
-def test_real_tiers_names_the_body_blocked_robot(tmp_path: Path) -> None:
+def test_real_tiers_names_the_body_blocked_robot(
+    real_runs: Callable[[str], tuple[Path, Path]],
+) -> None:
     """tb4's ranges all read long (body shadowing): the fusion finds its bias (0.2-0.3 m)
     and says so; tb4's fused error drops well below its own navigation's."""
-    _, out = _real_run("tiers", tmp_path)
+    _, out = real_runs("tiers")
     info = pd.read_json(out / "run.json", typ="series")
     notes = [n for n in info["calibration"]["notes"] if "fusion (observed)" in n]
     bias = [n for n in notes if "disagree with the rest" in n]

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 from click.testing import CliRunner
 
 from coopproc.cli import main
@@ -27,6 +28,7 @@ def _cli(*args: str) -> None:
     assert res.exit_code == 0, res.output
 
 
+@pytest.mark.slow
 def test_csv_json_mcap_and_ros2_mcap_give_byte_identical_tables(tmp_path: Path) -> None:
     forms: dict[str, Path] = {}
     for encoding in ("json", "ros2"):

@@ -104,6 +104,7 @@ def test_static_auxiliary_is_unobservable_and_claims_nothing(static) -> None:
     assert np.max(error_m[-60:]) > 2.0  # a rotation about the auxiliary no range sees
 
 
+@pytest.mark.slow
 def test_biased_second_auxiliary_aacopf_beats_pf(biased) -> None:
     """Paper 004 section 5.2: A2 ranges with a peak shift and Laplace (non-Gaussian) noise.
 

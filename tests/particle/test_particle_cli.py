@@ -129,6 +129,7 @@ def test_help() -> None:
     assert code == 0 and "--target" in stdout and "--aux" in stdout
 
 
+@pytest.mark.slow
 def test_biased_second_auxiliary_from_the_simulator(tmp_path) -> None:
     """Simulator A2: peak-shifted, Laplace ranging (paper 004 section 5.2). Over two filter
     seeds the AACOPF rejects A2, never A1, ends within a metre and 2 degrees, and its

@@ -74,6 +74,7 @@ def _late(out: Path, method: str, seconds: float) -> float:
     return float(np.mean(rows["error_h"].to_numpy()[t > t[-1] - seconds]))
 
 
+@pytest.mark.slow
 def test_tiers_multi_robot_with_a_body_blocked_auxiliary(tmp_path: Path) -> None:
     case = tiers_case(tmp_path)
     config = WHEEL.format(methods="['aacopf']", step=0.02, heading=0.2, scale=0.02)

@@ -60,6 +60,7 @@ def test_files_are_pngs_of_the_expected_size(loaded: RunTables, tmp_path: Path) 
         assert 300 <= width <= 800 and 200 <= height <= 800
 
 
+@pytest.mark.slow
 def test_pdf_svg_and_bad_format(loaded: RunTables, tmp_path: Path) -> None:
     paths = write_figures(loaded, tmp_path, formats=("pdf", "svg"), dpi=50)
     pdfs = [p for p in paths if p.suffix == ".pdf"]
@@ -69,6 +70,7 @@ def test_pdf_svg_and_bad_format(loaded: RunTables, tmp_path: Path) -> None:
         write_figures(loaded, tmp_path, formats=("jpg",))
 
 
+@pytest.mark.slow
 def test_same_run_gives_same_png_bytes(loaded: RunTables, tmp_path: Path) -> None:
     a = write_figures(loaded, tmp_path / "a", dpi=40)
     b = write_figures(loaded, tmp_path / "b", dpi=40)

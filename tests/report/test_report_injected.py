@@ -86,6 +86,7 @@ def test_table_groups_events_and_marks_the_best() -> None:
     assert table.header("error") == "Error (m)" and table.header("delay") == "Delay (s)"
 
 
+@pytest.mark.slow
 def test_run_directory_round_trip_and_report(tmp_path: Path) -> None:
     scores = injected_scores(_injected(), _events(), ("rn", "di"))
     run = dataclasses.replace(make_run(), injected_scores=scores)

@@ -145,6 +145,7 @@ def test_html_embeds_small_figures_and_says_what_it_selected(
     assert "href=" not in page
 
 
+@pytest.mark.slow
 def test_html_links_large_figures(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     out = write_run_dir(make_run(n=80), tmp_path / "out")
     run = load_run(out)

@@ -89,6 +89,7 @@ def _real_step(out: Path, injected: pd.DataFrame, pair: str, onset: float) -> fl
 @pytest.mark.skipif(
     not (TIERS / "session.toml").is_file(), reason="../shared/data/real/tiers is not present"
 )
+@pytest.mark.slow
 def test_injected_nlos_on_the_real_tiers_session(tmp_path: Path) -> None:
     """Acceptance: three NLOS events (0.5, 1.0, 1.5 m; sd 0.1 m as paper 000 Table 1;
     12 s each) on line-of-sight pairs of the real 64 s TIERS session, none with tb4.

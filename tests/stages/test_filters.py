@@ -127,6 +127,7 @@ def test_range_jacobian_matches_finite_differences(kind: int, dim: int, dz2: flo
     assert count == (2 * dim if kind == OBS_RANGE else dim)
 
 
+@pytest.mark.slow
 def test_compiled_epoch_update_equals_batch_ekf_update() -> None:
     # two platforms in 2D, one range between them and one to an anchor, one fix of p0
     x0 = np.array([0.0, 0.0, 10.0, 1.0])
