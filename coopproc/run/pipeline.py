@@ -222,6 +222,7 @@ def run_pipeline(
         if len(outliers):
             rows = outliers[list(scores.columns)]
             scores = pd.concat([scores, rows], ignore_index=True) if len(scores) else rows
+        scores = _with_modes(scores, range_products)
         di = next((p.di for p in range_products if p.di is not None), None)
         result = Result(
             ranges=table,
@@ -258,6 +259,29 @@ def run_pipeline(
         nlos_methods=nlos_methods,
         fusion_outlier_scores=outliers,
     )
+
+
+def _with_modes(scores: pd.DataFrame, products: Sequence[RangeProduct]) -> pd.DataFrame:
+    """nlos_scores.csv's ``mode`` and ``ranges_only_fraction`` (issue 30.3): how the pair's
+    filter of the method ran, ``di`` (smoothing with the DI in every calibration window),
+    ``ranges`` (ranges-only in every window) or ``mixed``, and the share of its epochs in
+    ranges-only windows; empty for the rows of methods without windows (fusion:*)."""
+    share = {
+        k: getattr(c, "ranges_only_fraction", np.nan)
+        for p in products
+        for k, c in p.calibration.items()
+    }
+    frac = np.array(
+        [
+            share.get((pair, m), np.nan)
+            for pair, m in zip(scores["pair"], scores["method"], strict=True)
+        ],
+        dtype=np.float64,
+    )
+    mode = np.where(
+        np.isnan(frac), "", np.where(frac <= 0.0, "di", np.where(frac >= 1.0, "ranges", "mixed"))
+    )
+    return scores.assign(mode=mode, ranges_only_fraction=frac)
 
 
 def _drop_spent(

@@ -87,3 +87,19 @@ def test_paper_experiment_table2(e2e_runs: Callable[[str, int], E2ERun], seed: i
             di_s = run.metric(pair, "di", "smoothness")
             obs_s = run.metric(pair, "observed", "smoothness")
             assert abs(di_s - 1.0) < abs(obs_s - 1.0), (pair, di_s, obs_s)
+
+
+def test_scores_say_the_filters_smoothed_with_the_di(
+    e2e_runs: Callable[[str, int], E2ERun],
+) -> None:
+    """paper-experiment's dead reckoning smooths every pair in every window: nlos_scores.csv
+    says mode di, no ranges-only epochs (tuc's say ranges: test_e2e_trust.py); run.json
+    says the CP DI came from all ranges, and why (three platforms, leave_out.py)."""
+    run = e2e_runs("paper-experiment", 0)
+    scores = pd.read_csv(run.out / "nlos_scores.csv", keep_default_na=False)
+    mine = scores[scores["method"].isin(["di", "rn"])]
+    assert len(mine) == 6 and (mine["mode"] == "di").all()
+    assert (mine["ranges_only_fraction"].astype(float) == 0.0).all()
+    info = pd.read_json(run.out / "run.json", typ="series")
+    sources = {p: m["di"]["cp_source"] for p, m in info["calibration"]["ranging"].items()}
+    assert all(s.startswith("all ranges (") and "1 other pair" in s for s in sources.values())

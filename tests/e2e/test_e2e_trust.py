@@ -189,6 +189,11 @@ def test_real_tuc_odometry_too_poor_to_smooth(
             assert methods[method]["passthrough"], (pair, method)
             assert methods[method]["gain"] > 0.75
     assert pd.read_csv(out / "nlos_events.csv").empty
+    scores = pd.read_csv(out / "nlos_scores.csv", keep_default_na=False)
+    mine = scores[scores["method"].isin(["di", "rn"])]
+    assert len(mine) == 8 and (mine["mode"] == "ranges").all()
+    assert (mine["ranges_only_fraction"].astype(float) == 1.0).all()
+    assert (scores.loc[scores["method"].str.startswith("fusion:"), "mode"] == "").all()
     ranges = pd.read_csv(out / "ranges.csv")
     assert (ranges["di"] == ranges["observed"]).all()
     assert (ranges["rn"] == ranges["observed"]).all()
