@@ -128,6 +128,35 @@ def test_rn_reproduces_table2_with_a_noisy_leader(
         assert di <= 0.03
 
 
+def test_a_gnss_noisy_leader_with_an_ins_velocity(tmp_path: Path) -> None:
+    """A leader whose GNSS/INS positions err by 0.3 m (Gauss-Markov, 10 s) plus 5 cm
+    white, its nav file carrying the INS velocity (issue 30.5): its position DI errs by
+    0.28 m a second, its velocity DI by 0.03 m. Both methods take the velocity's
+    (pair.py velocity_windows, rn_variance) and find all four events; before, RN and DI
+    passed every NLOS pair through and found none."""
+    run = simulate_and_run(
+        tmp_path, "noisy-leader", 0, "--duration", "600",
+        "--set", "leader_sigma_m=0.3", "--set", "leader_white_m=0.05",
+    )  # fmt: skip
+    truth = run.truth_events
+    assert len(truth) == 4
+    for method in ("rn", "di"):
+        for _, ev in truth.iterrows():
+            found = run.events[
+                (run.events["pair"] == ev["pair"])
+                & (run.events["method"] == method)
+                & (run.events["start"] <= ev["end"])
+                & (run.events["end"] >= ev["start"])
+            ]
+            assert len(found) == 1, (method, ev["pair"], ev["start"])
+    for pair in ("A-B", "B-C"):  # measured RN -39.4 / -39.9 %, DI -76.4 / -73.9 %
+        observed = run.metric(pair, "observed", "rmse")
+        assert run.metric(pair, "rn", "rmse") <= 0.65 * observed
+        assert run.metric(pair, "di", "rmse") <= 0.5 * run.metric(pair, "rn", "rmse")
+    change = run.metric("A-C", "rn", "rmse") / run.metric("A-C", "observed", "rmse") - 1.0
+    assert abs(change) <= 0.03
+
+
 @pytest.mark.parametrize("scenario", ["noisy-leader", "dr-faults"])
 def test_exact_ranges_stay_exact(tmp_path: Path, scenario: str) -> None:
     run = simulate_and_run(tmp_path, scenario, 0, "--set", "exact_ranges=true")

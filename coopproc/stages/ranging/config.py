@@ -229,6 +229,18 @@ class RNParams:
             "difference: always central differences of nav positions"
         },
     )
+    velocity_sigma_mps: float = field(
+        default=0.02,
+        metadata={
+            "help": "1-sigma (m/s) of a nav file's velocity columns: the RN increments' eq. "
+            "(7) term of a platform whose velocity is measured (its position drift is "
+            "the term of a differenced velocity)"
+        },
+    )
+
+    def __post_init__(self) -> None:
+        if not self.velocity_sigma_mps >= 0:
+            raise ValueError(f"velocity_sigma_mps = {self.velocity_sigma_mps}, expected >= 0")
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ from the relative velocity, and the distance filter's numbers (:func:`kernel_par
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -15,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from coopproc.model import FloatArray, Session, Trajectory, pair_members
+from coopproc.stages.ranging.calibration import robust_sigma, window_ids
 from coopproc.stages.ranging.config import RangingConfig
 from coopproc.stages.ranging.di import anchored_increments, di_variance, range_increments
 from coopproc.stages.ranging.nlos import KernelParams
@@ -45,6 +47,63 @@ def _initial_sigma(range_m: FloatArray, di_m: FloatArray, config: RangingConfig)
         return config.nlos.default_sigma_m
     mad = float(np.median(np.abs(e - np.median(e))))
     return max(1.4826 * mad / np.sqrt(2.0), config.nlos.min_sigma_m)
+
+
+def rn_variance(
+    time_s: FloatArray,
+    session: Session,
+    config: RangingConfig,
+    members: tuple[str, str],
+    tracks: PlatformTracks,
+) -> FloatArray:
+    """Eq. (7) for the RN increments (relative velocity x dt): each end's term is its
+    position drift when its velocity is differenced from its positions (the DR DI's
+    term), and ``[ranging.rn] velocity_sigma_mps`` when its nav file carries a velocity.
+    A GNSS/INS leader's position noise is not in its INS velocity: with the drift term a
+    leader declared 0.31 m/s (GNSS noise 0.3 m) put RN in ranges-only windows on every
+    pair with it (gain 0.94) although its increments erred by 0.028 m a second, and RN
+    found none of 4 events (issue 30.5)."""
+    drifts = [
+        config.rn.velocity_sigma_mps if tracks.measured_velocity(m) else _drift(session, m, config)
+        for m in members
+    ]
+    return di_variance(time_s, drifts[0], drifts[1], config.di.drift_scaling)
+
+
+def velocity_windows(
+    time_s: FloatArray,
+    range_m: FloatArray,
+    di_dr_m: FloatArray,
+    var_m2: FloatArray,
+    rn_m: FloatArray,
+    rn_var_m2: FloatArray,
+    window_s: float,
+) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
+    """The DR DI of a pair with a measured velocity (an INS or GNSS/INS nav file's
+    velocity columns) at one end: per calibration window (local.py's grid), the position
+    differences (paper 000's DR DI) or the relative velocity x dt (the RN increments),
+    whichever the ranges contradict less (the smaller robust spread of range change -
+    increment; the range noise is common to both). A GNSS/INS leader's positions carry
+    its GNSS noise, which its INS velocity does not: leader GNSS noise 0.3 m, the
+    position DI erred by 0.28 m a second and the velocity one by 0.028 m, and with the
+    position DI every window was ranges-only (issue 30.5). Returns the DI, its eq. (7)
+    variance and where it is the velocity's."""
+    used = np.zeros(time_s.shape[0], dtype=bool)
+    if time_s.shape[0] < 3:
+        return di_dr_m, var_m2, used
+    change = np.empty_like(range_m)
+    change[0] = np.nan
+    change[1:] = np.diff(range_m)
+    win = window_ids(time_s, window_s)
+    bounds = np.searchsorted(win, np.arange(int(win[-1]) + 2))
+    di, var = di_dr_m.copy(), var_m2.copy()
+    for lo, hi in itertools.pairwise(bounds.tolist()):
+        by_nav = robust_sigma(change[lo:hi] - di_dr_m[lo:hi])
+        by_velocity = robust_sigma(change[lo:hi] - rn_m[lo:hi])
+        if by_velocity < by_nav:
+            di[lo:hi], var[lo:hi] = rn_m[lo:hi], rn_var_m2[lo:hi]
+            used[lo:hi] = True
+    return di, var, used
 
 
 def kernel_params(
@@ -94,6 +153,11 @@ class PairInputs:
     var_m2: FloatArray
     reference_m: FloatArray
     rn_m: FloatArray
+    #: eq. (7) for the RN increments: a measured-velocity end's term is its velocity's
+    #: noise, not its position drift (:func:`rn_variance`)
+    rn_var_m2: FloatArray
+    #: epochs whose DR DI is the relative velocity's, not the positions' (velocity_windows)
+    di_by_velocity: NDArray[np.bool_]
     params: KernelParams
     sigma_source: str
     #: gross outliers (outliers.py): not used by the filters, ``outlier = 1`` in ranges.csv
@@ -156,6 +220,13 @@ def prepare_pair(
         tracks.velocity(a, tm),
         tracks.velocity(b, tm),
     )
+    rn_var = rn_variance(t, session, config, (a, b), tracks)
+    by_velocity = np.zeros(t.shape[0], dtype=bool)
+    if tracks.measured_velocity(a) or tracks.measured_velocity(b):
+        di_dr, var, by_velocity = velocity_windows(
+            t, np.where(outlier, np.nan, obs), di_dr, var, rn_inc, rn_var,
+            config.nlos.calibration_window_s,
+        )  # fmt: skip
     return PairInputs(
         name=pair,
         members=(a, b),
@@ -169,6 +240,8 @@ def prepare_pair(
         var_m2=var,
         reference_m=np.linalg.norm(ref_a - ref_b, axis=1),
         rn_m=rn_inc,
+        rn_var_m2=rn_var,
+        di_by_velocity=by_velocity,
         params=kernel_params(config, sigma, initial, adaptive_n, rn=False),
         sigma_source=source,
         outlier=outlier,

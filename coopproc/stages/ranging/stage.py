@@ -201,6 +201,7 @@ def _di_method(
             last = np.maximum.accumulate(np.where(mask, 0, np.arange(mask.shape[0])))
             base = [cp[last] + nav - nav[last] for cp, nav in zip(p.cp_m, p.nav_m, strict=True)]
             di_dr = anchored_increments(base[0], base[1], p.nav_m[0], p.nav_m[1])
+            di_dr = np.where(p.di_by_velocity, p.di_dr_m, di_dr)  # (no positions there)
     smoothed = smooth_di(
         p.time_s, di_dr, di_cp, p.var_m2, config.di, config.nlos.calibration_window_s
     )
@@ -355,7 +356,9 @@ def _rn_method(
     rn_params = replace(
         p.params, one_shot=True, backdate_s=0.0, confirm_fraction=0.0, suspect_epochs=0
     )
-    rn_params, rn_inc, rn_var, noise, rn_cal = _calibrated(p, p.rn_m, p.var_m2, rn_params, config)
+    rn_params, rn_inc, rn_var, noise, rn_cal = _calibrated(
+        p, p.rn_m, p.rn_var_m2, rn_params, config
+    )
     if config.nlos.two_way:
         rn_out, _ = filter_distance_two_way(p.time_s, p.kept_m, rn_inc, rn_var, rn_params, noise)
     else:

@@ -64,6 +64,14 @@ class PlatformTracks:
             self._positions[platform] = columns
         return columns_at(traj, columns, time_s)
 
+    def measured_velocity(self, platform: str) -> bool:
+        """True when :meth:`velocity` reads ``platform``'s nav velocity columns (an INS or
+        GNSS/INS velocity), not differences of its positions."""
+        if self._fixed(platform) or platform not in self._session.nav:
+            return False
+        traj = self._session.nav[platform]
+        return self._config.rn.velocity == "nav" and traj.vel_enu_mps is not None
+
     def velocity(self, platform: str, time_s: FloatArray) -> FloatArray:
         """``platform``'s velocity at ``time_s`` (an anchor at a fixed position: zeros)."""
         if self._fixed(platform):
