@@ -348,9 +348,9 @@ class SessionConfig:
     reference_quality: tuple[int, ...] = (1,)
     #: Other file names: key (``ranges``, ``nav.A``, ``ref.A``, ``mcap``) -> relative path.
     files: Mapping[str, str] = field(default_factory=dict)
-    #: MCAP topic / field mapping (``[mcap]`` table), as given.
-    mcap: Mapping[str, object] = field(default_factory=dict)
+    mcap: Mapping[str, object] = field(default_factory=dict)  # [mcap] topics/fields, as given
     time_offsets: Literal["estimate"] | Mapping[str, float] = field(default_factory=dict)
+    trust_declared: bool = False  # [calibration]: contradicted drifts kept (run/declared.py)
 
 
 @dataclass(frozen=True, eq=False)

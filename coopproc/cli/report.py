@@ -305,6 +305,7 @@ def report(
                 )
                 text = f"{tables}\n{text}"
         elif show_outages and run.outages is not None:  # drift inside the outage windows
+            from coopproc.report.methods import position_methods
             from coopproc.report.outage import format_outages
 
             text = format_outages(
@@ -312,6 +313,7 @@ def report(
                 fmt or "terminal",  # type: ignore[arg-type]
                 origin_s=_outage_origin(run),
                 latex_width=latex_width,  # type: ignore[arg-type]
+                order=("nav", *position_methods(run)),
             )
         elif evaluate:  # the evaluation tables instead of Table 2 / Table 3
             from coopproc.report.evaluation_tables import format_evaluation

@@ -295,11 +295,17 @@ def write_pos(
         cols = "     x-ecef(m)      y-ecef(m)      z-ecef(m)"
         sdcols = "sdx(m)   sdy(m)   sdz(m)  sdxy(m)  sdyz(m)  sdzx(m)"
         pos_fmt = "{:14.4f} {:14.4f} {:14.4f}"
-    start, end = timeconv.gpst_to_calendar(gpst_s[[0, -1]])
+    # rounded to the millisecond, not cut: 1317081600.013 s is 1317081600.0129998 as a
+    # float, which a cut at the ms printed as .012 (integer ms, then the calendar)
+    ms = np.round(np.asarray(gpst_s[[0, -1]], dtype=np.float64) * 1000.0).astype(np.int64)
+    start, end = (
+        s.replace("-", "/").replace("T", " ")
+        for s in np.datetime_as_string(timeconv.GPS_EPOCH + ms.astype("timedelta64[ms]"), unit="ms")
+    )
     lines = [
         "% program   : RTKPOST ver.2.4.3 b34 (coopproc writer)",
-        f"% obs start : {str(start)[:23].replace('-', '/').replace('T', ' ')} GPST",
-        f"% obs end   : {str(end)[:23].replace('-', '/').replace('T', ' ')} GPST",
+        f"% obs start : {start} GPST",
+        f"% obs end   : {end} GPST",
         "% pos mode  : kinematic",
         "%",
         "% (lat/lon/height=WGS84/ellipsoidal,Q=1:fix,2:float,3:sbas,4:dgps,5:single,6:ppp,"

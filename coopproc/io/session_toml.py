@@ -80,6 +80,17 @@ class _UwbTable:
 
 
 @dataclass(frozen=True)
+class _CalibrationTable:
+    trust_declared: bool = field(
+        default=False,
+        metadata={
+            "help": "keep a follower's drift_sigma even where the data contradict it by "
+            "more than 10 x (false: replaced by the estimate, with a note)"
+        },
+    )
+
+
+@dataclass(frozen=True)
 class _ReferenceTable:
     quality: tuple[int, ...] = field(
         default=(1,), metadata={"help": "RTKLIB Q values used as reference (1 = fix)"}
@@ -114,6 +125,7 @@ _TABLES: dict[str, type] = {
     "frame": _FrameTable,
     "uwb": _UwbTable,
     "reference": _ReferenceTable,
+    "calibration": _CalibrationTable,
     "mcap": McapMapping,
 }
 _TOP = (*_TABLES, "platforms", "files", "columns", "topics")
@@ -183,6 +195,7 @@ def parse_session_toml(text: str, where: str = "session.toml") -> TomlRead:
         files=files,
         mcap=dict(doc.get("mcap", {})),
         time_offsets=offsets,
+        trust_declared=bool(tables["calibration"].trust_declared),
     )
     topics = parse_topics(doc.get("topics"), where)
     return TomlRead(
@@ -294,6 +307,8 @@ def session_toml_table(
         doc["uwb"] = {"sigma": config.uwb_sigma_m}
     if tuple(config.reference_quality) != (1,):
         doc["reference"] = {"quality": list(config.reference_quality)}
+    if config.trust_declared:
+        doc["calibration"] = {"trust_declared": True}
     if config.mcap:
         doc["mcap"] = dict(config.mcap)
     return doc

@@ -95,20 +95,24 @@ def outage_table(positions: pd.DataFrame, windows: Sequence[tuple[float, float]]
 
 def drift_curves(
     positions: pd.DataFrame, outages: pd.DataFrame, platform: str
-) -> dict[str, list[tuple[np.ndarray, np.ndarray]]]:
-    """Per method, one (time since the outage start, horizontal error) curve per window of
-    ``outages`` (outages.csv) for ``platform``; methods without rows inside are left out."""
-    out: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
+) -> dict[str, list[tuple[int, np.ndarray, np.ndarray]]]:
+    """Per method, one (window number, time since the outage start, horizontal error)
+    curve per window of ``outages`` (outages.csv) for ``platform`` that it has rows in;
+    methods without rows inside are left out."""
+    out: dict[str, list[tuple[int, np.ndarray, np.ndarray]]] = {}
     rows = positions[positions["platform"] == platform]
     windows = outages[outages["platform"] == platform].drop_duplicates("window")
     for method in _methods(rows):
         own = rows[rows["method"] == method].sort_values("time", kind="stable")
         t = own["time"].to_numpy(dtype=np.float64)
         err = own["error_h"].to_numpy(dtype=np.float64)
-        for start, end in zip(windows["start"], windows["end"], strict=True):
+        for number, start, end in zip(
+            windows["window"], windows["start"], windows["end"], strict=True
+        ):
             inside = (t >= start - 1e-9) & (t <= end + 1e-9) & np.isfinite(err)
             if inside.any():
-                out.setdefault(method, []).append((t[inside] - start, err[inside]))
+                curve = (int(number), t[inside] - start, err[inside])
+                out.setdefault(method, []).append(curve)
     return out
 
 
@@ -128,11 +132,29 @@ _COLS: tuple[tuple[str, str, int], ...] = (
 _TITLE = "Horizontal position error inside each UWB outage (paper 003 sec. 3.4)"
 
 
-def _rows(outages: pd.DataFrame, origin_s: float) -> list[dict[str, object]]:
+def _rows(
+    outages: pd.DataFrame, origin_s: float, order: Sequence[str], labels: bool
+) -> list[dict[str, object]]:
+    """The table's rows by window, platform and method in ``order`` (the other tables'
+    paper order: own nav, Observed, RN-Based, DI-Based, then the run's others), each
+    method by its display name (``labels``; the csv keeps the ids)."""
+    from coopproc.report.tables import method_label  # tables imports rundir, rundir this
+
+    rank = {m: i for i, m in enumerate(order)}
+    records = sorted(
+        outages.to_dict("records"),
+        key=lambda r: (
+            int(r["window"]),
+            str(r["platform"]),
+            rank.get(str(r["method"]), len(rank)),
+            str(r["method"]),
+        ),
+    )
     rows = []
-    for rec in outages.to_dict("records"):
+    for rec in records:
         span = f"{rec['start'] - origin_s:.1f}-{rec['end'] - origin_s:.1f}"
-        rows.append({**{str(k): v for k, v in rec.items()}, "span": span})
+        method = method_label(str(rec["method"])) if labels else rec["method"]
+        rows.append({**{str(k): v for k, v in rec.items()}, "span": span, "method": method})
     return rows
 
 
@@ -151,10 +173,11 @@ def format_outages(
     *,
     origin_s: float = 0.0,
     latex_width: LatexWidth = "single",
+    order: Sequence[str] = ("nav", "observed", "rn", "di"),
 ) -> str:
     """The outages table in ``fmt``; spans in seconds from ``origin_s`` (the run's time
-    origin, as the figures count)."""
-    rows = _rows(outages, origin_s)
+    origin, as the figures count); methods in ``order`` (others after, by name)."""
+    rows = _rows(outages, origin_s, order, labels=fmt != "csv")
     header = [h for _, h, _ in _COLS]
     if fmt == "csv":
         buf = io.StringIO()

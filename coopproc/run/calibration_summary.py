@@ -14,6 +14,13 @@ from typing import Any
 
 from coopproc.run.pipeline import PipelineOutput
 from coopproc.stages.fusion.calibration_bias import bias_words
+from coopproc.stages.fusion.dr_quality import (
+    DRIFT_WINDOW_S,
+    HEADING_WINDOW_S,
+    MIN_TRAVEL_M,
+    MIN_WINDOWS,
+    DeadReckoningQuality,
+)
 from coopproc.stages.fusion.dr_states import dr_summary
 
 __all__ = ["calibration_facts", "calibration_lines"]
@@ -100,6 +107,27 @@ def _fmt(value: float, spec: str, unit: str = "") -> str:
     return f"{value:{spec}}{unit}" if math.isfinite(value) else "n/a"
 
 
+def _dr_figures(q: DeadReckoningQuality, declared: str) -> str:
+    """``dead reckoning drift 0.0025 m/s [0.0043], heading drift -0.04 deg/min, scale
+    -0.13 %`` (``declared``: the bracket); a figure the data could not give says what it
+    lacked (dr_quality.py's rules), not "n/a"."""
+    if not math.isfinite(q.drift_mps):
+        return (
+            "dead reckoning not measured (fewer than 3 windows of "
+            f"{DRIFT_WINDOW_S:g} s of fused solution){declared}"
+        )
+    text = f"dead reckoning drift {q.drift_mps:.4f} m/s{declared}"
+    if math.isfinite(q.heading_drift_dpm) and math.isfinite(q.scale):
+        return (
+            f"{text}, heading drift {q.heading_drift_dpm:+.2f} deg/min, scale "
+            f"{100.0 * q.scale:+.2f} %"
+        )
+    return (
+        f"{text}, heading drift and scale not measured (fewer than {MIN_WINDOWS} windows "
+        f"of {HEADING_WINDOW_S:g} s with {MIN_TRAVEL_M:g} m of travel or more)"
+    )
+
+
 def calibration_lines(output: PipelineOutput) -> list[str]:
     """A few lines per pair and platform for the terminal."""
     lines = ["self-calibration (declared values in brackets):"]
@@ -142,11 +170,13 @@ def calibration_lines(output: PipelineOutput) -> list[str]:
         declared = f" [{q.declared_drift_mps:.4f}]" if math.isfinite(q.declared_drift_mps) else ""
         scale = observed.drift_scale.get(platform) if observed is not None else None
         inflated = f", fusion drift x{scale:.1f}" if scale else ""
-        lines.append(
-            f"  {platform}: dead reckoning drift {_fmt(q.drift_mps, '.4f')} m/s{declared}, "
-            f"heading drift {_fmt(q.heading_drift_dpm, '+.2f')} deg/min, scale "
-            f"{_fmt(100.0 * q.scale, '+.2f', ' %')}{inflated}"
-        )
+        if q.leader:  # its fix positions it in the fusion: e ~ 0 whatever it is
+            lines.append(
+                f"  {platform}: leader, dead reckoning not checked (the fusion takes its own "
+                f"fix){declared}{inflated}"
+            )
+            continue
+        lines.append(f"  {platform}: {_dr_figures(q, declared)}{inflated}")
         d = states.get(platform)
         if d is not None:  # what the fusion's DR states estimated (dr_states.csv), in the
             # line above's units and sign (counter-clockwise; dr_states.csv is clockwise)

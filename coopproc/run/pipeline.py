@@ -45,6 +45,7 @@ from coopproc.report.scores import nlos_event_scores
 from coopproc.run.chain import Step, resolve
 from coopproc.run.concurrent_steps import group_label, group_steps, run_concurrently, workers
 from coopproc.run.config import RunConfig
+from coopproc.run.declared import DeclaredDrifts, check_drifts, declared_quality
 from coopproc.run.gnss_methods import gnss_pipeline
 from coopproc.run.ins import states_table, with_ins
 from coopproc.run.odo_methods import odo_pipeline
@@ -138,6 +139,7 @@ def run_pipeline(
     range_products: list[RangeProduct] = []
     products: dict[str, PositionProduct] = {}
     cp_product: PositionProduct | None = None
+    drifts_checked: DeclaredDrifts | None = None
     # independent position steps (fusion (rn), fusion (di)) two at a time (concurrent_steps)
     done = 0
     for group in group_steps(steps, workers(config.run.parallel_fusion, len(base))):
@@ -169,6 +171,17 @@ def run_pipeline(
                 if "cp" in step.outputs:
                     cp_product = position_product
             del results, position_product
+            cp_step = next((s for s in group if "cp" in s.outputs), None)
+            if drifts_checked is None and cp_step is not None and cp_product is not None:
+                params = config.params_for(POSITION_STAGES[cp_step.stage].section)
+                drifts_checked, session, dr_session, redo = check_drifts(
+                    session, dr_session, cp_product.positions, params
+                )  # the declared drifts against the CP solution (run.declared)
+                tag_notes += list(drifts_checked.notes)
+                if redo:  # its model used a replaced figure: run again with the estimate
+                    products[cp_step.methods[0]] = cp_product = _run_position_step(
+                        cp_step, session, dr_session, range_sets, products, config
+                    )
             cp_product = _drop_spent(steps[done:], range_sets, products, cp_product)
             release_freed_memory()
 
@@ -183,6 +196,8 @@ def run_pipeline(
         dr_quality = (
             {} if cp_positions is None else dead_reckoning_quality(session, cp_positions.positions)
         )
+        if drifts_checked is not None and drifts_checked.replaced:  # declared in brackets
+            dr_quality = declared_quality(dr_quality, drifts_checked.contradicted)
         del cp_positions
         states = states_table(session, products)
         dr_states = dr_states_of(products)

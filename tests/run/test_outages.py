@@ -175,14 +175,25 @@ def test_run_and_report_through_files(session_dir: Path, tmp_path: Path) -> None
         shown = runner.invoke(main, ["report", str(out), "--outages", "--format", fmt])
         assert shown.exit_code == 0, shown.output
         assert marker in shown.output and "20.0-30.0" in shown.output
+        if fmt == "terminal":  # display names in the other tables' order, not raw ids
+            methods = [line.split()[3:5] for line in shown.output.splitlines()[4:-1]]
+            assert methods == [["car", "Own"], ["car", "Observed"]] * 2, shown.output
     # the figure: per method one line per window, from 0 s since the outage start
     panels = outage_panels(load_run(out), FigureOptions())
     assert panels is not None and list(panels.keys) == ["car"]
-    ax = panels.page([0]).axes[0]
-    lines = ax.get_lines()
+    fig = panels.page([0])
+    ax = fig.axes[0]
+    lines = [line for line in ax.get_lines() if len(line.get_xdata())]
     assert len(lines) == 4
     assert all(np.min(line.get_xdata()) == 0.0 for line in lines)
     assert max(np.max(line.get_xdata()) for line in lines) == pytest.approx(10.0)
+    # the two windows told apart: a marker each, and legend entries with their spans
+    by_window = {}
+    for line in lines:
+        by_window.setdefault(line.get_color(), []).append(line.get_marker())
+    assert all(markers == ["o", "s"] for markers in by_window.values())
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert labels == ["Own nav", "Observed", "Window 1: 20.0-30.0 s", "Window 2: 50.0-60.0 s"]
     (out / "outages.csv").unlink()
     missing = runner.invoke(main, ["report", str(out), "--outages"])
     assert missing.exit_code == 1 and "the run had no outage windows" in missing.output

@@ -49,6 +49,9 @@ class DeadReckoningQuality:
     heading_drift_dpm: float
     scale: float
     declared_drift_mps: float  # session.toml drift_sigma (NaN: none)
+    #: a leader: the fusion takes its own fix, so its figures against the cooperative
+    #: solution are ~0 whatever its navigation's error (not a measurement of it)
+    leader: bool = False
 
 
 def _resample(traj: Trajectory, step_s: float) -> tuple[FloatArray, FloatArray]:
@@ -211,5 +214,6 @@ def dead_reckoning_quality(
             heading_drift_dpm=heading,
             scale=scale,
             declared_drift_mps=float("nan") if declared is None else float(declared),
+            leader=session.platforms[platform].role == "leader",
         )
     return out
