@@ -39,9 +39,7 @@ from coopproc.model import (
     Result,
     Session,
 )
-from coopproc.report.metrics import distance_metrics, nlos_scores, position_metrics
-from coopproc.report.outlier_scores import fusion_outlier_scores
-from coopproc.report.scores import nlos_event_scores
+from coopproc.report.metrics import distance_metrics, position_metrics
 from coopproc.run.chain import Step, resolve
 from coopproc.run.concurrent_steps import group_label, group_steps, run_concurrently, workers
 from coopproc.run.config import RunConfig
@@ -51,6 +49,7 @@ from coopproc.run.ins import states_table, with_ins
 from coopproc.run.odo_methods import odo_pipeline
 from coopproc.run.positions_table import PositionSamples, positions_table
 from coopproc.run.range_sets import ranges_for, row_sigma
+from coopproc.run.scoring import score_tables
 from coopproc.run.tags import tag_pipeline, tag_rows, widen, without_tags
 from coopproc.stages.base import PositionInput, PositionProduct, RangeInput, RangeProduct
 from coopproc.stages.fusion.dr_quality import DeadReckoningQuality, dead_reckoning_quality
@@ -226,18 +225,10 @@ def run_pipeline(
         label_sigma = {} if declared is None else {p: float(declared) for p in sigma}
         events = _concat_or_empty([p.nlos_events for p in range_products], NLOS_EVENT_COLUMNS)
         nlos_methods = tuple(m for m in columns if any(m in p.nlos for p in range_products))
-        event_scores = nlos_event_scores(table, events)
-        scores = nlos_scores(
-            table, events, label_sigma, methods=nlos_methods, event_scores=event_scores
-        )
-        # the fusion's own outlier decisions, scored the same way (report/outlier_scores.py)
-        with_weights = set() if range_weights is None else _methods_of(range_weights)
-        weighted = tuple(m for m in products if m in with_weights)  # in chain order
-        outliers = fusion_outlier_scores(table, range_weights, label_sigma, methods=weighted)
-        if len(outliers):
-            rows = outliers[list(scores.columns)]
-            scores = pd.concat([scores, rows], ignore_index=True) if len(scores) else rows
-        scores = _with_modes(scores, range_products)
+        scores, event_scores, outliers = score_tables(
+            table, events, label_sigma, nlos_methods, range_weights, tuple(products),
+            range_products,
+        )  # fmt: skip
         di = next((p.di for p in range_products if p.di is not None), None)
         result = Result(
             ranges=table,
@@ -274,29 +265,6 @@ def run_pipeline(
         nlos_methods=nlos_methods,
         fusion_outlier_scores=outliers,
     )
-
-
-def _with_modes(scores: pd.DataFrame, products: Sequence[RangeProduct]) -> pd.DataFrame:
-    """nlos_scores.csv's ``mode`` and ``ranges_only_fraction`` (issue 30.3): how the pair's
-    filter of the method ran, ``di`` (smoothing with the DI in every calibration window),
-    ``ranges`` (ranges-only in every window) or ``mixed``, and the share of its epochs in
-    ranges-only windows; empty for the rows of methods without windows (fusion:*)."""
-    share = {
-        k: getattr(c, "ranges_only_fraction", np.nan)
-        for p in products
-        for k, c in p.calibration.items()
-    }
-    frac = np.array(
-        [
-            share.get((pair, m), np.nan)
-            for pair, m in zip(scores["pair"], scores["method"], strict=True)
-        ],
-        dtype=np.float64,
-    )
-    mode = np.where(
-        np.isnan(frac), "", np.where(frac <= 0.0, "di", np.where(frac >= 1.0, "ranges", "mixed"))
-    )
-    return scores.assign(mode=mode, ranges_only_fraction=frac)
 
 
 def _drop_spent(
@@ -413,11 +381,6 @@ def _range_table(
     data["outlier"] = outlier
     # the columns as they are (no copy: a day's table is ~270 MB, held once)
     return pd.DataFrame(data, copy=False)
-
-
-def _methods_of(weights: pd.DataFrame) -> set[str]:
-    """The methods of a range_weights table."""
-    return {str(m) for m in weights["method"].unique()}
 
 
 def _concat_or_empty(frames: list[pd.DataFrame | None], columns: tuple[str, ...]) -> pd.DataFrame:
