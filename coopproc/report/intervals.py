@@ -155,18 +155,25 @@ def distance_intervals(
 
 
 def _rms_bounds(
-    out: dict[str, float], stat: str, x: FloatArray, blocks: Blocks, level: float
+    out: dict[str, float],
+    stat: str,
+    x: FloatArray,
+    level: float,
+    names: Sequence[str],
+    resamples: int,
 ) -> None:
-    """``stat``'s interval: the RMS of the finite values of ``x`` (NaN rows counted out)."""
-    ok = np.isfinite(x)
-    if np.count_nonzero(ok) < MIN_EPOCHS:
+    """``stat``'s interval: the RMS of the finite values of ``x`` (the epochs that have
+    one, in time order, with blocks of their own: position_metrics.csv's ``rms_east`` /
+    ``rms_north`` count every epoch with a reference row, ``h`` or not)."""
+    x = np.asarray(x, dtype=np.float64)
+    x = x[np.isfinite(x)]
+    if x.shape[0] < MIN_EPOCHS:
         out[f"{stat}_lo"] = out[f"{stat}_hi"] = float("nan")
         return
-    sq = np.where(ok, x, 0.0) ** 2
-    sums = resampled_sums(blocks, np.column_stack((sq, ok.astype(np.float64))))
-    value = math.sqrt(float(np.mean(sq[ok])))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        _put(out, stat, value, np.sqrt(sums[:, 0] / sums[:, 1]), sq, blocks, level)
+    sq = x * x
+    blocks = _blocks(x, resamples, *names, stat)
+    sums = resampled_sums(blocks, sq) / blocks.size
+    _put(out, stat, math.sqrt(float(np.mean(sq))), np.sqrt(sums), sq, blocks, level)
 
 
 def _quantile_bounds(
@@ -187,23 +194,22 @@ def position_intervals(
 ) -> dict[str, float]:
     """Intervals of Table 3's mean, rmse, rms_east, rms_north, cep50, cep95 of one
     platform and method: ``h`` the horizontal errors, ``east`` / ``north`` the per-axis
-    errors (NaN where there is no reference row), all at the same epochs in time order;
-    epochs without an ``h`` are left out."""
+    errors (NaN where there is no reference row), all at the method's epochs in time
+    order; each statistic over the epochs that have its input, as the table's."""
+    out = _nan(POSITION_INTERVAL_STATS)
+    _rms_bounds(out, "rms_east", east, level, names, resamples)
+    _rms_bounds(out, "rms_north", north, level, names, resamples)
     h = np.asarray(h, dtype=np.float64)
-    keep = np.isfinite(h)
-    h, east, north = h[keep], np.asarray(east)[keep], np.asarray(north)[keep]
+    h = h[np.isfinite(h)]
     if h.shape[0] < MIN_EPOCHS:
-        return _nan(POSITION_INTERVAL_STATS)
+        return out
     blocks = _blocks(h, resamples, *names)
     h2 = h * h
     sums = resampled_sums(blocks, np.column_stack((h, h2)))
     size = float(blocks.size)
-    out: dict[str, float] = {}
     _put(out, "mean", float(np.mean(h)), sums[:, 0] / size, h, blocks, level)
     rmse = math.sqrt(float(np.mean(h2)))
     _put(out, "rmse", rmse, np.sqrt(sums[:, 1] / size), h2, blocks, level)
-    _rms_bounds(out, "rms_east", east, blocks, level)
-    _rms_bounds(out, "rms_north", north, blocks, level)
     _quantile_bounds(out, "cep50", h, 0.50, blocks, level)
     _quantile_bounds(out, "cep95", h, 0.95, blocks, level)
     return out
