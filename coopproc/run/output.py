@@ -28,6 +28,7 @@ from coopproc.memory import release_freed_memory
 from coopproc.model import Session
 from coopproc.report.bootstrap import DEFAULT_LEVEL
 from coopproc.report.comparisons import comparisons
+from coopproc.report.consistency import with_consistency
 from coopproc.report.figures import FigurePage, figure_pages, write_figures
 from coopproc.report.html import write_html
 from coopproc.report.injected import injected_scores
@@ -89,6 +90,8 @@ def run_tables(
     methods = (output.methods or {}).get("positions")  # evaluation.csv / rpe.csv row order
     # both from one pass over the aligned tracks (a day of positions: seconds)
     evaluated, relative = evaluation_and_rpe(r.positions, methods=methods)
+    # NIS of the fusion's range innovations, NEES of the INS states (report/consistency.py)
+    evaluated = with_consistency(evaluated, r.range_weights, r.states)
     return RunTables(
         ranges=r.ranges,
         di=r.di,
