@@ -150,7 +150,13 @@ def distance_intervals(
         _put(out, "snr_db", snr, snr_star, e2, blocks, level)
         rough = float(np.sum(step_r))
         smooth = float(np.sum(step_d)) / rough if rough > 0 else float("nan")
-        _put(out, "smoothness", smooth, steps[:, 0] / steps[:, 1], step_d, blocks, level)
+        # a ratio of two sums of squares: its interval on the log scale (never below 0,
+        # as skewed as the ratio), exp(log T +- t sd(log T*))
+        log_star = np.log(steps[:, 0] / steps[:, 1])
+        log_value = math.log(smooth) if smooth > 0 else float("nan")
+        _put(out, "smoothness", log_value, log_star, step_d, blocks, level)
+        out["smoothness_lo"] = math.exp(out["smoothness_lo"])
+        out["smoothness_hi"] = math.exp(out["smoothness_hi"])
     return out
 
 
