@@ -132,7 +132,9 @@ def test_notes_only_for_the_marks_shown() -> None:
 
 def test_latex_intervals_fit_the_page() -> None:
     tex = format_tables(RUN, "latex")
-    assert re.search(r"\{\\(scriptsize|footnotesize) \[", tex) and r"$^\dagger$" in tex
+    # lo--hi (en dash) under the value, in the small type of the change rows
+    assert re.search(r"\{\\(scriptsize|footnotesize) (\$-\$)?\d\.\d{4}--", tex)
+    assert r"$^\dagger$" in tex
     widths = [float(w) for w in re.findall(r"about (\d+) pt wide", tex)]
     assert widths and max(widths) <= SINGLE_PT
     assert "confidence interval (block bootstrap over time)" in tex
