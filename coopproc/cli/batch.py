@@ -157,3 +157,18 @@ def _summary(result: BatchResult, out_root: Path) -> None:
         )
     if result.metrics_csv is not None:
         click.echo(f"tables: {result.metrics_csv}, {result.position_metrics_csv}", err=True)
+    _verdicts(out_root)
+
+
+def _verdicts(out_root: Path) -> None:
+    """One line per method pair of ROOT/pooled_comparisons.csv (report/pooled_stats.py)."""
+    from coopproc.report.pooled_stats import verdict
+    from coopproc.run.batch_root import POOLED_COMPARISONS
+
+    path = out_root / POOLED_COMPARISONS
+    if not path.is_file():
+        return
+    import pandas as pd
+
+    for row in pd.read_csv(path, dtype={"method": str, "baseline": str}).to_dict("records"):
+        click.echo(f"pooled: {verdict({str(k): v for k, v in row.items()})}", err=True)

@@ -58,6 +58,24 @@ def _alignments(value: str | None) -> list[str]:
     return names
 
 
+def _level(value: str | None, default: float, option: str) -> float | None:
+    """``--ci`` / ``--significance``: a number in (0, 1), or ``none``."""
+    if value is None:
+        return default
+    if value.strip().lower() == "none":
+        return None
+    try:
+        level = float(value)
+    except ValueError:
+        level = float("nan")
+    if not 0.0 < level < 1.0:
+        raise click.BadParameter(
+            f"{value!r} is not a level; expected a number between 0 and 1 (e.g. 0.9) or none",
+            param_hint=f"'{option}'",
+        )
+    return level
+
+
 def _outage_origin(run: RunTables) -> float:
     """The session start the run's outage windows count from (run.json ``outages``), else
     the run's time origin."""
@@ -110,6 +128,19 @@ def _run_max_pages(run: RunTables) -> int:
     "no_change",
     is_flag=True,
     help="Leave out the change against Observed (every format).",
+)
+@click.option(
+    "--ci",
+    "ci",
+    metavar="LEVEL",
+    help="Confidence level of the intervals of Table 2 and Table 3 (block bootstrap over "
+    "time; default 0.95; none: no intervals).",
+)
+@click.option(
+    "--significance",
+    metavar="ALPHA",
+    help="Mark the changes against Observed whose paired comparison has p < ALPHA "
+    "(default 0.05; none: no marks).",
 )
 @click.option("--metrics", help="Columns to show, comma separated (e.g. max,rmse,snr_db).")
 @click.option(
@@ -190,6 +221,8 @@ def report(
     output: Path | None,
     latex_width: str,
     no_change: bool,
+    ci: str | None,
+    significance: str | None,
     metrics: str | None,
     pairs: str | None,
     platforms: str | None,
@@ -218,6 +251,7 @@ def report(
     coopproc report out --format latex -o t.tex LaTeX (booktabs) to a file
     coopproc report out --format latex --latex-width double --no-change
     coopproc report out --metrics max,rmse --pairs A-B
+    coopproc report out --ci 0.9 --significance 0.01   90 % intervals, marks at p < 0.01
     coopproc report out --plots --pdf --html    figures (PNG + PDF) and report.html
     coopproc report out --plots --pairs A-B,A-C figures of two pairs only
     coopproc report out --plots --style single-column   one journal column wide
@@ -237,6 +271,8 @@ def report(
     evaluate = evaluate or align is not None or rpe_lengths is not None
     alignments = _alignments(align)
     lengths = _lengths(rpe_lengths or "10,50,100")
+    level = _level(ci, 0.95, "--ci")
+    alpha = _level(significance, 0.05, "--significance")
 
     import matplotlib
 
@@ -338,6 +374,8 @@ def report(
                 change=not no_change,
                 latex_width=latex_width,  # type: ignore[arg-type]
                 axes=axes,
+                level=level,
+                significance=alpha,
             )
         if output is not None:
             write_text_atomic(output, text)

@@ -37,6 +37,7 @@ import pandas as pd
 
 from coopproc.model import FloatArray
 from coopproc.report.alignment import ALIGNMENTS, AlignmentError, Transform, fit_alignment
+from coopproc.report.evaluation_extra import EXTRA_COLUMNS, coverage_map, evaluation_extras
 from coopproc.report.track_kernels import error_norms
 from coopproc.report.tracks import REFERENCE_METHOD, Track, matched_tracks
 
@@ -75,6 +76,7 @@ EVALUATION_COLUMNS: tuple[str, ...] = (
     *(f"{s}_h" for s in _NORM_STATS),
     *(f"{s}_{a}" for s in _AXIS_STATS for a in AXES),
     *_TRANSFORM,
+    *EXTRA_COLUMNS,  # coverage, along / cross-track, intervals (report/evaluation_extra.py)
 )
 
 
@@ -107,7 +109,7 @@ def _error_stats(moved: FloatArray, ref: FloatArray) -> dict[str, float]:
     """:func:`error_stats` of ``moved - ref`` without forming it (one compiled pass for the
     norms and the per-axis statistics: :func:`~coopproc.report.track_kernels.error_norms`)."""
     if not moved.shape[0]:
-        names = [c for c in EVALUATION_COLUMNS[4:] if c not in _TRANSFORM]
+        names = [c for c in EVALUATION_COLUMNS[4:] if c not in (*_TRANSFORM, *EXTRA_COLUMNS)]
         return dict.fromkeys(names, float("nan"))
     e3, h, axis_stats = error_norms(moved, ref)
     out = _norm_stats(e3, "3d")
@@ -174,8 +176,12 @@ def evaluation_row(
     moved: FloatArray,
     ref: FloatArray,
     transform: Transform | None,
+    time_s: FloatArray | None = None,
+    covered: float = float("nan"),
 ) -> dict[str, object]:
-    """One row of ``evaluation.csv`` from an item of :func:`aligned_tracks`."""
+    """One row of ``evaluation.csv`` from an item of :func:`aligned_tracks` (``time_s``
+    its times: the along / cross-track errors and the intervals; ``covered`` its
+    coverage, :func:`~coopproc.report.evaluation_extra.coverage_map`)."""
     row: dict[str, object] = {"platform": platform, "method": method, "alignment": kind}
     row["n"] = int(ref.shape[0])
     if transform is None:
@@ -183,6 +189,11 @@ def evaluation_row(
     else:
         row.update(_error_stats(moved, ref))
     row.update(transform_columns(transform))
+    t = np.arange(float(ref.shape[0])) if time_s is None else time_s
+    usable = moved if transform is not None else np.empty((0, 3))
+    row.update(
+        evaluation_extras(t, usable, ref[: usable.shape[0]], covered, (platform, method, kind))
+    )
     return row
 
 
@@ -204,10 +215,20 @@ def evaluation(
     of rows; ``methods``: the run's position methods (default: derived from the table).
     With ``rpe.csv`` too, :func:`coopproc.report.rpe.evaluation_and_rpe` aligns once.
     """
+    covered = coverage_map(positions)
     return evaluation_frame(
         [
-            evaluation_row(platform, method, kind, moved, ref, transform)
-            for platform, method, kind, _t, moved, ref, transform in aligned_tracks(
+            evaluation_row(
+                platform,
+                method,
+                kind,
+                moved,
+                ref,
+                transform,
+                t,
+                covered.get((platform, method), float("nan")),
+            )
+            for platform, method, kind, t, moved, ref, transform in aligned_tracks(
                 positions, align, methods
             )
         ]

@@ -19,6 +19,7 @@ from collections.abc import Sequence
 import pandas as pd
 
 from coopproc.errors import ConfigError
+from coopproc.report.bootstrap import DEFAULT_LEVEL
 from coopproc.report.evaluation import EVALUATION_COLUMNS, check_alignments
 from coopproc.report.formats import Format, render_table
 from coopproc.report.latex import LatexWidth
@@ -75,6 +76,14 @@ _SPECS.update(
         "align_north": MetricSpec("Shift N", "m", 4, None),
         "align_up": MetricSpec("Shift U", "m", 4, None),
         "segments": MetricSpec("Segments", "", 0, None),
+        # report/evaluation_extra.py: coverage, along / cross-track
+        "coverage": MetricSpec("Coverage", "", 3, "max"),
+        "rms_along": MetricSpec("RMS along", "m"),
+        "rms_cross": MetricSpec("RMS cross", "m"),
+        "mean_along": MetricSpec("Bias along", "m", better="absmin", signed=True),
+        "mean_cross": MetricSpec("Bias cross", "m", better="absmin", signed=True),
+        "absmax_along": MetricSpec("|Max| along", "m"),
+        "absmax_cross": MetricSpec("|Max| cross", "m"),
         "rmse_m": MetricSpec("RMSE", "m"),
         "mean_m": MetricSpec("Mean", "m"),
         "median_m": MetricSpec("Median", "m"),
@@ -89,7 +98,18 @@ for _name, _spec in _SPECS.items():  # shown like the other statistics (tables.M
     METRIC_SPECS.setdefault(_name, _spec)
 
 #: Columns shown by default: the evaluation tables, the RPE tables, the transform tables.
-EVALUATION_DEFAULT = ("rmse_3d", "mean_3d", "std_3d", "max_3d", "rmse_h", "rms_up", "n")
+EVALUATION_DEFAULT = (
+    "rmse_3d",
+    "mean_3d",
+    "std_3d",
+    "max_3d",
+    "rmse_h",
+    "rms_along",
+    "rms_cross",
+    "rms_up",
+    "coverage",
+    "n",
+)
 RPE_DEFAULT = ("segments", "rmse_m", "mean_m", "max_m", "mean_pct")
 TRANSFORM_METRICS = tuple(c for c in EVALUATION_COLUMNS if c.startswith("align_"))
 #: The HTML page shows more columns.
@@ -129,9 +149,11 @@ def _table(
     key: str,
     title: str,
     with_change: bool = True,
+    level: float | None = None,
 ) -> Table:
-    """A platform x method table of ``frame``'s rows (Table 3's layout and markings)."""
-    table = position_table(frame, columns, platforms, order)
+    """A platform x method table of ``frame``'s rows (Table 3's layout and markings;
+    ``level``: with the intervals of its ``<m>_lo`` / ``<m>_hi`` columns)."""
+    table = position_table(frame, columns, platforms, order, level=level)
     return dataclasses.replace(
         table, key=key, title=title, has_change=with_change and table.has_change
     )
@@ -178,7 +200,17 @@ def evaluation_tables(
         rows = ev[ev["alignment"] == kind]
         title = f"Trajectory errors per platform and method, alignment {kind}"
         cols = [m for m in metrics if m not in TRANSFORM_METRICS] if metrics else evaluation_columns
-        tables.append(_table(rows, cols, platforms, order, key=f"evaluation_{kind}", title=title))
+        tables.append(
+            _table(
+                rows,
+                cols,
+                platforms,
+                order,
+                key=f"evaluation_{kind}",
+                title=title,
+                level=DEFAULT_LEVEL,  # evaluation.csv's intervals (report/evaluation_extra.py)
+            )
+        )
         if kind != "none":
             tables.append(
                 _table(

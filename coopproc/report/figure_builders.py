@@ -17,6 +17,7 @@ import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from coopproc.report.consistency_figure import consistency_panels
 from coopproc.report.convergence import convergence_panels
 from coopproc.report.dr_states_figure import dr_states_panels
 from coopproc.report.evaluation_plots import (
@@ -275,4 +276,5 @@ BUILDERS: dict[str, Callable[[RunTables, FigureOptions, FigureGroups], Panels | 
     "error_track": _error_track,
     "outage_drift": outage_panels,  # runs with [run] outages only (report/outage_figure.py)
     "dr_states": dr_states_panels,  # runs whose fusion has DR states (dr_states_figure.py)
+    "consistency": consistency_panels,  # NIS / NEES of the filters (consistency_figure.py)
 }

@@ -36,6 +36,7 @@ import matplotlib as mpl
 from matplotlib.figure import Figure
 
 from coopproc.errors import ConfigError
+from coopproc.report.consistency_figure import CONSISTENCY_FIGURE_NAMES
 from coopproc.report.dr_states_figure import DR_FIGURE_NAMES
 from coopproc.report.figure_builders import BUILDERS, FigureGroups
 from coopproc.report.outage_figure import OUTAGE_FIGURE_NAMES
@@ -65,7 +66,9 @@ _METADATA: dict[str, dict[str, Any]] = {
 PANELS_KEY = "Panels"
 PANEL_SEPARATOR = "; "
 FIGURE_NAMES: tuple[str, ...] = tuple(
-    n for n in BUILDERS if n not in OUTAGE_FIGURE_NAMES and n not in DR_FIGURE_NAMES
+    n
+    for n in BUILDERS
+    if n not in (*OUTAGE_FIGURE_NAMES, *DR_FIGURE_NAMES, *CONSISTENCY_FIGURE_NAMES)
 )
 
 

@@ -15,6 +15,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from coopproc.report.bootstrap import DEFAULT_LEVEL
 from coopproc.report.evaluation_tables import evaluation_html
 from coopproc.report.figures import FigurePage
 from coopproc.report.formats import render_table
@@ -25,6 +26,7 @@ from coopproc.report.rundir import RunTables
 from coopproc.report.scores import NLOS_EVENT_SCORE_COLUMNS, nlos_event_scores
 from coopproc.report.stochastic import StochasticReport
 from coopproc.report.stochastic_figures import stochastic_section
+from coopproc.report.table_stats import DEFAULT_SIGNIFICANCE, table_frames
 from coopproc.report.tables import (
     POSITION_ALL,
     distance_table,
@@ -210,6 +212,18 @@ def render_html(
     name = session.get("name", "") if isinstance(session, Mapping) else ""
     title = f"coopproc report {name}".strip()
     order = run_method_orders(run)
+    # intervals and significance marks as `report --table` shows them (report/table_stats.py)
+    frames = table_frames(run, DEFAULT_LEVEL, DEFAULT_SIGNIFICANCE, order)
+    table2 = distance_table(
+        frames.metrics, order=order["table2"], level=DEFAULT_LEVEL, stars=frames.distance_stars
+    )
+    table3 = position_table(
+        frames.position_metrics,
+        POSITION_ALL,
+        order=order["table3"],
+        level=DEFAULT_LEVEL,
+        stars=frames.position_stars,
+    )
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
@@ -218,12 +232,8 @@ def render_html(
         "<h2>Run</h2>",
         _facts(run.info),
         "<h2>Tables</h2>",
-        _wide(render_table(distance_table(run.metrics, order=order["table2"]), "html")),
-        _wide(
-            render_table(
-                position_table(run.position_metrics, POSITION_ALL, order=order["table3"]), "html"
-            )
-        ),
+        _wide(render_table(table2, "html")),
+        _wide(render_table(table3, "html")),
     ]
     if run.nlos_scores is not None and len(run.nlos_scores):
         parts.append(_wide(render_table(nlos_table(run.nlos_scores, order=order["nlos"]), "html")))

@@ -22,6 +22,7 @@ from typing import Literal
 
 __all__ = [
     "COLUMN_PT",
+    "EN_DASH",
     "MINUS",
     "SINGLE_PT",
     "SPAN_PT",
@@ -62,9 +63,11 @@ _WIDTHS = {
     False: [int(w) / 100 for w in _ROMAN.split()],
     True: [int(w) / 100 for w in _BOLD.split()],
 }
-#: Stand-ins in a cell's ``plain`` text: the math minus ``$-$`` and the thin space ``\,``.
+#: Stand-ins in a cell's ``plain`` text: the math minus ``$-$``, the thin space ``\,``
+#: and the en dash ``--``.
 MINUS = "\u2212"
 THIN = "\u2009"
+EN_DASH = "\u2013"
 
 
 def _text_width(text: str, bold: bool) -> float:
@@ -76,7 +79,7 @@ def _text_width(text: str, bold: bool) -> float:
         if 32 <= code < 127:
             total += widths[code - 32]
         else:
-            total += {MINUS: 7.78, THIN: 1.67}.get(char, 10.0)
+            total += {MINUS: 7.78, THIN: 1.67, EN_DASH: 5.0}.get(char, 10.0)
     return total
 
 

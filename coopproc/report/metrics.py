@@ -19,6 +19,9 @@ extension columns ``rms_east`` / ``rms_north`` (population RMS of the per-axis e
 against the reference rows, when ``positions`` holds rows of method ``reference``) and
 ``cep50`` / ``cep95`` (the 50th / 95th percentile of h_i, linear interpolation between
 order statistics).
+
+With a confidence ``level`` both tables append the block-bootstrap intervals of their
+statistics (``<stat>_lo``, ``<stat>_hi``; :mod:`coopproc.report.intervals`).
 """
 
 from __future__ import annotations
@@ -30,6 +33,13 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from coopproc.model import METRICS_COLUMNS, POSITION_METRICS_COLUMNS, FloatArray
+from coopproc.report.intervals import (
+    DISTANCE_INTERVAL_STATS,
+    POSITION_INTERVAL_STATS,
+    distance_intervals,
+    interval_columns,
+    position_intervals,
+)
 from coopproc.report.methods import method_order, position_methods_of, range_methods_of
 from coopproc.report.scores import nlos_scores
 
@@ -86,8 +96,13 @@ def distance_stats(value_m: FloatArray, reference_m: FloatArray) -> dict[str, fl
     }
 
 
-def distance_metrics(ranges: pd.DataFrame, methods: Sequence[str] | None = None) -> pd.DataFrame:
-    """Table 2: one row per pair and method (``metrics.csv``, METRICS_COLUMNS).
+def distance_metrics(
+    ranges: pd.DataFrame, methods: Sequence[str] | None = None, *, level: float | None = None
+) -> pd.DataFrame:
+    """Table 2: one row per pair and method (``metrics.csv``, METRICS_COLUMNS; ``level``:
+    then the ``<stat>_lo`` / ``<stat>_hi`` intervals of
+    :data:`~coopproc.report.intervals.DISTANCE_INTERVAL_STATS` at that confidence level,
+    :func:`~coopproc.report.intervals.distance_intervals`).
 
     Every range method column of ``ranges`` is scored against ``reference``: ``methods``
     (the run's, e.g. :func:`~coopproc.report.methods.range_methods`), by default those
@@ -113,8 +128,14 @@ def distance_metrics(ranges: pd.DataFrame, methods: Sequence[str] | None = None)
         reference = reference_all[at]
         for method in methods:
             value = values[method][at]
-            rows.append({"pair": str(pair), "method": method, **distance_stats(value, reference)})
-    out = pd.DataFrame(rows, columns=list(METRICS_COLUMNS))
+            row = {"pair": str(pair), "method": method, **distance_stats(value, reference)}
+            if level is not None:
+                row.update(distance_intervals(value, reference, level, (str(pair), method)))
+            rows.append(row)
+    columns = list(METRICS_COLUMNS)
+    if level is not None:
+        columns += interval_columns(DISTANCE_INTERVAL_STATS)
+    out = pd.DataFrame(rows, columns=columns)
     out["n"] = out["n"].astype(np.int64)
     return out
 
@@ -186,10 +207,15 @@ def _group_rows(
     return out
 
 
-def position_metrics(positions: pd.DataFrame, methods: Sequence[str] | None = None) -> pd.DataFrame:
+def position_metrics(
+    positions: pd.DataFrame, methods: Sequence[str] | None = None, *, level: float | None = None
+) -> pd.DataFrame:
     """Table 3: one row per platform and method (``position_metrics.csv``).
 
-    Columns: POSITION_METRICS_COLUMNS then :data:`POSITION_METRICS_EXTRA_COLUMNS`. Statistics
+    Columns: POSITION_METRICS_COLUMNS then :data:`POSITION_METRICS_EXTRA_COLUMNS` (then,
+    with ``level``, the intervals of
+    :data:`~coopproc.report.intervals.POSITION_INTERVAL_STATS`:
+    :func:`~coopproc.report.intervals.position_intervals`). Statistics
     of the horizontal error ``error_h`` (2D norm) over the epochs that have one; rows of
     method ``reference`` are not scored, they give the per-axis errors. Every method with
     rows is scored; sorted by platform, then ``nav``, ``methods`` (the run's position
@@ -198,6 +224,8 @@ def position_metrics(positions: pd.DataFrame, methods: Sequence[str] | None = No
     ``method`` (no per-group copies of the table, no string comparison per row).
     """
     columns = [*POSITION_METRICS_COLUMNS, *POSITION_METRICS_EXTRA_COLUMNS]
+    if level is not None:
+        columns += interval_columns(POSITION_INTERVAL_STATS)
     rows: list[dict[str, object]] = []
     order = ("nav", *(position_methods_of(positions) if methods is None else methods))
     platform, platform_names = _codes(positions["platform"])
@@ -217,11 +245,13 @@ def position_metrics(positions: pd.DataFrame, methods: Sequence[str] | None = No
         present = sorted(m for m in mine if m != REFERENCE_METHOD)
         for method_name in method_order(present, order):
             own = mine[method_name]
-            h = values["error_h"][own]
-            h = h[np.isfinite(h)]
+            h_all = values["error_h"][own]
+            h = h_all[np.isfinite(h_all)]
             de, dn = _axis_errors(
                 values["time"][own], values["east"][own], values["north"][own], ref
             )
+            if level is not None:
+                bounds = position_intervals(h_all, de, dn, level, (name, method_name))
             n = int(h.size)
             stats: dict[str, object] = {"platform": name, "method": method_name, "n": n}
             if n:
@@ -233,6 +263,8 @@ def position_metrics(positions: pd.DataFrame, methods: Sequence[str] | None = No
                     cep95=float(np.percentile(h, 95)),
                 )
             stats.update(rms_east=_rms(de), rms_north=_rms(dn))
+            if level is not None:
+                stats.update(bounds)
             rows.append(stats)
     out = pd.DataFrame(rows, columns=columns)
     out["n"] = out["n"].astype(np.int64)

@@ -14,7 +14,10 @@ then one row per method pooled over every platform of every session (``platform`
 ``*``, not a valid platform id). Columns: ``platform, method, sessions, n, max, mean,
 rmse, rms_east, rms_north, cep50, cep95`` as in ``position_metrics.csv`` (horizontal
 error h = |(d_e, d_n)|, recomputed from the positions: the ``error_h`` of the CSV to its
-1 um), then ``rms_up`` and ``rmse_3d``.
+1 um), then ``rms_up`` and ``rmse_3d``, then the 95 % intervals ``mean_lo, mean_hi,
+rmse_lo, rmse_hi`` of a two-stage bootstrap that resamples sessions, and blocks within
+each (:mod:`coopproc.report.pooled_stats`), which also gives ``pooled_comparisons.csv``
+(:func:`pooled_tables`).
 """
 
 from __future__ import annotations
@@ -25,10 +28,18 @@ import numpy as np
 import pandas as pd
 
 from coopproc.model import FloatArray
+from coopproc.report.bootstrap import DEFAULT_LEVEL
 from coopproc.report.evaluation import matched_tracks
 from coopproc.report.methods import method_order
+from coopproc.report.pooled_stats import (
+    POOLED_INTERVAL_COLUMNS,
+    PooledSums,
+    pooled_comparisons,
+    pooled_intervals,
+    track_sums,
+)
 
-__all__ = ["ALL_PLATFORMS", "POOLED_COLUMNS", "pooled_position_metrics"]
+__all__ = ["ALL_PLATFORMS", "POOLED_COLUMNS", "pooled_position_metrics", "pooled_tables"]
 
 #: ``platform`` of the rows pooled over every platform.
 ALL_PLATFORMS = "*"
@@ -46,12 +57,13 @@ POOLED_COLUMNS: tuple[str, ...] = (
     "cep95",
     "rms_up",
     "rmse_3d",
+    *POOLED_INTERVAL_COLUMNS,
 )
 
 
 def _stats(d: FloatArray) -> dict[str, float]:
     if not d.shape[0]:
-        return dict.fromkeys(POOLED_COLUMNS[4:], float("nan"))
+        return dict.fromkeys(POOLED_COLUMNS[4:-4], float("nan"))
     h = np.hypot(d[:, 0], d[:, 1])
     rms = np.sqrt(np.mean(d * d, axis=0))
     return {
@@ -74,18 +86,37 @@ def pooled_position_metrics(
     session name (the order of the mapping is the order errors are stacked in).
 
     ``positions`` may be an iterable of (session, table) read one at a time: only each
-    table's errors are kept (3 floats per epoch), not the tables."""
+    table's errors are kept (3 floats per epoch, and the time and h of each track for the
+    comparisons), not the tables."""
+    return pooled_tables(positions)[0]
+
+
+def pooled_tables(
+    positions: Mapping[str, pd.DataFrame] | Iterable[tuple[str, pd.DataFrame]],
+    level: float = DEFAULT_LEVEL,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """``pooled_position_metrics.csv`` and ``pooled_comparisons.csv`` (module doc) in one
+    pass over the sessions' tables; intervals at ``level``."""
     errors: dict[tuple[str, str], list[FloatArray]] = {}
     sessions: dict[tuple[str, str], set[str]] = {}
+    pools: dict[tuple[str, str], PooledSums] = {}
+    tracks: dict[str, dict[str, dict[str, tuple[FloatArray, FloatArray]]]] = {}
     methods: list[str] = []
     pairs = positions.items() if isinstance(positions, Mapping) else positions
     for session, table in pairs:
-        for platform, method, _t, est, ref in matched_tracks(table):
+        for platform, method, t, est, ref in matched_tracks(table):
             d = est - ref  # one array, listed under the platform and under "*"
+            h = np.hypot(d[:, 0], d[:, 1])
+            if h.shape[0] >= 2:
+                sums, dof = track_sums([h], (session, platform, method))
+                sample = np.array([h.sum(), (h * h).sum(), float(h.shape[0])])
+                tracks.setdefault(session, {}).setdefault(platform, {})[method] = (t, h)
             for key in ((platform, method), (ALL_PLATFORMS, method)):
                 errors.setdefault(key, []).append(d)
                 if est.shape[0]:  # a session counts where it has epochs
                     sessions.setdefault(key, set()).add(session)
+                if h.shape[0] >= 2:
+                    pools.setdefault(key, PooledSums()).add(session, sums, sample, dof)
             methods.append(method)
     order = method_order(methods, ("nav",))  # then in the order the sessions list them
     platforms = sorted({p for p, _ in errors if p != ALL_PLATFORMS})
@@ -102,7 +133,9 @@ def pooled_position_metrics(
                 "n": int(d.shape[0]),
             }
             row.update(_stats(d))
+            pool = pools.get((platform, method), PooledSums())
+            row.update(pooled_intervals(pool, (platform, method), level))
             rows.append(row)
     out = pd.DataFrame(rows, columns=list(POOLED_COLUMNS))
     out[["sessions", "n"]] = out[["sessions", "n"]].astype(np.int64)
-    return out
+    return out, pooled_comparisons(tracks, order, level)

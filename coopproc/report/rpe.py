@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 
 from coopproc.model import FloatArray
 from coopproc.report.evaluation import aligned_tracks, evaluation_frame, evaluation_row
+from coopproc.report.evaluation_extra import coverage_map
 from coopproc.report.track_kernels import path_length, segment_ends, segment_errors
 
 IntArray = NDArray[np.int64]
@@ -180,9 +181,11 @@ def evaluation_and_rpe(
     cache = _Segments()
     ev_rows: list[dict[str, object]] = []
     rpe_rows: list[dict[str, object]] = []
-    for platform, method, kind, _t, moved, ref, transform in aligned_tracks(
+    coverage = coverage_map(positions)
+    for platform, method, kind, t, moved, ref, transform in aligned_tracks(
         positions, align, methods
     ):
-        ev_rows.append(evaluation_row(platform, method, kind, moved, ref, transform))
+        covered = coverage.get((platform, method), float("nan"))
+        ev_rows.append(evaluation_row(platform, method, kind, moved, ref, transform, t, covered))
         rpe_rows += _rpe_rows((platform, method, kind, moved, ref), lengths, cache)
     return evaluation_frame(ev_rows), _rpe_frame(rpe_rows)

@@ -56,9 +56,9 @@ __all__ = [
     "table_file_name",
 ]
 
-#: Columns read as text (ids; ``alignment`` of evaluation.csv / rpe.csv); every other
-#: contract column is numeric.
-_TEXT_COLUMNS = ("pair", "platform", "method", "alignment")
+#: Columns read as text (ids; ``alignment`` of evaluation.csv / rpe.csv; ``kind``,
+#: ``group``, ``baseline`` of comparisons.csv); every other contract column is numeric.
+_TEXT_COLUMNS = ("pair", "platform", "method", "alignment", "kind", "group", "baseline")
 
 #: ``ranges.csv`` columns before the range methods (``observed`` is always one) and after.
 RANGES_LEADING_COLUMNS: tuple[str, ...] = ("time", "pair", "observed")
@@ -94,7 +94,8 @@ RUN_FILES: tuple[tuple[str, str, tuple[str, ...], bool], ...] = (
 #: ``injected_scores.csv`` for a session made by ``coopproc inject`` (report/injected.py);
 #: ``evaluation.csv`` and ``rpe.csv`` (report/evaluation.py, report/rpe.py), which older
 #: run directories lack; ``states.csv`` for a run with INS methods (coopproc/run/ins.py);
-#: ``outages.csv`` for a run with ``[run] outages`` (coopproc/run/outages.py).
+#: ``outages.csv`` for a run with ``[run] outages`` (coopproc/run/outages.py);
+#: ``comparisons.csv``, the paired comparisons of methods (report/comparisons.py).
 RUN_EXTENSION_FILES: tuple[tuple[str, str, tuple[str, ...], bool], ...] = (
     ("injected_scores.csv", "injected_scores", ("pair", "method"), False),
     ("evaluation.csv", "evaluation", ("platform", "method", "alignment"), False),
@@ -103,6 +104,7 @@ RUN_EXTENSION_FILES: tuple[tuple[str, str, tuple[str, ...], bool], ...] = (
     ("dr_states.csv", "dr_states", DR_STATES_COLUMNS, False),
     ("range_weights.csv", "range_weights", RANGE_WEIGHTS_COLUMNS, False),
     ("outages.csv", "outages", OUTAGE_COLUMNS, False),
+    ("comparisons.csv", "comparisons", ("kind", "group", "method", "baseline"), False),
 )
 
 
@@ -135,6 +137,8 @@ class RunTables:
     dr_states: pd.DataFrame | None = None
     #: range_weights.csv: the cooperative fusion's IGG-III factor of every range it used
     range_weights: pd.DataFrame | None = None
+    #: comparisons.csv: paired comparisons of methods, 95 % (report/comparisons.py)
+    comparisons: pd.DataFrame | None = None
 
     @property
     def time_origin_s(self) -> float:

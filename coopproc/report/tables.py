@@ -17,20 +17,29 @@ errors) is a magnitude.
 from __future__ import annotations
 
 import difflib
+import math
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 import pandas as pd
 
 from coopproc.errors import ConfigError
 from coopproc.model import METRICS_COLUMNS
-from coopproc.report.change import Change, change_of
+from coopproc.report.bootstrap import DEFAULT_LEVEL
+from coopproc.report.change import Change
 from coopproc.report.methods import method_order, nlos_methods, position_methods, range_methods
 from coopproc.report.metrics import POSITION_METRICS_EXTRA_COLUMNS
 from coopproc.report.outlier_scores import FUSION_PREFIX
 from coopproc.report.rundir import RunTables
+from coopproc.report.table_rows import Row, Table, best_rows, change_against
+from coopproc.report.table_specs import (
+    METHOD_LABELS,
+    METRIC_SPECS,
+    MetricSpec,
+    method_label,
+    number_text,
+)
+from coopproc.report.table_stats import DEFAULT_SIGNIFICANCE, Stars, swapped_pair, table_frames
 
 __all__ = [
     "METHOD_LABELS",
@@ -50,78 +59,6 @@ __all__ = [
     "run_method_orders",
 ]
 
-Better = Literal["min", "max", "absmin", "one"]
-
-#: Display names of methods (paper 000 names RN-Based and DI-Based).
-METHOD_LABELS: dict[str, str] = {
-    "observed": "Observed",
-    "rn": "RN-Based",
-    "di": "DI-Based",
-    "nav": "Own nav",
-}
-
-
-def method_label(method: str) -> str:
-    """The display name of a method: :data:`METHOD_LABELS`, else the method's own name."""
-    return METHOD_LABELS.get(method, method)
-
-
-def number_text(name: str, value: float) -> str:
-    """A statistic's value as the tables print it: the decimals of its :class:`MetricSpec`,
-    ``-`` for NaN, ``inf`` / ``-inf``."""
-    if value != value:  # NaN
-        return "-"
-    if value in (float("inf"), float("-inf")):
-        return "inf" if value > 0 else "-inf"
-    return f"{value:.{METRIC_SPECS.get(name, MetricSpec(name)).decimals}f}"
-
-
-@dataclass(frozen=True)
-class MetricSpec:
-    """How one statistic is shown: header label, unit, decimals, which value is best."""
-
-    label: str
-    unit: str = ""
-    decimals: int = 4
-    #: min / max: smallest / largest; absmin: smallest magnitude; one: closest to 1.
-    better: Better | None = "min"
-    #: The statistic can be negative (a bias): its change against Observed is absolute.
-    signed: bool = False
-
-
-METRIC_SPECS: dict[str, MetricSpec] = {
-    "max": MetricSpec("Max", "m"),
-    "mean": MetricSpec("Mean", "m", better="absmin"),
-    "rmse": MetricSpec("RMSE", "m"),
-    "snr_db": MetricSpec("SNR", "dB", 2, "max"),
-    "smoothness": MetricSpec("Smoothness", "", 4, "one"),
-    "rms_east": MetricSpec("RMS E", "m"),
-    "rms_north": MetricSpec("RMS N", "m"),
-    "cep50": MetricSpec("CEP50", "m"),
-    "cep95": MetricSpec("CEP95", "m"),
-    # Table 3 per axis (coopproc.report.axis_metrics)
-    "rms_up": MetricSpec("RMS U", "m"),
-    "max_east": MetricSpec("Max E", "m"),
-    "max_north": MetricSpec("Max N", "m"),
-    "max_up": MetricSpec("Max U", "m"),
-    "rms_vel_east": MetricSpec("RMS vE", "m/s"),
-    "rms_vel_north": MetricSpec("RMS vN", "m/s"),
-    "rms_vel_up": MetricSpec("RMS vU", "m/s"),
-    "rms_roll": MetricSpec("RMS roll", "deg", 3),
-    "rms_pitch": MetricSpec("RMS pitch", "deg", 3),
-    "rms_yaw": MetricSpec("RMS yaw", "deg", 3),
-    "precision": MetricSpec("Precision", "", 3, "max"),
-    "recall": MetricSpec("Recall", "", 3, "max"),
-    "f1": MetricSpec("F1", "", 3, "max"),
-    "events": MetricSpec("Events", "", 0, None),
-    "estimate_mae": MetricSpec("Est. MAE", "m"),
-    "n": MetricSpec("n", "", 0, None),
-    # the fusion's outlier decisions (report/outlier_scores.py): nlos_scores.csv's
-    # ``detected`` and ``events`` of the fusion:<method> rows
-    "down_weighted": MetricSpec("Down-weighted", "", 0, None),
-    "rejected": MetricSpec("Rejected", "", 0, None),
-}
-
 _DISTANCE_DEFAULT = tuple(c for c in METRICS_COLUMNS if c not in ("pair", "method"))
 _POSITION_DEFAULT = ("max", "mean", "rmse", "cep50", "cep95", "n")
 #: Every column of Table 3 (the HTML page shows them all).
@@ -135,62 +72,6 @@ _NLOS_DEFAULT = ("precision", "recall", "f1", "events", "estimate_mae")
 _OUTLIER_DEFAULT = ("precision", "recall", "f1", "down_weighted", "rejected")
 
 
-@dataclass(frozen=True)
-class Row:
-    """One method of one group: values, change vs observed (None: not shown), best cells."""
-
-    group: str
-    method: str
-    values: dict[str, float]
-    change: dict[str, Change | None]
-    best: frozenset[str]
-
-
-@dataclass(frozen=True)
-class Table:
-    """A titled table; ``group_label`` names the first column (Pair / Platform)."""
-
-    key: str
-    title: str
-    group_label: str
-    metrics: tuple[str, ...]
-    rows: tuple[Row, ...]
-    #: True when rows carry a change against observed.
-    has_change: bool
-
-    def header(self, name: str) -> str:
-        """Column header with the unit, e.g. ``Max (m)``."""
-        spec = METRIC_SPECS.get(name, MetricSpec(name))
-        return f"{spec.label} ({spec.unit})" if spec.unit else spec.label
-
-
-def _change(name: str, value: float, observed: float, signed: Sequence[str]) -> Change | None:
-    spec = METRIC_SPECS.get(name, MetricSpec(name))
-    if name == "n" or spec.better is None:
-        return None
-    return change_of(
-        value,
-        observed,
-        unit=spec.unit,
-        decimals=spec.decimals,
-        signed=spec.signed or name in signed,
-    )
-
-
-def _best(name: str, values: list[float]) -> set[int]:
-    better = METRIC_SPECS.get(name, MetricSpec(name)).better
-    arr = np.asarray(values, dtype=np.float64)
-    ok = np.isfinite(arr)
-    if better is None or np.count_nonzero(ok) < 2:
-        return set()
-    score = {"min": arr, "max": -arr, "absmin": np.abs(arr), "one": np.abs(arr - 1.0)}[better]
-    best = np.min(score[ok])
-    winners = ok & np.isclose(score, best, rtol=0, atol=1e-12)
-    if np.array_equal(winners, ok):
-        return set()  # all equal: nothing is best
-    return {int(i) for i in np.flatnonzero(winners)}
-
-
 def _build(
     frame: pd.DataFrame,
     group_col: str,
@@ -202,19 +83,32 @@ def _build(
     with_change: bool,
     order: Sequence[str] = (),
     signed: Sequence[str] = (),
+    level: float | None = None,
+    stars: Stars | None = None,
 ) -> Table:
+    """``level``: show the ``<m>_lo`` / ``<m>_hi`` columns of ``frame`` as intervals;
+    ``stars``: the significant changes against Observed."""
     rows: list[Row] = []
     for group, block in frame.groupby(group_col, sort=True):
         records = block.to_dict("records")
         ranked = method_order([str(r["method"]) for r in records], order)
         records.sort(key=lambda r: ranked.index(str(r["method"])))
         observed = next((r for r in records if r["method"] == "observed"), None)
-        best = {m: _best(m, [float(r[m]) for r in records]) for m in metrics}
+        best = {m: best_rows(m, [float(r[m]) for r in records]) for m in metrics}
         for i, rec in enumerate(records):
             values = {m: float(rec[m]) for m in metrics}
             change: dict[str, Change | None] = {m: None for m in metrics}
             if with_change and observed is not None and rec["method"] != "observed":
-                change = {m: _change(m, values[m], float(observed[m]), signed) for m in metrics}
+                base = {m: float(observed[m]) for m in metrics}
+                change = {m: change_against(m, values[m], base[m], signed) for m in metrics}
+            bounds = {}
+            if level is not None:
+                bounds = {
+                    m: (float(rec[f"{m}_lo"]), float(rec[f"{m}_hi"]))
+                    for m in metrics
+                    if math.isfinite(float(rec.get(f"{m}_lo", math.nan)))
+                }
+            marked = stars.marked(str(group), str(rec["method"])) if stars else frozenset()
             rows.append(
                 Row(
                     group=str(group),
@@ -222,9 +116,20 @@ def _build(
                     values=values,
                     change=change,
                     best=frozenset(m for m in metrics if i in best[m]),
+                    interval=bounds,
+                    significant=frozenset(m for m in marked if change.get(m) is not None),
                 )
             )
-    return Table(key, title, group_label, tuple(metrics), tuple(rows), with_change)
+    return Table(
+        key,
+        title,
+        group_label,
+        tuple(metrics),
+        tuple(rows),
+        with_change,
+        level=level if any(r.interval for r in rows) else None,
+        significance=stars.alpha if stars and stars.marks else None,
+    )
 
 
 def _filter(
@@ -233,6 +138,8 @@ def _filter(
     if keep is None:
         return frame
     known = sorted(frame[column].astype(str).unique())
+    if what == "pair":  # B-A is the pair A-B, as for the figures
+        keep = [swapped_pair(name, known) for name in keep]
     for name in keep:
         if name not in known:
             raise ConfigError(f"unknown {what} {name!r}; the run has {', '.join(known) or 'none'}")
@@ -244,8 +151,12 @@ def distance_table(
     columns: Sequence[str] = _DISTANCE_DEFAULT,
     pairs: Sequence[str] | None = None,
     order: Sequence[str] = (),
+    level: float | None = None,
+    stars: Stars | None = None,
 ) -> Table:
-    """Table 2 of paper 000 from ``metrics.csv`` rows; methods in ``order``, then the rest."""
+    """Table 2 of paper 000 from ``metrics.csv`` rows; methods in ``order``, then the rest;
+    ``level``: with the intervals of the rows' ``<m>_lo`` / ``<m>_hi`` columns;
+    ``stars``: marking the significant changes."""
     frame = _filter(metrics, "pair", pairs, "pair")
     return _build(
         frame,
@@ -257,6 +168,8 @@ def distance_table(
         with_change=True,
         order=order,
         signed=("mean",),  # of signed distance errors
+        level=level,
+        stars=stars,
     )
 
 
@@ -265,9 +178,11 @@ def position_table(
     columns: Sequence[str] = _POSITION_DEFAULT,
     platforms: Sequence[str] | None = None,
     order: Sequence[str] = (),
+    level: float | None = None,
+    stars: Stars | None = None,
 ) -> Table:
     """Table 3 of paper 000 (horizontal position errors) from ``position_metrics.csv`` rows;
-    methods in ``order``, then the rest."""
+    methods in ``order``, then the rest; ``level`` and ``stars`` as :func:`distance_table`."""
     frame = _filter(position_metrics, "platform", platforms, "platform")
     return _build(
         frame,
@@ -278,6 +193,8 @@ def position_table(
         group_label="Platform",
         with_change=True,
         order=order,
+        level=level,
+        stars=stars,
     )
 
 
@@ -387,9 +304,16 @@ def build_tables(
     pairs: Sequence[str] | None = None,
     platforms: Sequence[str] | None = None,
     axes: bool = False,
+    level: float | None = DEFAULT_LEVEL,
+    significance: float | None = DEFAULT_SIGNIFICANCE,
 ) -> list[Table]:
     """Table 2, Table 3 (``axes``: and Table 3 per axis, :func:`axis_table`) and (if the
     run has scores) the NLOS table, filtered as asked.
+
+    ``level``: Table 2 and Table 3 show the confidence intervals at that level (None:
+    none); ``significance``: their changes against Observed whose paired comparison has
+    a p-value below it are marked (None: none; :mod:`coopproc.report.table_stats`). A
+    pair may be named either way round (``B-A`` is ``A-B``).
 
     ``metrics`` chooses the columns of every table (in the given order; names a table does
     not have are skipped there; ``n`` is shown only if asked for). Rows follow the run's
@@ -400,10 +324,26 @@ def build_tables(
     if metrics is not None:
         _check_metrics(metrics)
     order = run_method_orders(run)
+    if pairs is not None:
+        known = sorted(run.metrics["pair"].astype(str).unique())
+        pairs = [swapped_pair(p, known) for p in pairs]
+    frames = table_frames(run, level, significance, order)
     tables = [
-        distance_table(run.metrics, metrics or _DISTANCE_DEFAULT, pairs, order["table2"]),
+        distance_table(
+            frames.metrics,
+            metrics or _DISTANCE_DEFAULT,
+            pairs,
+            order["table2"],
+            level=level,
+            stars=frames.distance_stars,
+        ),
         position_table(
-            run.position_metrics, metrics or _POSITION_DEFAULT, platforms, order["table3"]
+            frames.position_metrics,
+            metrics or _POSITION_DEFAULT,
+            platforms,
+            order["table3"],
+            level=level,
+            stars=frames.position_stars,
         ),
     ]
     if axes:

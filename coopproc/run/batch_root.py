@@ -1,6 +1,7 @@
 """The ROOT of ``coopproc batch``: which runs in it are complete and current, and the
 files that describe them all (``batch.json``, ``batch_metrics.csv``,
-``batch_position_metrics.csv``, ``pooled_position_metrics.csv``).
+``batch_position_metrics.csv``, ``pooled_position_metrics.csv``,
+``pooled_comparisons.csv``).
 
 A run directory ``ROOT/<name>/`` is *complete* when it holds ``run.json`` and every table
 ``coopproc run`` writes (and every figure run.json lists); it is *current* for a session
@@ -31,12 +32,13 @@ import pandas as pd
 from coopproc.errors import CoopprocError, OutputError
 from coopproc.io.outdir import write_csv
 from coopproc.model import POSITIONS_COLUMNS
-from coopproc.report.pooled import pooled_position_metrics
+from coopproc.report.pooled import pooled_tables
 from coopproc.report.rundir import RUN_FILES, find_table, read_table_file
 from coopproc.run.config import RunConfig
 
 __all__ = [
     "POOLED",
+    "POOLED_COMPARISONS",
     "STACKED",
     "BatchEntry",
     "complete_run",
@@ -54,6 +56,8 @@ STACKED = (
 )
 #: The position statistics pooled over the ok sessions' errors (report/pooled.py).
 POOLED = "pooled_position_metrics.csv"
+#: The methods compared over the ok sessions (report/pooled_stats.py).
+POOLED_COMPARISONS = "pooled_comparisons.csv"
 
 
 @dataclass(frozen=True)
@@ -261,10 +265,12 @@ def write_listing(out_root: Path, entries: Sequence[BatchEntry]) -> tuple[Path |
 
 
 def _write_pooled(out_root: Path, names: Sequence[str]) -> None:
-    """``POOLED`` from the ok runs' ``positions.csv`` (removed when there is none)."""
+    """``POOLED`` and ``POOLED_COMPARISONS`` from the ok runs' ``positions.csv`` (removed
+    when there is none)."""
     path = out_root / POOLED
     if not names:
         path.unlink(missing_ok=True)
+        (out_root / POOLED_COMPARISONS).unlink(missing_ok=True)
         return
 
     def positions() -> Iterator[tuple[str, pd.DataFrame]]:
@@ -282,7 +288,9 @@ def _write_pooled(out_root: Path, names: Sequence[str]) -> None:
                 raise OutputError(f"{table}: cannot pool it: missing columns {missing}")
             yield name, frame
 
-    _write_atomic(path, _csv_writer(pooled_position_metrics(positions())))
+    pooled, compared = pooled_tables(positions())
+    _write_atomic(path, _csv_writer(pooled))
+    _write_atomic(out_root / POOLED_COMPARISONS, _csv_writer(compared))
 
 
 def _csv_writer(frame: pd.DataFrame) -> Callable[[Path], Any]:

@@ -26,9 +26,13 @@ from coopproc.io.outdir import atomic_output_dir, write_csv
 from coopproc.io.parquet import require_pyarrow, write_parquet
 from coopproc.memory import release_freed_memory
 from coopproc.model import Session
+from coopproc.report.bootstrap import DEFAULT_LEVEL
+from coopproc.report.comparisons import comparisons
+from coopproc.report.consistency import with_consistency
 from coopproc.report.figures import FigurePage, figure_pages, write_figures
 from coopproc.report.html import write_html
 from coopproc.report.injected import injected_scores
+from coopproc.report.methods import position_methods_of, range_methods_of
 from coopproc.report.pages import FigureOptions
 from coopproc.report.rpe import evaluation_and_rpe
 from coopproc.report.rundir import RUN_EXTENSION_FILES, RUN_FILES, RunTables, table_file_name
@@ -86,6 +90,8 @@ def run_tables(
     methods = (output.methods or {}).get("positions")  # evaluation.csv / rpe.csv row order
     # both from one pass over the aligned tracks (a day of positions: seconds)
     evaluated, relative = evaluation_and_rpe(r.positions, methods=methods)
+    # NIS of the fusion's range innovations, NEES of the INS states (report/consistency.py)
+    evaluated = with_consistency(evaluated, r.range_weights, r.states)
     return RunTables(
         ranges=r.ranges,
         di=r.di,
@@ -104,6 +110,13 @@ def run_tables(
         dr_states=r.dr_states,
         range_weights=r.range_weights,
         outages=outages.table if (outages := _outage_report(output)) is not None else None,
+        comparisons=comparisons(
+            r.ranges,
+            r.positions,
+            (output.methods or {}).get("ranges") or range_methods_of(r.ranges),
+            ("nav", *(methods or position_methods_of(r.positions))),
+            DEFAULT_LEVEL,
+        ),
     )
 
 

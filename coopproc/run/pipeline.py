@@ -39,6 +39,7 @@ from coopproc.model import (
     Result,
     Session,
 )
+from coopproc.report.bootstrap import DEFAULT_LEVEL
 from coopproc.report.metrics import distance_metrics, position_metrics
 from coopproc.run.chain import Step, resolve
 from coopproc.run.concurrent_steps import group_label, group_steps, run_concurrently, workers
@@ -238,8 +239,11 @@ def run_pipeline(
                 [p.nlos_estimates for p in range_products], NLOS_ESTIMATE_COLUMNS
             ),
             positions=positions,
-            metrics=distance_metrics(table, methods=("observed", *columns)),
-            position_metrics=position_metrics(positions, methods=tuple(products)),
+            # with the 95 % block-bootstrap intervals (report/intervals.py)
+            metrics=distance_metrics(table, methods=("observed", *columns), level=DEFAULT_LEVEL),
+            position_metrics=position_metrics(
+                positions, methods=tuple(products), level=DEFAULT_LEVEL
+            ),
             states=states,
             dr_states=dr_states,
             range_weights=range_weights,

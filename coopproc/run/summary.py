@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from coopproc.report.change import change_of
+from coopproc.report.consistency import consistency_lines
 from coopproc.report.outlier_scores import FUSION_PREFIX
 from coopproc.run.pipeline import PipelineOutput
 
@@ -148,6 +149,8 @@ def summarize(output: PipelineOutput) -> RunSummary:
     if outliers:
         facts["fusion_outliers"] = outliers
         lines.append(_outlier_line(outliers))
+    # an overconfident filter (NIS / NEES above the 95 % bound too often: report/consistency.py)
+    lines += consistency_lines(result.range_weights, getattr(result, "states", None))
     pm = result.position_metrics
     primary = _primary(tuple(methods["positions"]))
     worse: list[str] = []

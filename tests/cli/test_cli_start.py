@@ -94,7 +94,8 @@ def test_run_summary_on_stdout_notes_on_stderr(session: Path, tmp_path: Path) ->
     stdout = res.stdout.splitlines()
     assert stdout[0] == "self-calibration (declared values in brackets):"
     assert any(line.startswith("NLOS events (DI-Based): ") for line in stdout)
-    assert stdout[-2:] == [f"tables: {out}/ (13 CSV), figures: 0", f"report: {out}/report.html"]
+    # 14 CSV: comparisons.csv (report/comparisons.py) beside the 13 of before
+    assert stdout[-2:] == [f"tables: {out}/ (14 CSV), figures: 0", f"report: {out}/report.html"]
     assert res.stderr.splitlines()[0].startswith("session ")
     assert "NLOS events" not in res.stderr and "tables:" not in res.stderr
 

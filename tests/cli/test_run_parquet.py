@@ -43,7 +43,7 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Path]:
     assert res.exit_code == 0, res.output
     res = _cli("run", session, "-o", base / "parquet", "--no-figures", "--format", "parquet")
     assert res.exit_code == 0, res.output
-    assert "(9 CSV, 4 Parquet)" in res.output  # range_weights.csv stays CSV
+    assert "(10 CSV, 4 Parquet)" in res.output  # range_weights.csv, comparisons.csv stay CSV
     return session, base / "csv", base / "parquet"
 
 

@@ -16,6 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from coopproc.cli import main
 from coopproc.report.alignment import AlignmentError, fit_alignment
+from coopproc.report.consistency import CONSISTENCY_COLUMNS
 from coopproc.report.evaluation import EVALUATION_COLUMNS, evaluation, matched_tracks
 from coopproc.report.evaluation_tables import evaluation_html
 from coopproc.report.metrics import position_metrics
@@ -224,7 +225,8 @@ def sample_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_run_writes_evaluation_and_rpe(sample_run: Path) -> None:
     ev = pd.read_csv(sample_run / "evaluation.csv")
-    assert list(ev.columns) == list(EVALUATION_COLUMNS)
+    # the run appends the filter consistency of each method (report/consistency.py)
+    assert list(ev.columns) == [*EVALUATION_COLUMNS, *CONSISTENCY_COLUMNS]
     assert set(ev["alignment"]) == {"none"}
     assert ev[["platform", "method"]].values.tolist() == [
         [p, m] for p in "ABC" for m in ("nav", "observed", "rn", "di")

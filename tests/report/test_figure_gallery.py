@@ -23,6 +23,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from coopproc.cli import main
+from coopproc.report.consistency_figure import CONSISTENCY_FIGURE_NAMES
 from coopproc.report.dr_states_figure import DR_FIGURE_NAMES
 from coopproc.report.figures import FIGURE_NAMES, make_figures, write_figures
 from coopproc.report.gaps import shaded_spans
@@ -155,8 +156,10 @@ def test_every_figure_kind_is_a_nonblank_png(
 ) -> None:
     run = sample_run if which == "sample" else gap_run
     paths = write_figures(run, tmp_path / "figures", dpi=40)
-    # every run's figures, and the fusion's DR states (a run with followers, state "dr")
-    assert sorted(p.stem for p in paths) == sorted((*FIGURE_NAMES, *DR_FIGURE_NAMES))
+    # every run's figures, the fusion's DR states (a run with followers, state "dr") and
+    # its consistency (a run with a cooperative fusion: range_weights.csv)
+    expected = (*FIGURE_NAMES, *DR_FIGURE_NAMES, *CONSISTENCY_FIGURE_NAMES)
+    assert sorted(p.stem for p in paths) == sorted(expected)
     for path in paths:
         assert path.stat().st_size > 3000, path.name
         pixels = mpimg.imread(path)[..., :3]
@@ -170,7 +173,7 @@ def test_every_figure_kind_is_a_nonblank_png(
 
 def test_sample_lines_do_not_bridge_the_reference_gaps(sample_run: RunTables) -> None:
     figures = make_figures(sample_run)
-    assert set(figures) == {*FIGURE_NAMES, *DR_FIGURE_NAMES}
+    assert set(figures) == {*FIGURE_NAMES, *DR_FIGURE_NAMES, *CONSISTENCY_FIGURE_NAMES}
     assert _check_no_bridges(figures) >= 3 * 3 * 3  # 3 figures x 3 panels x 3 lines
     # sample_logs' own float reference epochs (ref_A.pos: Q != 1 from +468 to +488 s) shaded
     ax = _panel(figures["position_errors"], "A")
