@@ -52,6 +52,7 @@ from coopproc.run.positions_table import PositionSamples, positions_table
 from coopproc.run.range_sets import ranges_for, row_sigma
 from coopproc.run.tags import tag_pipeline, tag_rows, widen, without_tags
 from coopproc.stages.base import PositionInput, PositionProduct, RangeInput, RangeProduct
+from coopproc.stages.fusion.anchor_lsq import lsq_quality_of
 from coopproc.stages.fusion.dr_quality import DeadReckoningQuality, dead_reckoning_quality
 from coopproc.stages.fusion.dr_states import dr_states_of
 from coopproc.stages.fusion.range_weights import range_weights_of
@@ -187,6 +188,7 @@ def run_pipeline(
         states = states_table(session, products)
         dr_states = dr_states_of(products)
         range_weights = range_weights_of(products)
+        lsq_quality = lsq_quality_of(products)
         # each product's frame is in the table now: not held twice
         for method, weighed in list(products.items()):
             if weighed.range_weights is not None:
@@ -236,6 +238,7 @@ def run_pipeline(
             states=states,
             dr_states=dr_states,
             range_weights=range_weights,
+            lsq_quality=lsq_quality,
         )
     return PipelineOutput(
         result=result,
@@ -248,7 +251,7 @@ def run_pipeline(
             m: p.calibration for m, p in products.items() if p.calibration is not None
         },
         dr_quality=dr_quality,
-        notes=(*tag_notes, *(n for p in products.values() for n in p.notes)),
+        notes=tuple(dict.fromkeys((*tag_notes, *(n for p in products.values() for n in p.notes)))),
         chain=steps,
         methods={
             "ranges": ("observed", *columns),

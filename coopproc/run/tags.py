@@ -28,7 +28,7 @@ from coopproc.stages.registry import POSITION_STAGES
 __all__ = ["TAG_METHODS", "tag_ids", "tag_pipeline", "tag_rows", "widen", "without_tags"]
 
 #: The estimators added when tags are there and the chain has no UWB-only one.
-TAG_METHODS: tuple[str, ...] = ("lsq", "lsq_rts")
+TAG_METHODS: tuple[str, ...] = ("lsq", "lsq_rts", "range_rts")
 
 
 def tag_ids(session: Session) -> list[str]:
