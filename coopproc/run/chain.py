@@ -51,6 +51,13 @@ class PipelineParams:
             "(available: " + ", ".join(POSITION_STAGES) + ")"
         },
     )
+    anchor_methods: bool = field(
+        default=True,
+        metadata={
+            "help": "a session with anchors: lsq and lsq_rts also position every platform "
+            "with navigation that ranges to them (comparison rows); false: not"
+        },
+    )
 
     def __post_init__(self) -> None:
         valid = _range_methods()

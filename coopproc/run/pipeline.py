@@ -50,7 +50,7 @@ from coopproc.run.ins import states_table, with_ins
 from coopproc.run.odo_methods import odo_pipeline
 from coopproc.run.positions_table import PositionSamples, positions_table
 from coopproc.run.range_sets import ranges_for, row_sigma
-from coopproc.run.tags import tag_pipeline, tag_rows, widen, without_tags
+from coopproc.run.tags import anchor_pipeline, tag_pipeline, tag_rows, widen, without_tags
 from coopproc.stages.base import PositionInput, PositionProduct, RangeInput, RangeProduct
 from coopproc.stages.fusion.anchor_lsq import lsq_quality_of
 from coopproc.stages.fusion.dr_quality import DeadReckoningQuality, dead_reckoning_quality
@@ -119,6 +119,8 @@ def run_pipeline(
     # tags (no navigation): the DR-based stages run on the session without them (run.tags)
     pipeline, tag_notes = tag_pipeline(config.pipeline, session)
     pipeline, odo_notes = odo_pipeline(pipeline, session, config.params_for("odo_uwb"))
+    pipeline, anchor_notes = anchor_pipeline(pipeline, session)
+    odo_notes += anchor_notes
     # IMU: Table 1's INS modes, [ins] navigation = "ins" (the INS as navigation; run.ins)
     session, pipeline, more = with_ins(session, pipeline, config.params_for("ins"))
     pipeline, more = gnss_pipeline(pipeline, session, config.params_for("gnss"), more)

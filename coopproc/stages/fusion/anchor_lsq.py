@@ -9,8 +9,10 @@ centroid lands on the wrong branch; and a tag without navigation was solved at a
 of 0 m whatever its real height. Here, per platform and epoch:
 
 1. **Epochs** (the staggered-range rule): a platform's ranges in time order form rounds;
-   a round closes when an anchor already in it is ranged again or ``epoch_merge_s``
-   after its first range. The round's time is its last range's time (positions.csv rows
+   a round closes when an anchor already in it is ranged again or ``round_max_s``
+   after its first range (anchors polled one at a time: tuc's 4 modules in 0.38 s,
+   miluv1's 6 anchors in 1.3 s; ``epoch_merge_s`` = 0.25 s, the fusion start's rule,
+   gave tuc no fix). The round's time is its last range's time (positions.csv rows
    are at range epochs; the fix uses no later range); each earlier range is carried to
    it with the platform's velocity, ``|X(t_i) - a| = |X(t) - (a - v (t_i - t))|``, v
    from the constant-velocity RTS over a first pass of fixes (a raw fix difference at
@@ -136,7 +138,7 @@ def _rounds_by_platform(
     ).sort_values(["tag", "time"], kind="stable")
     tag_code = pd.factorize(table["tag"])[0]
     anchor_code = pd.factorize(table["anchor"])[0]
-    rid = _round_ids(tag_code, anchor_code, table["time"].to_numpy(), params.epoch_merge_s)
+    rid = _round_ids(tag_code, anchor_code, table["time"].to_numpy(), params.round_max_s)
     table["round"] = rid
     table["slot"] = table.groupby("round", sort=False).cumcount().to_numpy()
     out: dict[str, _Rounds] = {}

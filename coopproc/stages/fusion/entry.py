@@ -142,9 +142,9 @@ def _product(
         if inp.session.platforms[p].role == "tag" and p not in positions
     ]
     notes = tuple(
-        f"tag {p}: no {inp.range_set} fix (never ranged to enough anchors in one epoch; "
-        "with anchors polled one at a time, [fusion.lsq] epoch_merge_s must span one "
-        "polling round); it has no position"
+        f"tag {p}: no {inp.range_set} fix (never ranged to enough anchors in one round; "
+        "with anchors polled one at a time, [fusion.lsq] round_max_s must span one "
+        "polling round; range_rts needs no simultaneous ranges); it has no position"
         for p in missing
     )
     if solution is None:
