@@ -46,6 +46,7 @@ from coopproc.run.chain import Step, resolve
 from coopproc.run.concurrent_steps import group_label, group_steps, run_concurrently, workers
 from coopproc.run.config import RunConfig
 from coopproc.run.gnss_methods import gnss_pipeline
+from coopproc.run.implausible import implausible_methods
 from coopproc.run.ins import states_table, with_ins
 from coopproc.run.odo_methods import odo_pipeline
 from coopproc.run.positions_table import PositionSamples, positions_table
@@ -87,6 +88,8 @@ class PipelineOutput:
     #: the fusion's outlier decisions scored (report/outlier_scores.py): the
     #: ``fusion:<method>`` rows of ``nlos_scores`` and their ``rejected_tp``
     fusion_outlier_scores: pd.DataFrame | None = None
+    #: methods whose positions jump or whose covariance exploded (run/implausible.py)
+    implausible: Mapping[str, Any] = dataclasses.field(default_factory=dict)
 
 
 def run_pipeline(
@@ -191,6 +194,7 @@ def run_pipeline(
         dr_states = dr_states_of(products)
         range_weights = range_weights_of(products)
         lsq_quality = lsq_quality_of(products)
+        implausible = implausible_methods(session, products)  # before the table takes them
         # each product's frame is in the table now: not held twice
         for method, weighed in list(products.items()):
             if weighed.range_weights is not None:
@@ -262,6 +266,7 @@ def run_pipeline(
         },
         nlos_methods=nlos_methods,
         fusion_outlier_scores=outliers,
+        implausible=implausible,
     )
 
 
