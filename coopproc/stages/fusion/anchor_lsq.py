@@ -22,11 +22,15 @@ of 0 m whatever its real height. Here, per platform and epoch:
 2. **Height and dimension**: ``planar = false`` in session.toml (or ``[fusion.lsq] dims
    = 3`` for all) gives 3-D fixes (four anchors at least). A planar platform (the
    default, ``dims = 2``) is solved at one height: session.toml ``height``, else its
-   navigation's height, else ``[fusion.lsq] tag_up_m``, else *estimated*: the median
-   height of its 3-D fixes when the anchors span height (up spread >= 0.5 m and >= 20 %
-   of their horizontal extent; hanyang_los: 1.47 m over 2.6 m), else the height with
-   the least median chi-square of the fixes, searched from the anchors' plane down 3 m
-   in 0.1 m steps. A note names the height and where it came from; never a silent 0 m.
+   navigation's height, else ``[fusion.lsq] tag_up_m``, else *estimated*: when the
+   anchors span height (up spread >= 0.5 m and >= 20 % of their horizontal extent;
+   hanyang_los: 1.47 m over 2.6 m), the median height of the 3-D fixes with the lowest
+   ``NEAR_PERCENT`` % of VDOPs (far fixes are biased high, the range is not linear in
+   the height there: in the test's walk from 10 to 50 m, true 1.0 m, all fixes give
+   1.94 m, the nearest 10 % 1.36 m; hanyang_los 0.99 m and 1.02 m, its horizontal RMSE
+   the same from 0.5 to 1.5 m); else the height whose fixes have the least median
+   chi-square, searched from the anchors' plane down 3 m (0.25 m steps, then 0.05 m). A
+   note names the height and where it came from; never a silent 0 m.
 3. **Start**: the closed-form solution of the differenced squared ranges
    (r_i^2 - r_0^2 linear in X), then the robust Gauss-Newton of ``lsq``.
 4. **Mirror guard**: the fix reflected across the plane (2-D: the line) that best fits
@@ -36,7 +40,11 @@ of 0 m whatever its real height. Here, per platform and epoch:
 5. **Tests**: HDOP (and VDOP for 3-D) from the unit-weight design; the chi-square of
    the robustly weighted standardized residuals against its (1 - ``residual_alpha``)
    quantile with n - d degrees of freedom; a fix with HDOP > ``hdop_max`` or failing
-   the test is dropped (status ``dop`` / ``residual``), as one that diverged. Every
+   the test is dropped (status ``dop`` / ``residual``), as one that diverged. A fix with
+   one redundant range (dof 1) has a test without power against a wrong branch: its
+   bound is ``hdop_max_minimal`` (hanyang_los's 3-anchor epochs have HDOP 10-1800 and
+   came out ok, dropped or diverged by 2 cm of assumed height: ``lsq_rts`` 0.68-0.77 m
+   with every one of them, 0.63 m with those under 15). Every
    epoch and its decision goes to lsq_quality.csv (docs/outputs.md).
 
 Measured on hanyang_los (LOS, 4 anchors in a 2.6 m cluster, 50 m path): raw fixes 0.76 m
@@ -69,6 +77,8 @@ __all__ = ["AnchorSolution", "anchor_fixes", "lsq_quality_of"]
 MIRROR_SEPARATION_M = 1.0
 #: Fewest accepted 3-D fixes for an estimated height; the search over heights otherwise.
 MIN_HEIGHT_FIXES = 10
+#: The height is the median of the 3-D fixes with the lowest VDOPs, this percentage of them.
+NEAR_PERCENT = 10.0
 #: A fix farther than this from the anchors (m) beyond its longest range has diverged.
 DIVERGED_MARGIN_M = 10.0
 
@@ -257,6 +267,8 @@ def _height(
         return np.full(rd.time.shape[0], params.tag_up_m), "given ([fusion.lsq] tag_up_m)"
     span_up = float(np.ptp(anchors[:, 2]))
     span_h = float(np.max(np.ptp(anchors[:, :2], axis=0)))
+    plane = float(np.mean(anchors[:, 2]))
+    grid = plane - np.arange(0.0, 3.01, 0.25)
     four = rd.has.sum(axis=1) >= 4
     if span_up >= 0.5 and span_up >= 0.2 * span_h and four.sum() >= MIN_HEIGHT_FIXES:
         sub = _Rounds(*(getattr(rd, f.name)[four] for f in dataclasses.fields(rd)))
@@ -264,13 +276,23 @@ def _height(
         _, vdop, _, _, passes = _test(x, w, sub, np.zeros(x.shape[0]), 3, params)
         good = passes & np.isfinite(x).all(axis=1) & (vdop <= params.hdop_max)
         if good.sum() >= MIN_HEIGHT_FIXES:
-            h = float(np.median(x[good, 2]))
-            return np.full(rd.time.shape[0], h), f"estimated from {good.sum()} 3-D fixes"
-    plane = float(np.mean(anchors[:, 2]))
-    step = max(1, rd.time.shape[0] // 500)  # the search on 500 epochs at most
+            near = good & (vdop <= np.percentile(vdop[good], NEAR_PERCENT))
+            h = float(np.median(x[near, 2]))
+            return np.full(rd.time.shape[0], h), f"estimated from {near.sum()} 3-D fixes"
+    step = max(1, rd.time.shape[0] // 300)  # the search on 300 epochs at most
     sub = _Rounds(*(getattr(rd, f.name)[::step] for f in dataclasses.fields(rd)))
-    best, score = plane, np.inf
-    for h in plane - np.arange(0.0, 3.01, 0.1):
+    best = _least_residual(sub, grid, params)
+    best = _least_residual(sub, best + np.arange(-0.25, 0.251, 0.05), params)
+    how = f"estimated by the least range residual, {best - plane:+.2f} m from the anchors' plane"
+    return np.full(rd.time.shape[0], best), how
+
+
+def _least_residual(sub: _Rounds, heights: FloatArray, params: LsqParams) -> float:
+    """The height whose 2-D fixes have the least median chi-square per degree of freedom
+    (6 Gauss-Newton steps from the closed-form start: a score, not the fixes)."""
+    params = dataclasses.replace(params, iterations=min(params.iterations, 6))
+    best, score = float(heights[0]), np.inf
+    for h in heights:
         up = np.full(sub.time.shape[0], h)
         x, _, w = _solve(sub, up, 2, params, None)
         _, _, stat, dof, _ = _test(x, w, sub, up, 2, params)
@@ -278,8 +300,7 @@ def _height(
         s = float(np.median(stat[tested] / dof[tested])) if tested.any() else np.inf
         if s < score - 1e-9:
             best, score = float(h), s
-    how = f"estimated by the least range residual ({best - plane:+.1f} m from the anchors' plane)"
-    return np.full(rd.time.shape[0], best), how
+    return best
 
 
 def _platform(pid: str, session: Session, rd: _Rounds, params: LsqParams, anchors: FloatArray):  # type: ignore[no-untyped-def]
@@ -313,7 +334,12 @@ def _platform(pid: str, session: Session, rd: _Rounds, params: LsqParams, anchor
     reach = np.where(rd.has, rd.rng, 0.0).max(axis=1) + DIVERGED_MARGIN_M
     far = np.linalg.norm(x - anchors[:, :dim].mean(axis=0), axis=1) > reach + np.ptp(anchors)
     status = np.select(
-        [~np.isfinite(x).all(axis=1) | far, unresolved, hdop > params.hdop_max, ~passes],
+        [
+            ~np.isfinite(x).all(axis=1) | far,
+            unresolved,
+            hdop > np.where(dof > 1, params.hdop_max, params.hdop_max_minimal),
+            ~passes,
+        ],
         ["diverged", "mirror", "dop", "residual"],
         "ok",
     )

@@ -122,6 +122,13 @@ class LsqParams:
         default=50.0,
         metadata={"help": "lsq*: a fix with a larger HDOP is dropped (hanyang_los: 29 at 50 m)"},
     )
+    hdop_max_minimal: float = field(
+        default=15.0,
+        metadata={
+            "help": "lsq*: the HDOP bound of a fix with one redundant range (its residual "
+            "test has no power against a wrong branch; hanyang_los 3-anchor epochs)"
+        },
+    )
     residual_alpha: float = field(
         default=0.001,
         metadata={"help": "lsq*: false-alarm rate of the chi-square test on a fix's residuals"},
@@ -147,7 +154,10 @@ class LsqParams:
             raise ValueError(f"iterations = {self.iterations}, expected at least 1")
         if self.range_sigma_m <= 0:
             raise ValueError(f"range_sigma_m = {self.range_sigma_m}, expected > 0")
-        if min(self.hdop_max, self.mirror_window_s) <= 0 or self.round_max_s < 0:
+        if (
+            min(self.hdop_max, self.hdop_max_minimal, self.mirror_window_s) <= 0
+            or self.round_max_s < 0
+        ):
             raise ValueError("hdop_max, mirror_window_s must be > 0, round_max_s >= 0")
         if not 0 < self.residual_alpha < 1:
             raise ValueError(f"residual_alpha = {self.residual_alpha}, expected in (0, 1)")
