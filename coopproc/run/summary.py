@@ -178,9 +178,10 @@ def summarize(output: PipelineOutput) -> RunSummary:
         fused = [v for v in (obs, value) if math.isfinite(v)]
         if fused and math.isfinite(nav) and min(fused) > nav + max(0.1 * nav, WORSE_MIN_M):
             worse.append(platform)
-    if output.implausible:
-        facts["implausible"] = dict(output.implausible)
-        lines.append(implausible_line(output.implausible))
+    implausible = getattr(output, "implausible", None)  # an older output: none
+    if implausible:
+        facts["implausible"] = dict(implausible)
+        lines.append(implausible_line(implausible))
     if worse:
         facts["worse_than_nav"] = worse
         lines.append(

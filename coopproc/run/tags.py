@@ -126,9 +126,13 @@ def anchor_pipeline(params: PipelineParams, session: Session) -> tuple[PipelineP
     added = list(ANCHOR_METHODS)
     note = (
         f"{', '.join(navigating)}: ranges to anchors: UWB-only {', '.join(added)} added to "
-        "[pipeline] positions as comparison rows ([pipeline] anchor_methods = false: not)"
+        "[pipeline] positions as comparison rows, on the observed ranges "
+        "([pipeline] anchor_methods = false: not)"
     )
-    return dataclasses.replace(params, positions=(*params.positions, *added)), [note]
+    only = (*params.observed_only, *added)
+    return dataclasses.replace(params, positions=(*params.positions, *added), observed_only=only), [
+        note
+    ]
 
 
 def widen(product: RangeProduct, rows: np.ndarray) -> RangeProduct:

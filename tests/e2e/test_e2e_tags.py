@@ -9,6 +9,7 @@ that; the constant-velocity KF + RTS must beat the raw fixes by at least 15 %.
 
 from __future__ import annotations
 
+import re
 import shutil
 from pathlib import Path
 
@@ -96,15 +97,16 @@ def test_tag_only_is_positioned_within_the_noise_targets(
 
 
 def test_tag_height_matters_and_rts_beats_lsq_without_robust_factor(tmp_path: Path) -> None:
-    """Without tag_up_m the height is estimated from the 3-D fixes (anchors at 2.0-2.5 m,
-    true 0.8 m), said in a note, and the fixes are as good as with the true height
-    (0.070 m; at 0 m, before issue 31, 0.08 m); the smoother beats the fixes with or
-    without IGG-III."""
+    """Without tag_up_m the height is estimated (anchors at 2.0-3.0 m over 30 m: by the
+    least range residual; true 0.8 m) and said in a note, never a silent 0 m; the smoother
+    beats the fixes with or without IGG-III."""
     session = _simulate(tmp_path, "tag-only", 1)
     out = tmp_path / "plain"
     output = _run(session, out, "[fusion.lsq]\nkf_robust = false\n", tmp_path)
-    assert "m estimated" in output, output
-    assert _metric(out, "tag", "lsq") < 0.075  # measured 0.073 m
+    found = re.search(r"at height (-?\d+\.\d+) m estimated by the least range residual", output)
+    assert found, output
+    assert abs(float(found.group(1)) - 0.8) < 0.2  # measured 0.70 m
+    assert _metric(out, "tag", "lsq") < 0.08  # measured 0.079 m (0.078 m at the true height)
     assert _metric(out, "tag", "lsq_rts") < _metric(out, "tag", "lsq")
 
 
