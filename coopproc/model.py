@@ -120,8 +120,7 @@ class Platform:
     role: Role = "follower"
     #: Position drift, metres per second, 1-sigma (sigma_k of paper 000 eq. (7)); None: default.
     drift_sigma_mps: float | None = None
-    #: Anchors only: known ENU position, metres.
-    position_enu_m: tuple[float, float, float] | None = None
+    position_enu_m: tuple[float, float, float] | None = None  #: anchors only: ENU position, m
     # Raw-sensor figures (DATA.md "Raw sensors"); read and checked, not used by the stages yet.
     #: Wheelbase of v_left/v_right odometry, metres.
     wheelbase_m: float | None = None
@@ -131,11 +130,11 @@ class Platform:
     gnss_lever_arm_m: tuple[float, float, float] | None = None
     #: IMU-to-body roll, pitch, yaw, degrees.
     imu_mounting_deg: tuple[float, float, float] | None = None
-    #: Land vehicle: non-holonomic constraints apply; None: not given.
-    nhc: bool | None = None
+    nhc: bool | None = None  #: land vehicle: non-holonomic constraints apply; None: not given
     #: IMU noise figures; None: not given.
     imu: ImuNoise | None = None
     max_motion: tuple[float | None, ...] = (None, None, None)  #: speed, accel, jump: plausible.py
+    antenna: tuple[float | None, bool | None] = (None, None)  #: height m, planar: anchor_lsq.py
 
 
 @dataclass(frozen=True)
@@ -418,3 +417,4 @@ class Result:
     states: pd.DataFrame | None = None  # STATES_COLUMNS -> states.csv (INS methods)
     dr_states: pd.DataFrame | None = None  # DR_STATES_COLUMNS -> dr_states.csv (state "dr")
     range_weights: pd.DataFrame | None = None  # names.RANGE_WEIGHTS_COLUMNS -> range_weights.csv
+    lsq_quality: pd.DataFrame | None = None  # names.LSQ_QUALITY_COLUMNS -> lsq_quality.csv

@@ -95,6 +95,25 @@ RANGE_WEIGHTS_COLUMNS: tuple[str, ...] = (
     "rejected",
 )
 
+#: lsq_quality.csv (docs/outputs.md, extension): every epoch of a platform's ranges to
+#: anchors that the ``lsq*`` methods solved (coopproc.stages.fusion.anchor_lsq): the
+#: anchors in it, HDOP / VDOP (unit weight; VDOP empty for a fix at one height), the
+#: chi-square of the robust standardized residuals with ``dof`` degrees of freedom, the
+#: height used (m), and ``status``: ok (a fix) or why it was dropped (dop, residual,
+#: mirror, diverged).
+LSQ_QUALITY_COLUMNS: tuple[str, ...] = (
+    "time",
+    "platform",
+    "method",
+    "anchors",
+    "hdop",
+    "vdop",
+    "chi2",
+    "dof",
+    "up",
+    "status",
+)
+
 
 def pair_name(a: str, b: str) -> str:
     """The unordered pair of two platform ids, ``A-B`` with the ids in sorted order."""

@@ -95,6 +95,20 @@ class PlatformTable:
             "help": "position noise allowed per epoch on top of max_speed, m (absent: role's)"
         },
     )
+    height: float | None = field(
+        default=None,
+        metadata={
+            "help": "UWB antenna height (m, up) of a platform moving in a plane: anchor "
+            "fixes are solved at it (absent: navigation height, else estimated)"
+        },
+    )
+    planar: bool | None = field(
+        default=None,
+        metadata={
+            "help": "true: moves in a plane (anchor fixes at one height); false: 3-D "
+            "fixes (absent: [fusion.lsq] dims)"
+        },
+    )
 
 
 # Plausible ranges that catch a value given in the wrong unit: (low, high, unit text).
@@ -144,6 +158,10 @@ def parse_platforms(table: Any, where: str) -> dict[str, Platform]:
                 f"{at} imu_mounting: {list(p.imu_mounting)}; "
                 "expected [roll, pitch, yaw] in degrees, each within +-360"
             )
+        if p.height is not None and (p.role == "anchor" or p.planar is False):
+            raise ConfigError(f"{at} height: given for a {_what(p)}; expected a moving platform")
+        if p.height is not None and not abs(p.height) < 1e4:
+            raise ConfigError(f"{at} height: {p.height}; expected metres (up), within +-1e4")
         for key in ("max_speed", "max_accel", "max_jump"):
             value = getattr(p, key)
             if value is not None and not 0 < value < 1e6:
@@ -160,8 +178,13 @@ def parse_platforms(table: Any, where: str) -> dict[str, Platform]:
             nhc=p.nhc,
             imu=None if p.imu is None else _imu(p.imu, f"{where} [platforms.{pid}.imu]"),
             max_motion=(p.max_speed, p.max_accel, p.max_jump),
+            antenna=(p.height, p.planar),
         )
     return out
+
+
+def _what(p: PlatformTable) -> str:
+    return "platform with planar = false" if p.role != "anchor" else "anchor (use position)"
 
 
 def _imu(table: ImuTable, where: str) -> ImuNoise:
@@ -213,6 +236,9 @@ def _sensor_entry(p: Platform) -> dict[str, Any]:
     for key, bound in zip(("max_speed", "max_accel", "max_jump"), p.max_motion, strict=True):
         if bound is not None:
             entry[key] = bound
+    for key, value in zip(("height", "planar"), p.antenna, strict=True):
+        if value is not None:
+            entry[key] = value
     if p.imu is not None:
         imu = {
             "grade": p.imu.grade,

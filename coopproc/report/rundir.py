@@ -36,7 +36,7 @@ from coopproc.model import (
     POSITIONS_COLUMNS,
     STATES_COLUMNS,
 )
-from coopproc.names import RANGE_WEIGHTS_COLUMNS
+from coopproc.names import LSQ_QUALITY_COLUMNS, RANGE_WEIGHTS_COLUMNS
 from coopproc.report.methods import METHOD_KEYS, listed_methods, range_methods_of
 from coopproc.report.outage import OUTAGE_COLUMNS
 from coopproc.report.scores import NLOS_EVENT_SCORE_COLUMNS, NLOS_SCORE_COLUMNS
@@ -57,8 +57,9 @@ __all__ = [
 ]
 
 #: Columns read as text (ids; ``alignment`` of evaluation.csv / rpe.csv; ``kind``,
-#: ``group``, ``baseline`` of comparisons.csv); every other contract column is numeric.
-_TEXT_COLUMNS = ("pair", "platform", "method", "alignment", "kind", "group", "baseline")
+#: ``group``, ``baseline`` of comparisons.csv; ``status`` of lsq_quality.csv); every other
+#: contract column is numeric.
+_TEXT_COLUMNS = ("pair", "platform", "method", "alignment", "kind", "group", "baseline", "status")
 
 #: ``ranges.csv`` columns before the range methods (``observed`` is always one) and after.
 RANGES_LEADING_COLUMNS: tuple[str, ...] = ("time", "pair", "observed")
@@ -103,6 +104,7 @@ RUN_EXTENSION_FILES: tuple[tuple[str, str, tuple[str, ...], bool], ...] = (
     ("states.csv", "states", STATES_COLUMNS, False),
     ("dr_states.csv", "dr_states", DR_STATES_COLUMNS, False),
     ("range_weights.csv", "range_weights", RANGE_WEIGHTS_COLUMNS, False),
+    ("lsq_quality.csv", "lsq_quality", LSQ_QUALITY_COLUMNS, False),
     ("outages.csv", "outages", OUTAGE_COLUMNS, False),
     ("comparisons.csv", "comparisons", ("kind", "group", "method", "baseline"), False),
 )
@@ -139,6 +141,8 @@ class RunTables:
     range_weights: pd.DataFrame | None = None
     #: comparisons.csv: paired comparisons of methods, 95 % (report/comparisons.py)
     comparisons: pd.DataFrame | None = None
+    #: lsq_quality.csv: every epoch of the anchor least squares and its decision
+    lsq_quality: pd.DataFrame | None = None
 
     @property
     def time_origin_s(self) -> float:

@@ -51,6 +51,20 @@ class PipelineParams:
             "(available: " + ", ".join(POSITION_STAGES) + ")"
         },
     )
+    observed_only: tuple[str, ...] = field(
+        default=(),
+        metadata={
+            "help": "position estimators of `positions` run on the observed ranges only "
+            "(the anchors' comparison rows: lsq, lsq_rts)"
+        },
+    )
+    anchor_methods: bool = field(
+        default=True,
+        metadata={
+            "help": "a session with anchors: lsq and lsq_rts also position every platform "
+            "with navigation that ranges to them (comparison rows); false: not"
+        },
+    )
 
     def __post_init__(self) -> None:
         valid = _range_methods()
@@ -61,6 +75,12 @@ class PipelineParams:
             if name not in POSITION_STAGES:
                 raise ValueError(
                     f"unknown position estimator '{name}'{nearest(name, POSITION_STAGES)}"
+                )
+        for name in self.observed_only:
+            if name not in POSITION_STAGES:
+                raise ValueError(
+                    f"observed_only: unknown position estimator '{name}'"
+                    f"{nearest(name, POSITION_STAGES)}"
                 )
         for what, names in (("ranges", self.ranges), ("positions", self.positions)):
             twice = sorted({n for n in names if names.count(n) > 1})
@@ -131,7 +151,8 @@ def resolve(params: PipelineParams) -> tuple[Step, ...]:
         position_steps.append(_position_step(provider, "observed", True, reason))
     for name in params.positions:
         for range_set in ("observed", *params.ranges):
-            if POSITION_STAGES[name].observed_only and range_set != "observed":
+            only = POSITION_STAGES[name].observed_only or name in params.observed_only
+            if only and range_set != "observed":
                 continue
             gives_cp = name == provider and range_set == "observed"
             position_steps.append(_position_step(name, range_set, gives_cp))

@@ -109,6 +109,7 @@ def run_tables(
         states=r.states,
         dr_states=r.dr_states,
         range_weights=r.range_weights,
+        lsq_quality=r.lsq_quality,
         outages=outages.table if (outages := _outage_report(output)) is not None else None,
         comparisons=comparisons(
             r.ranges,

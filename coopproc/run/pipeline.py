@@ -46,13 +46,15 @@ from coopproc.run.concurrent_steps import group_label, group_steps, run_concurre
 from coopproc.run.config import RunConfig
 from coopproc.run.declared import DeclaredDrifts, check_drifts, declared_quality
 from coopproc.run.gnss_methods import gnss_pipeline
+from coopproc.run.implausible import implausible_methods
 from coopproc.run.ins import states_table, with_ins
 from coopproc.run.odo_methods import odo_pipeline
 from coopproc.run.positions_table import PositionSamples, positions_table
 from coopproc.run.range_sets import ranges_for, row_sigma
 from coopproc.run.scoring import score_tables
-from coopproc.run.tags import tag_pipeline, tag_rows, widen, without_tags
+from coopproc.run.tags import anchor_pipeline, tag_pipeline, tag_rows, widen, without_tags
 from coopproc.stages.base import PositionInput, PositionProduct, RangeInput, RangeProduct
+from coopproc.stages.fusion.anchor_lsq import lsq_quality_of
 from coopproc.stages.fusion.dr_quality import DeadReckoningQuality, dead_reckoning_quality
 from coopproc.stages.fusion.dr_states import dr_states_of
 from coopproc.stages.fusion.range_weights import range_weights_of
@@ -87,6 +89,8 @@ class PipelineOutput:
     #: the fusion's outlier decisions scored (report/outlier_scores.py): the
     #: ``fusion:<method>`` rows of ``nlos_scores`` and their ``rejected_tp``
     fusion_outlier_scores: pd.DataFrame | None = None
+    #: methods whose positions jump or whose covariance exploded (run/implausible.py)
+    implausible: Mapping[str, Any] = dataclasses.field(default_factory=dict)
 
 
 def run_pipeline(
@@ -119,6 +123,8 @@ def run_pipeline(
     # tags (no navigation): the DR-based stages run on the session without them (run.tags)
     pipeline, tag_notes = tag_pipeline(config.pipeline, session)
     pipeline, odo_notes = odo_pipeline(pipeline, session, config.params_for("odo_uwb"))
+    pipeline, anchor_notes = anchor_pipeline(pipeline, session)
+    odo_notes += anchor_notes
     # IMU: Table 1's INS modes, [ins] navigation = "ins" (the INS as navigation; run.ins)
     session, pipeline, more = with_ins(session, pipeline, config.params_for("ins"))
     pipeline, more = gnss_pipeline(pipeline, session, config.params_for("gnss"), more)
@@ -202,6 +208,8 @@ def run_pipeline(
         states = states_table(session, products)
         dr_states = dr_states_of(products)
         range_weights = range_weights_of(products)
+        lsq_quality = lsq_quality_of(products)
+        implausible = implausible_methods(session, products)  # before the table takes them
         # each product's frame is in the table now: not held twice
         for method, weighed in list(products.items()):
             if weighed.range_weights is not None:
@@ -247,6 +255,7 @@ def run_pipeline(
             states=states,
             dr_states=dr_states,
             range_weights=range_weights,
+            lsq_quality=lsq_quality,
         )
     return PipelineOutput(
         result=result,
@@ -259,7 +268,7 @@ def run_pipeline(
             m: p.calibration for m, p in products.items() if p.calibration is not None
         },
         dr_quality=dr_quality,
-        notes=(*tag_notes, *(n for p in products.values() for n in p.notes)),
+        notes=tuple(dict.fromkeys((*tag_notes, *(n for p in products.values() for n in p.notes)))),
         chain=steps,
         methods={
             "ranges": ("observed", *columns),
@@ -268,6 +277,7 @@ def run_pipeline(
         },
         nlos_methods=nlos_methods,
         fusion_outlier_scores=outliers,
+        implausible=implausible,
     )
 
 

@@ -15,6 +15,7 @@ import pandas as pd
 from coopproc.report.change import change_of
 from coopproc.report.consistency import consistency_lines
 from coopproc.report.outlier_scores import FUSION_PREFIX
+from coopproc.run.implausible import implausible_line
 from coopproc.run.pipeline import PipelineOutput
 
 __all__ = ["RunSummary", "fusion_outliers", "summarize"]
@@ -165,7 +166,8 @@ def summarize(output: PipelineOutput) -> RunSummary:
         elif not math.isfinite(nav):  # a tag: no navigation, not fused: raw fixes, smoothed
             base = _lookup(pm, "platform", platform, "lsq", "mean")
             text = f"  {platform} (tag): mean horizontal error lsq {base:.3f} m"
-            smoothed = [m for m in methods["positions"] if m in ("lsq_rts", "lsq_kf")]
+            smoothers = ("lsq_rts", "lsq_kf", "range_rts", "range_kf")
+            smoothed = [m for m in methods["positions"] if m in smoothers]
             second = smoothed[0] if smoothed else None
         value = math.nan
         if second is not None:
@@ -179,6 +181,10 @@ def summarize(output: PipelineOutput) -> RunSummary:
         fused = [v for v in (obs, value) if math.isfinite(v)]
         if fused and math.isfinite(nav) and min(fused) > nav + max(0.1 * nav, WORSE_MIN_M):
             worse.append(platform)
+    implausible = getattr(output, "implausible", None)  # an older output: none
+    if implausible:
+        facts["implausible"] = dict(implausible)
+        lines.append(implausible_line(implausible))
     if worse:
         facts["worse_than_nav"] = worse
         lines.append(

@@ -7,7 +7,9 @@ the cooperative fusion (it needs every moving platform's navigation) run on the 
 without its tags and without the ranges of pairs with a tag; the tag pairs' rows of
 ranges.csv keep their observed range and have no processed value. When the configured
 chain has no UWB-only estimator, ``lsq`` and ``lsq_rts`` are added; when no platform
-with navigation is left, the chain is only those. Every such decision is a note.
+with navigation is left, the chain is only those. A platform with navigation that ranges
+to anchors gets them too, as comparison rows (:func:`anchor_pipeline`). Every such
+decision is a note.
 
 A session without tags passes through unchanged (the same objects), so its outputs are
 those of a run without this module.
@@ -25,10 +27,22 @@ from coopproc.run.chain import PipelineParams
 from coopproc.stages.base import RangeProduct
 from coopproc.stages.registry import POSITION_STAGES
 
-__all__ = ["TAG_METHODS", "tag_ids", "tag_pipeline", "tag_rows", "widen", "without_tags"]
+__all__ = [
+    "ANCHOR_METHODS",
+    "TAG_METHODS",
+    "anchor_pipeline",
+    "tag_ids",
+    "tag_pipeline",
+    "tag_rows",
+    "widen",
+    "without_tags",
+]
 
-#: The estimators added when tags are there and the chain has no UWB-only one.
-TAG_METHODS: tuple[str, ...] = ("lsq", "lsq_rts")
+#: The estimators added when tags are there and the chain has no UWB-only one: the fixes,
+#: their smoother, and the range-by-range smoother (which needs no simultaneous ranges).
+TAG_METHODS: tuple[str, ...] = ("lsq", "lsq_rts", "range_rts")
+#: The comparison rows added for platforms with navigation that range to anchors.
+ANCHOR_METHODS: tuple[str, ...] = ("lsq", "lsq_rts")
 
 
 def tag_ids(session: Session) -> list[str]:
@@ -87,6 +101,38 @@ def tag_pipeline(params: PipelineParams, session: Session) -> tuple[PipelinePara
             "ends); only the UWB-only methods use them"
         )
     return dataclasses.replace(params, positions=positions), notes
+
+
+def anchor_pipeline(params: PipelineParams, session: Session) -> tuple[PipelineParams, list[str]]:
+    """The chain with the UWB-only methods (:data:`ANCHOR_METHODS`) as comparison rows when
+    a platform with navigation ranges to anchors (paper 003 Table 1's "UWB LS" row next
+    to its UWB/INS rows), unless one is named already or ``[pipeline] anchor_methods =
+    false``; the note saying so. The other methods' rows are untouched (new rows only)."""
+    anchors = {p for p, v in session.platforms.items() if v.role == "anchor"}
+    if not params.anchor_methods or not anchors:
+        return params, []
+    if any(n in (*TAG_METHODS, *ANCHOR_METHODS) for n in params.positions):
+        return params, []
+    frame = session.ranges.frame
+    ends = frame["from"].where(
+        frame["to"].isin(anchors), frame["to"].where(frame["from"].isin(anchors))
+    )
+    navigating = sorted(
+        p for p in set(ends.dropna()) - anchors if session.platforms.get(p) is not None
+        and session.platforms[p].role in ("follower", "leader")
+    )  # fmt: skip
+    if not navigating:
+        return params, []
+    added = list(ANCHOR_METHODS)
+    note = (
+        f"{', '.join(navigating)}: ranges to anchors: UWB-only {', '.join(added)} added to "
+        "[pipeline] positions as comparison rows, on the observed ranges "
+        "([pipeline] anchor_methods = false: not)"
+    )
+    only = (*params.observed_only, *added)
+    return dataclasses.replace(params, positions=(*params.positions, *added), observed_only=only), [
+        note
+    ]
 
 
 def widen(product: RangeProduct, rows: np.ndarray) -> RangeProduct:

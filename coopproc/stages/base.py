@@ -176,6 +176,9 @@ class PositionProduct:
     #: each range the estimator used and its robust factor, for estimators that weigh
     #: them (RANGE_WEIGHTS_COLUMNS but method and rejected; range_weights.csv)
     range_weights: pd.DataFrame | None = None
+    #: every epoch of the anchor least squares and its decision (LSQ_QUALITY_COLUMNS;
+    #: lsq_quality.csv), for the ``lsq*`` estimators
+    lsq_quality: pd.DataFrame | None = None
 
 
 @dataclass(frozen=True)

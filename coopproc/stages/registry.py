@@ -35,6 +35,8 @@ POSITION_STAGES: dict[str, PositionStage] = {
         fusion_entry.LSQ,  # robust least squares from anchors (paper 003)
         fusion_entry.LSQ_KF,  # lsq + constant-velocity KF (UWB only)
         fusion_entry.LSQ_RTS,  # lsq + constant-velocity KF + RTS (UWB only, paper 003)
+        fusion_entry.RANGE_KF,  # range-by-range constant-velocity EKF (UWB only)
+        fusion_entry.RANGE_RTS,  # range_kf + RTS smoother
         odo_uwb.ODO_UWB,  # odometer + UWB EKF (platforms with odo_<ID>.csv)
         odo_uwb.ODO_UWB_RTS,  # odo_uwb + RTS smoother
         *INS_STAGES,  # ins, ins_nhc, ins_rts, ins_nhc_rts (UWB/INS, paper 003 Table 1)

@@ -176,3 +176,28 @@ def test_states_sigmas_cover_the_errors(handcart: Path) -> None:
         straight = moving & (np.interp(t, ref["time"], turning) == 0.0)
         assert straight.sum() > 100
         assert np.mean(z[straight] < 3.0) > 0.9, (mode, "yaw", np.mean(z[straight] < 3.0))
+
+
+def test_ins_starts_from_the_range_track_without_a_fix(handcart: Path) -> None:
+    """Issue 31: the cart without its navigation and with one range per round (the seven
+    anchors in turn, about 1 Hz): no epoch has a least-squares fix, so the INS starts
+    from the range-by-range EKF + RTS track, near the truth."""
+    import dataclasses
+
+    from coopproc.io.session import read_session
+    from coopproc.stages.fusion.ins_setup import ins_start
+
+    session = read_session(handcart.parent / "handcart")
+    frame = session.ranges.frame
+    rounds = np.cumsum(np.r_[True, np.diff(frame["time"].to_numpy()) > 0.3]) - 1
+    other = frame["to"].where(frame["from"] == "cart", frame["from"])
+    anchor = other.str.removeprefix("AN").astype(int).to_numpy()
+    thin = frame[(rounds % 7) == (anchor - 1)].assign(sigma=np.nan)
+    assert 0 < len(thin) < len(frame) / 5
+    bare = dataclasses.replace(session, nav={})
+    start = ins_start(bare, session.imu["cart"], thin, level_sigma_deg=2, heading_sigma_deg=10)
+    assert "range-by-range EKF + RTS track" in start.how
+    truth = pd.read_csv(handcart.parent / "handcart" / "truth" / "traj_cart.csv")
+    t0 = float(session.imu["cart"].time_s[0])
+    true = [np.interp(t0, truth["time"], truth[a]) for a in ("east", "north")]
+    assert np.hypot(*(start.enu_m[:2] - true)) < 0.5

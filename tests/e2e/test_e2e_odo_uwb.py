@@ -31,6 +31,7 @@ from coopproc.io.session import read_session
 from coopproc.model import Session, Trajectory
 from coopproc.run.chain import PipelineParams
 from coopproc.run.odo_methods import odo_pipeline
+from coopproc.stages.fusion.anchor_lsq import anchor_fixes
 from coopproc.stages.fusion.lsq import LsqParams
 from coopproc.stages.fusion.odo_track import OdoUwbParams, odo_tracks
 from coopproc.stages.fusion.odo_uwb import fit_track, odo_uwb_positions
@@ -125,7 +126,8 @@ def test_simulated_odometer_and_gyro_meet_the_noise_targets(simulated: Session) 
     s_rmse = _rmse_at(simulated, smoothed["tag"], own)
     assert s_rmse < 0.5 * SIGMA_R, s_rmse
     assert f_rmse < 0.75 * SIGMA_R, f_rmse
-    lsq = uwb_kf_positions(simulated, ranges, LsqParams(), smooth=True)["tag"]
+    fixes = anchor_fixes(simulated, ranges, LsqParams()).fixes
+    lsq = uwb_kf_positions(fixes, LsqParams(), smooth=True)["tag"]
     lsq_rmse = _rmse_at(simulated, lsq, lsq.time_s)
     nav = simulated.nav["tag"]
     nav_rmse = _rmse_at(simulated, nav, nav.time_s)

@@ -9,6 +9,7 @@ that; the constant-velocity KF + RTS must beat the raw fixes by at least 15 %.
 
 from __future__ import annotations
 
+import re
 import shutil
 from pathlib import Path
 
@@ -19,6 +20,7 @@ from click.testing import CliRunner
 
 from coopproc.cli import main
 from coopproc.io.session import read_session
+from coopproc.run.tags import TAG_METHODS
 from coopproc.stages.fusion.lsq import LsqParams, lsq_fixes
 
 #: the simulator's true UWB white noise (SimParams.uwb_noise_m)
@@ -95,12 +97,16 @@ def test_tag_only_is_positioned_within_the_noise_targets(
 
 
 def test_tag_height_matters_and_rts_beats_lsq_without_robust_factor(tmp_path: Path) -> None:
-    """Without tag_up_m the 2D model puts the tag at 0 m (anchors at 2 m): the targets
-    need the height; the smoother beats the fixes with or without IGG-III."""
+    """Without tag_up_m the height is estimated (anchors at 2.0-3.0 m over 30 m: by the
+    least range residual; true 0.8 m) and said in a note, never a silent 0 m; the smoother
+    beats the fixes with or without IGG-III."""
     session = _simulate(tmp_path, "tag-only", 1)
     out = tmp_path / "plain"
-    _run(session, out, "[fusion.lsq]\nkf_robust = false\n", tmp_path)
-    assert _metric(out, "tag", "lsq") > 0.075  # the 2D model puts the tag at 0 m
+    output = _run(session, out, "[fusion.lsq]\nkf_robust = false\n", tmp_path)
+    found = re.search(r"at height (-?\d+\.\d+) m estimated by the least range residual", output)
+    assert found, output
+    assert abs(float(found.group(1)) - 0.8) < 0.2  # measured 0.70 m
+    assert _metric(out, "tag", "lsq") < 0.08  # measured 0.079 m (0.078 m at the true height)
     assert _metric(out, "tag", "lsq_rts") < _metric(out, "tag", "lsq")
 
 
@@ -137,7 +143,7 @@ def test_tag_in_a_mixed_session_leaves_the_dead_reckoning_methods_alone(
         a = before[(before["platform"] == "tag") & (before["method"] == method)]
         b = pos[(pos["platform"] == "tag") & (pos["method"] == method)]
         pd.testing.assert_frame_equal(a.reset_index(drop=True), b.reset_index(drop=True))
-    assert set(pos.loc[pos["platform"] == "T2", "method"]) == {"reference", "lsq", "lsq_rts"}
+    assert set(pos.loc[pos["platform"] == "T2", "method"]) == {"reference", *TAG_METHODS}
     assert _metric(out, "T2", "lsq_rts") < _metric(out, "T2", "lsq") < 0.09
     ranges = pd.read_csv(out / "ranges.csv")
     t2 = ranges["pair"].str.contains("T2")

@@ -240,7 +240,8 @@ def test_platform_defaults_are_unchanged() -> None:
     from coopproc.model import Platform
 
     p = Platform("A")
-    assert dataclasses.astuple(p)[4:] == (None,) * 6 + ((None, None, None),)  # + max_motion
+    # + max_motion, antenna (height, planar)
+    assert dataclasses.astuple(p)[4:] == (None,) * 6 + ((None, None, None), (None, None))
 
 
 def test_a_z_down_imu_is_an_error_unless_its_mounting_is_given(sample_dir: Path) -> None:

@@ -57,7 +57,12 @@ def test_fusion_only(default_run: Path, tmp_path: Path) -> None:
     info = json.loads((out / "run.json").read_text())
     assert info["methods"] == {"ranges": ["observed"], "positions": ["observed"], "nlos": []}
     assert [s["step"] for s in info["pipeline"]] == ["fusion (observed)"]
-    assert info["config"]["pipeline"] == {"ranges": [], "positions": ["fusion"]}
+    assert info["config"]["pipeline"] == {
+        "ranges": [],
+        "positions": ["fusion"],
+        "observed_only": [],
+        "anchor_methods": True,
+    }
 
 
 def test_di_without_rn(default_run: Path, tmp_path: Path) -> None:

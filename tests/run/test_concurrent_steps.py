@@ -221,7 +221,9 @@ def session(session_dir: Path) -> Session:
 
 
 def _run(session: Session, parallel: bool) -> Any:
-    config = RunConfig(run=RunParams(parallel_fusion=parallel), pipeline=PipelineParams())
+    # the fusions only (not the anchors' lsq comparison rows)
+    pipeline = PipelineParams(anchor_methods=False)
+    config = RunConfig(run=RunParams(parallel_fusion=parallel), pipeline=pipeline)
     return run_pipeline(session, config)
 
 

@@ -149,7 +149,7 @@ def test_drift_grows_with_outage_length(tmp_path: Path) -> None:
 def test_run_and_report_through_files(session_dir: Path, tmp_path: Path) -> None:
     runner = CliRunner()
     config = tmp_path / "run.toml"
-    config.write_text("[pipeline]\nranges = []\n")
+    config.write_text("[pipeline]\nranges = []\nanchor_methods = false\n")  # the fusion only
     out = tmp_path / "out"
     args = ["run", str(session_dir), "-o", str(out), "--config", str(config), "--no-figures"]
     made = runner.invoke(main, [*args, "--outage", "50:60", "--outage", "20:30"])

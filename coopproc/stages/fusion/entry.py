@@ -28,16 +28,27 @@ from collections.abc import Mapping
 from coopproc.errors import StageError
 from coopproc.model import Session, Trajectory
 from coopproc.stages.base import PositionInput, PositionProduct, PositionStage
+from coopproc.stages.fusion.anchor_lsq import AnchorSolution, anchor_fixes
 from coopproc.stages.fusion.calibration import FusionCalibration, calibrated_fuse
 from coopproc.stages.fusion.data import range_sigma_default, shared_nav
 from coopproc.stages.fusion.fuse import FusionParams
 from coopproc.stages.fusion.leave_out import leave_pair_out
-from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
+from coopproc.stages.fusion.lsq import LsqParams, fixes_trajectory
 from coopproc.stages.fusion.range_digest import range_rows_digest
+from coopproc.stages.fusion.range_kf import range_kf_positions
 from coopproc.stages.fusion.range_weights import range_weights_frame
 from coopproc.stages.fusion.uwb_kf import uwb_kf_positions
 
-__all__ = ["FUSION", "LSQ", "LSQ_KF", "LSQ_RTS", "fusion_stage", "lsq_stage"]
+__all__ = [
+    "FUSION",
+    "LSQ",
+    "LSQ_KF",
+    "LSQ_RTS",
+    "RANGE_KF",
+    "RANGE_RTS",
+    "fusion_stage",
+    "lsq_stage",
+]
 
 
 def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
@@ -125,35 +136,60 @@ def _same_as_observed(
     )
 
 
-def _product(inp: PositionInput, positions: Mapping[str, Trajectory]) -> PositionProduct:
-    """The positions, with a note for each tag that got none (a tag has nothing else)."""
+def _product(
+    inp: PositionInput,
+    positions: Mapping[str, Trajectory],
+    solution: AnchorSolution | None = None,
+    name: str = "lsq",
+) -> PositionProduct:
+    """The positions, with a note for each tag that got none (a tag has nothing else),
+    the fixes' notes and their lsq_quality.csv rows (method: the ``lsq`` of the set)."""
     missing = [
         p
         for p in inp.session.platform_ids
         if inp.session.platforms[p].role == "tag" and p not in positions
     ]
     notes = tuple(
-        f"tag {p}: no {inp.range_set} fix (never ranged to enough anchors in one epoch; "
-        "with anchors polled one at a time, [fusion.lsq] epoch_merge_s must span one "
-        "polling round); it has no position"
+        f"tag {p}: no {inp.range_set} fix (never ranged to enough anchors in one round; "
+        "with anchors polled one at a time, [fusion.lsq] round_max_s must span one "
+        "polling round; range_rts needs no simultaneous ranges); it has no position"
         for p in missing
     )
-    return PositionProduct(positions=positions, notes=notes)
+    if solution is None:
+        return PositionProduct(positions=positions, notes=notes)
+    method = LSQ.method(inp.range_set)
+    notes += tuple(f"{name} ({inp.range_set}): {note}" for note in solution.notes)
+    quality = solution.quality.assign(method=method)
+    return PositionProduct(positions=positions, notes=notes, lsq_quality=quality)
 
 
 def lsq_stage(inp: PositionInput, params: LsqParams) -> PositionProduct:
     """Robust least-squares fixes of every platform ranging to enough anchors."""
-    return _product(inp, robust_lsq_positions(inp.session, inp.ranges, params))
+    solution = anchor_fixes(inp.session, inp.ranges, params)
+    positions = {p: fixes_trajectory(p, f, params.robust) for p, f in solution.fixes.items()}
+    return _product(inp, positions, solution)
 
 
 def lsq_kf_stage(inp: PositionInput, params: LsqParams) -> PositionProduct:
     """The fixes through the constant-velocity Kalman filter (causal)."""
-    return _product(inp, uwb_kf_positions(inp.session, inp.ranges, params, smooth=False))
+    solution = anchor_fixes(inp.session, inp.ranges, params)
+    return _product(inp, uwb_kf_positions(solution.fixes, params, smooth=False), solution)
 
 
 def lsq_rts_stage(inp: PositionInput, params: LsqParams) -> PositionProduct:
     """The fixes through the constant-velocity Kalman filter and the RTS smoother."""
-    return _product(inp, uwb_kf_positions(inp.session, inp.ranges, params, smooth=True))
+    solution = anchor_fixes(inp.session, inp.ranges, params)
+    return _product(inp, uwb_kf_positions(solution.fixes, params, smooth=True), solution)
+
+
+def range_kf_stage(inp: PositionInput, params: LsqParams) -> PositionProduct:
+    """The ranges through the tightly coupled constant-velocity EKF (causal)."""
+    return _product(inp, range_kf_positions(inp.session, inp.ranges, params, smooth=False))
+
+
+def range_rts_stage(inp: PositionInput, params: LsqParams) -> PositionProduct:
+    """The tightly coupled EKF and its RTS smoother."""
+    return _product(inp, range_kf_positions(inp.session, inp.ranges, params, smooth=True))
 
 
 def _has_anchors(session: Session) -> None:
@@ -205,6 +241,27 @@ LSQ_RTS = PositionStage(
     run=lsq_rts_stage,
     help="the lsq_kf filter followed by the RTS smoother (paper 003 sec. 2.8); method "
     "lsq_rts or lsq_rts_<set>",
+    check=_has_anchors,
+    uwb_only=True,
+)
+
+RANGE_KF = PositionStage(
+    name="range_kf",
+    params_type=LsqParams,
+    section="fusion.lsq",
+    run=range_kf_stage,
+    help="each range to an anchor straight into a constant-velocity EKF with IGG-III "
+    "(tightly coupled, no simultaneous ranges needed; causal); method range_kf",
+    check=_has_anchors,
+    uwb_only=True,
+)
+
+RANGE_RTS = PositionStage(
+    name="range_rts",
+    params_type=LsqParams,
+    section="fusion.lsq",
+    run=range_rts_stage,
+    help="the range_kf filter followed by the RTS smoother; method range_rts",
     check=_has_anchors,
     uwb_only=True,
 )

@@ -9,8 +9,11 @@
   one, and the non-holonomic constraints unless the session says ``nhc = false``.
 - **Start**: the position of the first robust least-squares fix (paper 003 sec. 2.2) at
   or after the first IMU sample (2D), its height from the platform's own navigation (else
-  ``[ins] tag_up_m``, default 0, within the start's 1-sigma); without UWB (dead
-  reckoning) the navigation file's first epoch.
+  ``[ins] tag_up_m``, default 0, within the start's 1-sigma); without a fix (no epoch
+  with ranges to three anchors: anchors ranged one at a time) and without navigation,
+  the range-by-range EKF + RTS track of its ranges (``range_rts``, 3-D: position,
+  velocity and the heading of its first motion); without UWB (dead reckoning) the
+  navigation file's first epoch. No start is refused without saying what would give one.
 - **Alignment**: from a static start of at least 5 s, levelling (paper 003 eq. (1)-(5))
   and the heading of the navigation file, else of the first motion of the fixes; in
   motion from the first sample, levelling from the mean specific force of the first
@@ -104,6 +107,16 @@ def _fixes(
     return traj if traj is not None and len(traj) >= 2 else None
 
 
+def _range_track(session: Session, platform: str, ranges: pd.DataFrame) -> Trajectory | None:
+    """The platform's range-by-range constant-velocity EKF + RTS track
+    (:mod:`coopproc.stages.fusion.range_kf`): a start without simultaneous ranges (issue
+    31: anchors ranged one at a time, about one range per anchor every 3 s)."""
+    from coopproc.stages.fusion.range_kf import range_kf_positions
+
+    traj = range_kf_positions(session, ranges, LsqParams(), smooth=True).get(platform)
+    return traj if traj is not None and len(traj) >= 2 else None
+
+
 def ins_start(
     session: Session,
     imu: ImuData,
@@ -123,15 +136,18 @@ def ins_start(
     lat = np.radians(session.origin_llh[0])
     t0 = float(imu.time_s[0])
     source = None if ranges is None else _fixes(session, platform, ranges, tag_up_m)
+    how = "first UWB least-squares fix"
+    if source is None and ranges is not None and (nav is None or len(nav) < 2):
+        source = _range_track(session, platform, ranges)
+        how = "range-by-range EKF + RTS track (no epoch with simultaneous ranges for a fix)"
     if source is None:
         if nav is None or len(nav) < 2:
             raise StageError(
-                f"INS of {platform}: no start position (no least-squares fix from its "
-                "ranges to anchors and no navigation file)"
+                f"INS of {platform}: no start position: no least-squares fix and no "
+                "range-by-range track from its ranges to anchors (it needs ranges to "
+                "anchors, at least 2 in all, or a navigation file nav_<ID>.csv)"
             )
         source, how = nav, f"navigation {nav.source or 'file'}"
-    else:
-        how = "first UWB least-squares fix"
     t_start = max(t0, float(source.time_s[0]))
     enu = _at(source, t_start)
     if nav is not None and len(nav) and source is not nav:

@@ -39,7 +39,7 @@ from coopproc.stages.fusion.data import (
     range_sigma_default,
 )
 
-__all__ = ["LsqFixes", "LsqParams", "lsq_fixes", "robust_lsq_positions"]
+__all__ = ["LsqFixes", "LsqParams", "fixes_trajectory", "lsq_fixes", "robust_lsq_positions"]
 
 
 @dataclass(frozen=True)
@@ -77,11 +77,12 @@ class LsqParams:
         default=2.0, metadata={"help": "longest gap (s) between ranges used as a range rate"}
     )
 
-    tag_up_m: float = field(
-        default=0.0,
+    tag_up_m: float | None = field(
+        default=None,
         metadata={
             "help": "2D: the antenna height (m, up) of a platform without navigation "
-            "(a tag); platforms with navigation use their own height"
+            "(a tag) and without a session.toml height; absent: estimated (lsq*), 0 m "
+            "(the fusion's start fix)"
         },
     )
     # the constant-velocity Kalman filter and RTS smoother over the fixes (methods
@@ -102,10 +103,47 @@ class LsqParams:
     )
     kf_k0: float = field(default=3.0, metadata={"help": "lsq_kf/lsq_rts: IGG-III k0"})
     kf_k1: float = field(default=4.0, metadata={"help": "lsq_kf/lsq_rts: IGG-III k1"})
+    range_accel_psd: float = field(
+        default=0.1,
+        metadata={
+            "help": "range_kf/range_rts: white-acceleration PSD (m^2/s^3) per axis "
+            "(miluv1: 0.1 -> 0.23 m, 0.5 -> 0.28 m)"
+        },
+    )
+    round_max_s: float = field(
+        default=1.5,
+        metadata={
+            "help": "lsq*: longest ranging round (s; a round closes earlier at a repeated "
+            "anchor): tuc polls 4 modules in 0.38 s, miluv1 6 anchors in 1.3 s"
+        },
+    )
+    # the geometry tests of the lsq* methods' fixes (coopproc.stages.fusion.anchor_lsq)
+    hdop_max: float = field(
+        default=50.0,
+        metadata={"help": "lsq*: a fix with a larger HDOP is dropped (hanyang_los: 29 at 50 m)"},
+    )
+    hdop_max_minimal: float = field(
+        default=15.0,
+        metadata={
+            "help": "lsq*: the HDOP bound of a fix with one redundant range (its residual "
+            "test has no power against a wrong branch; hanyang_los 3-anchor epochs)"
+        },
+    )
+    residual_alpha: float = field(
+        default=0.001,
+        metadata={"help": "lsq*: false-alarm rate of the chi-square test on a fix's residuals"},
+    )
+    mirror_window_s: float = field(
+        default=5.0,
+        metadata={
+            "help": "lsq*: a fix with a mirror solution takes the one nearer the unambiguous "
+            "fixes up to this far (s) in time; none: it is dropped"
+        },
+    )
 
     def __post_init__(self) -> None:
-        if self.kf_accel_psd <= 0:
-            raise ValueError(f"kf_accel_psd = {self.kf_accel_psd}, expected > 0")
+        if self.kf_accel_psd <= 0 or self.range_accel_psd <= 0:
+            raise ValueError("kf_accel_psd and range_accel_psd must be > 0")
         if not 0 < self.kf_k0 < self.kf_k1:
             raise ValueError(f"kf_k0 = {self.kf_k0}, kf_k1 = {self.kf_k1}: expected 0 < k0 < k1")
         if not 1.3 <= self.c <= 2.0:
@@ -116,6 +154,13 @@ class LsqParams:
             raise ValueError(f"iterations = {self.iterations}, expected at least 1")
         if self.range_sigma_m <= 0:
             raise ValueError(f"range_sigma_m = {self.range_sigma_m}, expected > 0")
+        if (
+            min(self.hdop_max, self.hdop_max_minimal, self.mirror_window_s) <= 0
+            or self.round_max_s < 0
+        ):
+            raise ValueError("hdop_max, mirror_window_s must be > 0, round_max_s >= 0")
+        if not 0 < self.residual_alpha < 1:
+            raise ValueError(f"residual_alpha = {self.residual_alpha}, expected in (0, 1)")
         if self.epoch_merge_s < 0 or self.rate_max_gap_s <= 0:
             raise ValueError("epoch_merge_s must be >= 0 and rate_max_gap_s > 0")
 
@@ -213,12 +258,11 @@ def lsq_fixes(session: Session, ranges: pd.DataFrame, params: LsqParams) -> Mapp
     prob_time = epochs[table["epoch"].to_numpy()[first]]
     min_anchors = params.min_anchors or dim + 1
     enough = has.sum(axis=1) >= min_anchors
-    # tag height for the 2D model: from its own navigation, else 0
     # tag height for the 2D model: from its own navigation, else tag_up_m
     tag_up = np.zeros(n_prob)
     no_nav = np.array([not _has_nav(session, t) for t in prob_tag], dtype=bool)
     if dim == 2:
-        tag_up[no_nav] = params.tag_up_m
+        tag_up[no_nav] = 0.0 if params.tag_up_m is None else params.tag_up_m
         for tid in np.unique(prob_tag[~no_nav]):
             sel = prob_tag == tid
             nav = session.nav[tid]
@@ -267,27 +311,32 @@ def robust_lsq_positions(
     (NaN where fewer than ``dims`` rates are available). Tags without any fix are absent.
     """
     params = params or LsqParams()
-    dim = params.dims
-    out: dict[str, Trajectory] = {}
-    for tid, fix in lsq_fixes(session, ranges, params).items():
-        enu = np.zeros((fix.time_s.shape[0], 3))
-        enu[:, :dim] = fix.pos
-        sig = np.full_like(enu, np.nan)
-        sig[:, :dim] = np.sqrt(np.einsum("eii->ei", fix.cov))
-        v3 = np.zeros_like(enu)
-        v3[:, :dim] = fix.vel
-        v3[np.isnan(v3[:, 0]), 2] = np.nan
-        if dim == 2:
-            enu[:, 2] = fix.up
-        out[tid] = Trajectory(
-            platform=tid,
-            time_s=fix.time_s,
-            enu_m=enu,
-            sigma_enu_m=sig,
-            vel_enu_mps=v3,
-            source="robust LSQ from anchors" if params.robust else "LSQ from anchors",
-        )
-    return out
+    return {
+        tid: fixes_trajectory(tid, fix, params.robust)
+        for tid, fix in lsq_fixes(session, ranges, params).items()
+    }
+
+
+def fixes_trajectory(tid: str, fix: LsqFixes, robust: bool = True) -> Trajectory:
+    """One platform's fixes as a Trajectory (2D fixes: up from ``fix.up``)."""
+    dim = fix.pos.shape[1]
+    enu = np.zeros((fix.time_s.shape[0], 3))
+    enu[:, :dim] = fix.pos
+    sig = np.full_like(enu, np.nan)
+    sig[:, :dim] = np.sqrt(np.einsum("eii->ei", fix.cov))
+    v3 = np.zeros_like(enu)
+    v3[:, :dim] = fix.vel
+    v3[np.isnan(v3[:, 0]), 2] = np.nan
+    if dim == 2:
+        enu[:, 2] = fix.up
+    return Trajectory(
+        platform=tid,
+        time_s=fix.time_s,
+        enu_m=enu,
+        sigma_enu_m=sig,
+        vel_enu_mps=v3,
+        source="robust LSQ from anchors" if robust else "LSQ from anchors",
+    )
 
 
 def _design(
@@ -309,11 +358,14 @@ def _gauss_newton(
     has: FloatArray,
     tag_up: FloatArray,
     params: LsqParams,
+    x0: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Batched (robust) Gauss-Newton; returns positions, covariances N^-1, robust weights."""
+    """Batched (robust) Gauss-Newton from ``x0`` (None: the anchors' centroid); returns
+    positions, covariances N^-1, robust weights."""
     dim = params.dims
     count = np.maximum(has.sum(axis=1), 1)
-    x = (pos[:, :, :dim] * has[..., None]).sum(axis=1) / count[:, None]  # anchor centroid
+    centroid = (pos[:, :, :dim] * has[..., None]).sum(axis=1) / count[:, None]
+    x = centroid if x0 is None else x0.copy()
     p0 = np.where(has, 1.0 / var, 0.0)
     w = np.ones_like(p0)
     eye = np.eye(dim)[None] * 1e-12

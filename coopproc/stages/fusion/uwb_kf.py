@@ -26,11 +26,10 @@ from collections.abc import Mapping
 
 import numba
 import numpy as np
-import pandas as pd
 
-from coopproc.model import FloatArray, Session, Trajectory
+from coopproc.model import FloatArray, Trajectory
 from coopproc.stages.filters import cholesky_solve_nb, igg3_scalar, mad_sigma_nb
-from coopproc.stages.fusion.lsq import LsqFixes, LsqParams, lsq_fixes
+from coopproc.stages.fusion.lsq import LsqFixes, LsqParams
 
 __all__ = ["MAD_WINDOW", "cv_filter", "cv_smooth", "uwb_kf_positions"]
 
@@ -204,12 +203,13 @@ def _trajectory(tid: str, fix: LsqFixes, x: FloatArray, c: FloatArray, source: s
 
 
 def uwb_kf_positions(
-    session: Session, ranges: pd.DataFrame, params: LsqParams, *, smooth: bool
+    fixes: Mapping[str, LsqFixes], params: LsqParams, *, smooth: bool
 ) -> Mapping[str, Trajectory]:
-    """Every tag ranging to anchors: its fixes filtered (``smooth=False``, causal) or
-    filtered and smoothed, at the fix epochs; tag id -> Trajectory with velocity."""
+    """Every platform's fixes (:func:`coopproc.stages.fusion.anchor_lsq.anchor_fixes`)
+    filtered (``smooth=False``, causal) or filtered and smoothed, at the fix epochs;
+    platform id -> Trajectory with velocity."""
     out: dict[str, Trajectory] = {}
-    for tid, fix in lsq_fixes(session, ranges, params).items():
+    for tid, fix in fixes.items():
         if smooth:
             x, c = cv_smooth(fix, params)
             out[tid] = _trajectory(tid, fix, x, c, "LSQ + constant-velocity KF + RTS")
