@@ -58,6 +58,7 @@ def start(root: Path, name: str) -> Any:
     return json.loads((root / name / "run.json").read_text())["start_time"]
 
 
+@pytest.mark.slow
 def test_resume_skips_current_runs_and_redoes_changed_and_failed_ones(
     sessions: Path, tmp_path: Path
 ) -> None:
@@ -112,6 +113,7 @@ def test_resume_refuses_the_run_of_another_session_of_that_name(
     )
 
 
+@pytest.mark.slow
 def test_batch_json_and_the_stacked_tables_describe_every_session_under_root(
     sessions: Path, tmp_path: Path
 ) -> None:
@@ -153,6 +155,7 @@ def test_batch_json_and_the_stacked_tables_describe_every_session_under_root(
     ]
 
 
+@pytest.mark.slow
 def test_a_failed_rerun_outdates_the_run_it_left_in_place(sessions: Path, tmp_path: Path) -> None:
     s1, s2 = sessions / "s1", sessions / "s2"
     root = tmp_path / "root"

@@ -28,6 +28,8 @@ from coopproc.run.implausible import implausible_methods
 from coopproc.stages.base import PositionProduct
 from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
 
+pytestmark = pytest.mark.slow  # real-session runs: CI runs them after the README command
+
 REAL = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "real"
 UWB_ONLY = ("lsq", "lsq_rts", "range_rts")
 

@@ -144,6 +144,7 @@ def test_info_suggests_the_tiers_mapping() -> None:
     assert "not a complete session yet: " in result.output  # no navigation
 
 
+@pytest.mark.slow
 def test_run_on_the_test3_bag_end_to_end(tmp_path: Path) -> None:
     """Three robots (the others dropped), mocap pose mapped as reference and as nav."""
     toml = TOML.replace('drop = ["n_8"]', 'drop = ["n_8", "tb1", "tb2", "tb6", "tb7"]')

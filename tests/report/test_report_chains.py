@@ -339,6 +339,7 @@ def test_without_di_the_last_processed_method_is_primary() -> None:
     assert "position_errors" not in figures  # the run lists no position method
 
 
+@pytest.mark.slow
 def test_write_figures_and_html(chain: str, loaded: RunTables, tmp_path: Path) -> None:
     written = write_figures(loaded, tmp_path / "figures", dpi=30)
     assert {p.stem for p in written} == FIGURES[chain] | ALWAYS
@@ -352,6 +353,7 @@ def test_write_figures_and_html(chain: str, loaded: RunTables, tmp_path: Path) -
         assert "<td>median</td>" in page and "<td>lsq</td>" in page
 
 
+@pytest.mark.slow
 def test_cli_report_on_a_fusion_only_run(tmp_path: Path) -> None:
     out = write_like_run(chain_run("fusion"), tmp_path / "out")
     table = CliRunner().invoke(main, ["report", str(out), "--table"])

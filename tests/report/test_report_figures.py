@@ -43,6 +43,7 @@ def line(ax: Axes, gid: str) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(found[0].get_xdata(), float), np.asarray(found[0].get_ydata(), float)
 
 
+@pytest.mark.slow
 def test_files_are_pngs_of_the_expected_size(loaded: RunTables, tmp_path: Path) -> None:
     paths = write_figures(loaded, tmp_path / "figures", dpi=100)
     assert [p.stem for p in paths] == list(FIGURE_NAMES)

@@ -148,6 +148,7 @@ def test_a_page_without_figures_says_so(run: tuple[Path, RunTables]) -> None:
     assert "<h2>Figures</h2>" in page and "coopproc run --no-figures" in page
 
 
+@pytest.mark.slow
 def test_linked_thumbnails_keep_the_scale(
     run: tuple[Path, RunTables], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

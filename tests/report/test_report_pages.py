@@ -68,6 +68,7 @@ def test_page_names_and_ranges() -> None:
         FigureOptions(max_panels=0)
 
 
+@pytest.mark.slow
 def test_pages_of_one_panel_keep_labels_running(run: RunTables, tmp_path: Path) -> None:
     figs = make_figures(run, FigureOptions(max_panels=1, max_pages=0))  # 0: no page cap
     assert titles(figs["distance_errors"]) == ["(a) A-B"]
@@ -101,6 +102,7 @@ def test_selection_of_pairs_and_platforms(run: RunTables) -> None:
         check_selection(run, platforms=["Q"])
 
 
+@pytest.mark.slow
 def test_cli_report_plots_follow_pairs_and_max_panels(tmp_path: Path) -> None:
     out = write_run_dir(make_run(n=80), tmp_path / "out")
     runner = CliRunner()
@@ -131,6 +133,7 @@ def test_cli_run_checks_pairs_before_the_work(tmp_path: Path) -> None:
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_html_embeds_small_figures_and_says_what_it_selected(
     run: RunTables, tmp_path: Path
 ) -> None:

@@ -300,6 +300,7 @@ def test_cli_figures_html_and_errors(tmp_path: Path) -> None:
     )
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not TIERS.exists(), reason="../shared/data (real TIERS session) is absent")
 def test_tiers_real_ranges(tmp_path: Path) -> None:
     """The real TIERS ranges: its README's [uwb] sigma = 0.121 m is the std against the
