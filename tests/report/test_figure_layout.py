@@ -1,6 +1,7 @@
 """Figure layout read back from the drawn artists: panel titles inside the figure and clear
 of the other panels and of the legend (``--style single-column`` NLOS convergence, the
-trajectories of 10 platforms on a fixed-margin grid)."""
+trajectories of 10 platforms on a fixed-margin grid); the run's outage windows marked in
+the distance and position error figures."""
 
 from __future__ import annotations
 
@@ -17,7 +18,13 @@ from matplotlib.transforms import Bbox
 from report_synth import T0, make_run
 
 from coopproc.model import POSITIONS_COLUMNS
-from coopproc.report.figures import nlos_convergence_figure, trajectories_figure
+from coopproc.report.figures import (
+    distance_errors_figure,
+    nlos_convergence_figure,
+    position_errors_figure,
+    trajectories_figure,
+)
+from coopproc.report.gaps import shaded_spans
 from coopproc.report.pages import FigureOptions
 from coopproc.report.rundir import RunTables
 from coopproc.report.style import STYLES
@@ -111,3 +118,18 @@ def test_ten_platforms_legend_clear_of_the_titles(run: RunTables) -> None:
     assert width == 7.0 and 0.62 + 0.5 + 4 * 2.3 + 0.05 < height < 0.62 + 0.5 + 4 * 2.3 + 0.4
     panel = fig.axes[0].get_position()
     assert panel.height * height == pytest.approx(fig.axes[-1].get_position().height * height)
+
+
+def test_outage_windows_are_marked_in_the_error_figures(run: RunTables) -> None:
+    window = {"start_s": 10.0, "end_s": 22.5, "start": T0 + 10.0, "end": T0 + 22.5}
+    info = {**run.info, "outages": {"windows": [window], "withheld": 30, "positions_at": "nav"}}
+    windowed = dataclasses.replace(run, info=info)
+    for make in (distance_errors_figure, position_errors_figure):
+        fig = make(windowed)
+        assert fig is not None
+        for ax in fig.axes:  # every panel, in times since t0 (= T0)
+            assert shaded_spans(ax, "outage_window").tolist() == [[10.0, 22.5]]
+        labels = [t.get_text() for legend in fig.legends for t in legend.get_texts()]
+        assert labels.count("Outage window") == 1
+    plain = position_errors_figure(run)  # a run without windows: none
+    assert plain is not None and shaded_spans(plain.axes[0], "outage_window").size == 0
