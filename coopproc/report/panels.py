@@ -259,9 +259,9 @@ class Panels:
         for ax, i in zip(axes, indices, strict=True):
             drawn.append(self.draw(ax, i))
             titles.append(ax.set_title(panel_label(i, self.titles[i]), loc="left"))
-        # titles wider than their column on two lines (before the legend: its room
-        # counts their height), then a fixed-margin page taller where the legend needs it
-        wrap_titles(fig, axes, titles)
         self.finish(fig, axes, drawn)
+        # titles wider than their column on two lines (measured with the legend and labels
+        # in place), then a fixed-margin page taller where the legend needs it
+        wrap_titles(fig, axes, titles)
         legend_room(fig, titles)
         return fig
