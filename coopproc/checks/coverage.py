@@ -12,6 +12,8 @@ cover.
   it does not cover;
 - :func:`restrict_to_coverage`: the session without the ranges that an end's navigation
   does not cover, with one note per platform affected (``coopproc run``);
+- :func:`nav_gap_spans`: where each platform's navigation is missing (run.json
+  ``nav_gaps``, which the figures shade as "navigation gap", not as a UWB outage);
 - :func:`prepare_run`: everything ``coopproc run`` (and ``coopproc batch``) checks and
   notes before the stage chain.
 
@@ -34,6 +36,7 @@ __all__ = [
     "NavCoverage",
     "coverage_warnings",
     "nav_coverage",
+    "nav_gap_spans",
     "prepare_run",
     "restrict_to_coverage",
     "session_start_s",
@@ -111,6 +114,41 @@ def nav_coverage(session: Session) -> dict[str, NavCoverage]:
             after=int((tu > end).sum()),
             in_gap=in_gap,
         )
+    return out
+
+
+def nav_gap_spans(session: Session) -> dict[str, FloatArray]:
+    """(k, 2) start and end (session time base) of every stretch in which a platform's
+    navigation gives no position while ranges were taken: its gaps (the rule of
+    :meth:`~coopproc.model.Trajectory.gaps_s`) and, when longer than its gap limit, the
+    stretch from the run's start (its first range or navigation epoch) to its first epoch
+    and from its last epoch to the run's end. Only the platforms with such a stretch
+    (anchors and tags have none); the ranges in them are the ones
+    :func:`restrict_to_coverage` leaves out, so the figures' UWB outages there are
+    navigation gaps (``coopproc run`` records them in run.json
+    ``nav_gaps`` before it lets go of the samples)."""
+    if not len(session.ranges):
+        return {}
+    times = session.ranges.frame["time"].to_numpy(dtype=np.float64)
+    spans = [traj.span_s for traj in session.nav.values() if len(traj)]
+    # the run's span (the figures' bounds): the ranges' and every navigation's
+    first = min([float(np.nanmin(times)), *(a for a, _ in spans)])
+    last = max([float(np.nanmax(times)), *(b for _, b in spans)])
+    out = {}
+    for pid in session.platform_ids:
+        traj = session.nav.get(pid)
+        if session.platforms[pid].role == "anchor" or traj is None or len(traj) < 2:
+            continue
+        start, end = traj.span_s
+        limit = traj.gap_limit_s()
+        parts = [traj.gaps_s()]
+        if start - first > limit:
+            parts.insert(0, np.array([[first, start]]))
+        if last - end > limit:
+            parts.append(np.array([[end, last]]))
+        found = np.concatenate(parts).astype(np.float64).reshape(-1, 2)
+        if found.shape[0]:
+            out[pid] = found
     return out
 
 

@@ -111,7 +111,7 @@ def run(
     import matplotlib
 
     matplotlib.use("Agg")
-    from coopproc.checks.coverage import prepare_run
+    from coopproc.checks.coverage import nav_gap_spans, prepare_run
     from coopproc.io import read_session
     from coopproc.jit_cache import compile_note
     from coopproc.run.calibration_summary import calibration_lines
@@ -166,6 +166,7 @@ def run(
         # ranges the navigation does not cover left out, frames checked; notes appended
         phases.start("prepare")
         data, _ = prepare_run(data)
+        nav_gaps = nav_gap_spans(data)  # run.json's, before the samples are let go of
         # steps run two at a time are one phase (run.concurrent_steps)
         together = workers(config.run.parallel_fusion, len(data.ranges))
         phases.set_total(total - len(steps) + len(group_steps(steps, together)))
@@ -203,6 +204,7 @@ def run(
             timings_before=before,
             timings_after={"summary": phases.timings_s["summary"]},
             input_sha256=input_sha256,
+            nav_gaps=nav_gaps,
         )
     for text in files.notes:  # e.g. what the figures' page cap left out
         note(f"note: {text.replace('coopproc report OUT', f'coopproc report {out_dir}')}")

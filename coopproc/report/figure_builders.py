@@ -26,7 +26,12 @@ from coopproc.report.evaluation_plots import (
     plot_error_track,
     track_method,
 )
-from coopproc.report.gaps import GapSpans, line_gap_limit_s, method_gaps, pair_gaps
+from coopproc.report.gaps import (
+    GapSpans,
+    line_gap_limit_s,
+    method_gaps,
+    pair_gaps,
+)
 from coopproc.report.methods import position_methods, primary_method, range_methods
 from coopproc.report.outage_figure import outage_panels
 from coopproc.report.pages import FigureOptions
@@ -46,6 +51,7 @@ from coopproc.report.plots import (
     plot_nlos_convergence,
     plot_position_errors,
 )
+from coopproc.report.run_spans import nav_gaps_of, outage_windows_of, shade_windows
 from coopproc.report.rundir import RunTables
 from coopproc.report.trajectory_plots import (
     mark_anchors,
@@ -116,12 +122,14 @@ def _distance_errors(run: RunTables, opts: FigureOptions, g: FigureGroups) -> Pa
         events = events[events["method"] == primary]
     events_by_pair = groups(events, "pair")
     no_events = events.iloc[:0]
+    windows = outage_windows_of(run.info)
 
     def draw(ax: Axes, i: int) -> None:
         pair = pairs[i]
         rows, shaded = by_pair[pair], events_by_pair.get(pair, no_events)
-        gaps = g.gaps("pairs", lambda: pair_gaps(g.ranges())).get(pair)
+        gaps = g.gaps("pairs", lambda: pair_gaps(g.ranges(), nav_gaps_of(run.info))).get(pair)
         plot_distance_errors(ax, rows, shaded, methods=methods, time_origin_s=t0, gaps=gaps)
+        shade_windows(ax, windows - t0)  # the run's outage windows (--outage), if any
 
     return Panels(pairs, pairs, stack_layout(opts.style), draw, _time_finish(t0), "pairs")
 
@@ -136,7 +144,7 @@ def _di_errors(run: RunTables, opts: FigureOptions, g: FigureGroups) -> Panels |
     t0 = run.time_origin_s
 
     def draw(ax: Axes, i: int) -> None:
-        gaps = g.gaps("pairs", lambda: pair_gaps(g.ranges())).get(pairs[i])
+        gaps = g.gaps("pairs", lambda: pair_gaps(g.ranges(), nav_gaps_of(run.info))).get(pairs[i])
         plot_di_errors(ax, by_pair[pairs[i]], time_origin_s=t0, gaps=gaps)
 
     return Panels(pairs, pairs, stack_layout(opts.style), draw, _time_finish(t0), "pairs")
@@ -168,14 +176,17 @@ def _position_errors(run: RunTables, opts: FigureOptions, g: FigureGroups) -> Pa
     if not platforms:
         return None
     t0 = run.time_origin_s
+    windows = outage_windows_of(run.info)
 
     def rows_of() -> dict[str, GapSpans]:
-        return method_gaps(_platform_rows(g, opts, methods, error=False))
+        rows = _platform_rows(g, opts, methods, error=False)
+        return method_gaps(rows, nav_gaps_of(run.info))
 
     def draw(ax: Axes, i: int) -> None:
         rows = by_platform[platforms[i]]
         gap = g.gaps("platforms", rows_of).get(platforms[i])
         plot_position_errors(ax, rows, methods=methods, time_origin_s=t0, gaps=gap)
+        shade_windows(ax, windows - t0)
 
     titles = [f"Platform {p}" for p in platforms]
     layout = stack_layout(opts.style)

@@ -40,15 +40,18 @@ are missing:
   platform's epochs, which are its range epochs), and *no reference*, gaps of the epochs
   that have a reference (outside the outages), each from the last sample before to the
   first after. A stretch missing at the start or the end of the run (``bounds``) counts
-  when longer than the limit. :func:`shade_gaps` draws them under the data: outages light
-  grey (``gid`` ``uwb_outage``, legend "UWB outage"), no reference grey-hatched
-  (``no_reference``, "No reference").
+  when longer than the limit. Where the navigation of the platform (or of an end of the
+  pair) is missing (run.json ``nav_gaps``: the run left out the ranges it did not cover),
+  an outage is a *navigation gap* instead: the UWB ranged, the positions could not be
+  processed. :func:`shade_gaps` draws them under the data: outages light grey (``gid``
+  ``uwb_outage``, legend "UWB outage"), navigation gaps light sand (``nav_gap``,
+  "Navigation gap"), no reference grey-hatched (``no_reference``, "No reference").
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -57,11 +60,13 @@ from matplotlib.axes import Axes
 from matplotlib.collections import PolyCollection
 from matplotlib.path import Path
 
-from coopproc.model import GAP_FACTOR, FloatArray
+from coopproc.model import GAP_FACTOR, FloatArray, pair_members
+from coopproc.report.span_sets import intersect, subtract
 
 __all__ = [
     "LENIENT_MIN",
     "LENIENT_SHARE",
+    "NAV_GAP_SPAN",
     "NO_REFERENCE_SPAN",
     "OUTAGE_SPAN",
     "STEP_PERCENTILE",
@@ -75,6 +80,7 @@ __all__ = [
     "platform_gaps",
     "series_gaps",
     "shade_gaps",
+    "shade_spans",
     "shaded_spans",
     "typical_step_s",
 ]
@@ -89,6 +95,8 @@ LENIENT_SHARE = 0.01
 LENIENT_MIN = 3
 #: ``axvspan`` styles of the spans: light grey, and grey hatching, both under the data.
 OUTAGE_SPAN: dict[str, Any] = {"facecolor": "0.88", "edgecolor": "none", "zorder": 0.4}
+#: ... and of a navigation gap: light sand, as flat as an outage (it is missing data too).
+NAV_GAP_SPAN: dict[str, Any] = {"facecolor": "#eadfc8", "edgecolor": "none", "zorder": 0.4}
 NO_REFERENCE_SPAN: dict[str, Any] = {
     "facecolor": "none",
     "edgecolor": "0.72",
@@ -184,28 +192,6 @@ def gap_spans(
     return np.concatenate(spans).astype(np.float64)
 
 
-def _subtract(spans: FloatArray, cut: FloatArray, min_s: float) -> FloatArray:
-    """The parts of ``spans`` outside every span of ``cut`` that are longer than ``min_s``.
-
-    Only the cuts that overlap a span are applied to it (one that does not leaves it as
-    it is): a platform of many pairs can have thousands of both, and trying every cut on
-    every span cost seconds per figure at 20 platforms x 1 h."""
-    out: list[tuple[float, float]] = []
-    cut = np.asarray(cut, dtype=np.float64).reshape(-1, 2)
-    for start, end in spans:
-        pieces = [(float(start), float(end))]
-        overlap = (cut[:, 1] > start) & (cut[:, 0] < end)
-        for lo, hi in cut[overlap]:
-            pieces = [
-                part
-                for a, b in pieces
-                for part in ((a, min(b, lo)), (max(a, hi), b))
-                if part[1] > part[0]
-            ]
-        out.extend(p for p in pieces if p[1] - p[0] > min_s)
-    return np.array(out, dtype=np.float64).reshape(-1, 2)
-
-
 @dataclass(frozen=True)
 class GapSpans:
     """Spans without data of one pair or platform, (k, 2) start and end times, s."""
@@ -214,10 +200,15 @@ class GapSpans:
     outages: FloatArray
     #: Epochs present but without a reference (float or missing reference epochs).
     no_reference: FloatArray
+    #: No data because an end's navigation is missing (run.json ``nav_gaps``): the parts
+    #: of what would be outages that lie in a navigation gap, not among ``outages``.
+    nav_gaps: FloatArray = field(default_factory=lambda: _EMPTY.copy())
 
     def shifted(self, origin_s: float) -> GapSpans:
         """The spans with ``origin_s`` subtracted (times as drawn)."""
-        return GapSpans(self.outages - origin_s, self.no_reference - origin_s)
+        return GapSpans(
+            self.outages - origin_s, self.no_reference - origin_s, self.nav_gaps - origin_s
+        )
 
 
 def series_gaps(
@@ -225,23 +216,32 @@ def series_gaps(
     has_reference: np.ndarray,
     *,
     bounds: tuple[float, float] | None = None,
+    nav_gaps: FloatArray | None = None,
 ) -> GapSpans:
     """The outages and no-reference spans of a series of epochs ``time_s`` of which
     ``has_reference`` have a reference (see the module docstring). The no-reference spans
-    use the limit of the epochs with a reference (the one that breaks their lines)."""
+    use the limit of the epochs with a reference (the one that breaks their lines).
+    ``nav_gaps``: where the navigation of the series' platform (or of an end of its pair)
+    is missing; the parts of the outages inside them are navigation gaps instead, and
+    what is left of an outage shows when it is itself a gap."""
     t = np.asarray(time_s, dtype=np.float64)
     ok = np.asarray(has_reference, dtype=bool) & np.isfinite(t)
-    outages = gap_spans(t, bounds=bounds)
+    limit = line_gap_limit_s(t)
+    missing_data = gap_spans(t, limit_s=limit, bounds=bounds)
+    outages, nav = missing_data, _EMPTY
+    if nav_gaps is not None and len(nav_gaps):
+        nav = intersect(missing_data, nav_gaps, limit)
+        outages = subtract(missing_data, nav_gaps, limit)
     ref_t = t[ok]
     if not ref_t.size:
         span = np.unique(t[np.isfinite(t)])
         missing = np.array([[span[0], span[-1]]]) if span.size > 1 else _EMPTY
-        return GapSpans(outages, _subtract(missing, outages, 0.0))
-    limit = line_gap_limit_s(ref_t)
+        return GapSpans(outages, subtract(missing, missing_data, 0.0), nav)
+    ref_limit = line_gap_limit_s(ref_t)
     within = (float(np.nanmin(t)), float(np.nanmax(t)))
-    missing = gap_spans(ref_t, limit_s=limit, bounds=within)
+    missing = gap_spans(ref_t, limit_s=ref_limit, bounds=within)
     # what an outage leaves of a no-reference gap shows when it is itself a gap
-    return GapSpans(outages, _subtract(missing, outages, limit))
+    return GapSpans(outages, subtract(missing, missing_data, ref_limit), nav)
 
 
 def _bounds(frames: Mapping[Any, pd.DataFrame]) -> tuple[float, float] | None:
@@ -251,38 +251,62 @@ def _bounds(frames: Mapping[Any, pd.DataFrame]) -> tuple[float, float] | None:
     return min(float(np.nanmin(t)) for t in times), max(float(np.nanmax(t)) for t in times)
 
 
-def pair_gaps(ranges_by_pair: Mapping[str, pd.DataFrame]) -> dict[str, GapSpans]:
+def _members_nav(name: str, nav_gaps: Mapping[str, FloatArray] | None) -> FloatArray | None:
+    """The navigation gaps of a platform, or of both ends of a pair, together."""
+    if not nav_gaps:
+        return None
+    try:
+        members: tuple[str, ...] = pair_members(name)
+    except ValueError:
+        members = (name,)
+    parts = [nav_gaps[m] for m in members if m in nav_gaps]
+    return np.concatenate(parts) if parts else None
+
+
+def pair_gaps(
+    ranges_by_pair: Mapping[str, pd.DataFrame],
+    nav_gaps: Mapping[str, FloatArray] | None = None,
+) -> dict[str, GapSpans]:
     """The spans of each pair from its rows of ``ranges.csv`` (every range, with or without
     a reference; ``reference`` gives the no-reference spans); the run's bounds are those
-    of all the pairs' ranges."""
+    of all the pairs' ranges. ``nav_gaps`` (:func:`nav_gaps_of`): the outages where an end's
+    navigation is missing are navigation gaps."""
     bounds = _bounds(ranges_by_pair)
     return {
         pair: series_gaps(
             rows["time"].to_numpy(dtype=np.float64),
             rows["reference"].notna().to_numpy(),
             bounds=bounds,
+            nav_gaps=_members_nav(pair, nav_gaps),
         )
         for pair, rows in ranges_by_pair.items()
     }
 
 
-def platform_gaps(positions_by_platform: Mapping[str, pd.DataFrame]) -> dict[str, GapSpans]:
+def platform_gaps(
+    positions_by_platform: Mapping[str, pd.DataFrame],
+    nav_gaps: Mapping[str, FloatArray] | None = None,
+) -> dict[str, GapSpans]:
     """The spans of each platform from its rows of ``positions.csv`` (those of the methods
     drawn; an epoch has a reference when one of them has an ``error_h``); the bounds are
-    those of all the rows given."""
+    those of all the rows given; ``nav_gaps`` as for :func:`pair_gaps`."""
     bounds = _bounds(positions_by_platform)
     return {
         platform: series_gaps(
             rows["time"].to_numpy(dtype=np.float64),
             rows["error_h"].notna().to_numpy(),
             bounds=bounds,
+            nav_gaps=_members_nav(platform, nav_gaps),
         )
         for platform, rows in positions_by_platform.items()
         if len(rows)
     }
 
 
-def method_gaps(rows_by_platform: Mapping[str, Mapping[str, pd.DataFrame]]) -> dict[str, GapSpans]:
+def method_gaps(
+    rows_by_platform: Mapping[str, Mapping[str, pd.DataFrame]],
+    nav_gaps: Mapping[str, FloatArray] | None = None,
+) -> dict[str, GapSpans]:
     """:func:`platform_gaps` of each platform's rows given per method (the rows of all its
     methods together), one platform's epochs at a time: at a day of 10 platforms all of
     them together were ~0.4 GB in each figure worker (issue 11). The same spans."""
@@ -295,7 +319,8 @@ def method_gaps(rows_by_platform: Mapping[str, Mapping[str, pd.DataFrame]]) -> d
             continue
         time_s = np.concatenate([r["time"].to_numpy(dtype=np.float64) for r in parts])
         has_reference = np.concatenate([r["error_h"].notna().to_numpy() for r in parts])
-        out[platform] = series_gaps(time_s, has_reference, bounds=bounds)
+        own = _members_nav(platform, nav_gaps)
+        out[platform] = series_gaps(time_s, has_reference, bounds=bounds, nav_gaps=own)
     return out
 
 
@@ -325,30 +350,37 @@ def shade_gaps(ax: Axes, gaps: GapSpans | None) -> None:
         return
     kinds = (
         (gaps.outages, "uwb_outage", "UWB outage", OUTAGE_SPAN),
+        (gaps.nav_gaps, "nav_gap", "Navigation gap", NAV_GAP_SPAN),
         (gaps.no_reference, "no_reference", "No reference", NO_REFERENCE_SPAN),
     )
     for spans, gid, label, style in kinds:
-        spans = np.asarray(spans, dtype=np.float64).reshape(-1, 2)
-        if not spans.shape[0]:
-            continue
-        verts, codes = _rectangles(spans)
-        shade = PolyCollection(
-            [], transform=ax.get_xaxis_transform(which="grid"), label=label, **style
-        )
-        shade.set_verts_and_codes([verts], [codes])  # type: ignore[list-item]
-        shade.set_gid(gid)
-        # every rectangle on whole pixels, as one path per span is (matplotlib snaps
-        # paths of up to 1024 vertices only): sub-pixel spans look as they did one by one
-        shade.set_snap(True)
-        ax.add_collection(shade, autolim=False)
-        ax.update_datalim(np.column_stack([spans.ravel(), np.zeros(spans.size)]), updatey=False)
-        # a lazy x autoscale request as axvspan's, if on (an eager set_xlim here: 7 s)
-        ax.autoscale(ax.get_autoscalex_on(), axis="x")
+        shade_spans(ax, spans, gid, label, style)
+
+
+def shade_spans(
+    ax: Axes, spans: FloatArray, gid: str, label: str, style: Mapping[str, Any]
+) -> None:
+    """Shade ``spans`` (times as drawn) on ``ax`` as one artist with ``gid``, ``label``
+    and ``style`` (``PolyCollection`` keywords), as :func:`shade_gaps` draws each kind."""
+    spans = np.asarray(spans, dtype=np.float64).reshape(-1, 2)
+    if not spans.shape[0]:
+        return
+    verts, codes = _rectangles(spans)
+    shade = PolyCollection([], transform=ax.get_xaxis_transform(which="grid"), label=label, **style)
+    shade.set_verts_and_codes([verts], [codes])  # type: ignore[list-item]
+    shade.set_gid(gid)
+    # every rectangle on whole pixels, as one path per span is (matplotlib snaps
+    # paths of up to 1024 vertices only): sub-pixel spans look as they did one by one
+    shade.set_snap(True)
+    ax.add_collection(shade, autolim=False)
+    ax.update_datalim(np.column_stack([spans.ravel(), np.zeros(spans.size)]), updatey=False)
+    # a lazy x autoscale request as axvspan's, if on (an eager set_xlim here: 7 s)
+    ax.autoscale(ax.get_autoscalex_on(), axis="x")
 
 
 def shaded_spans(ax: Axes, gid: str) -> FloatArray:
     """(k, 2) start and end, as drawn, of the spans :func:`shade_gaps` shaded on ``ax``
-    with ``gid`` (``uwb_outage``, ``no_reference``), in drawing order."""
+    with ``gid`` (``uwb_outage``, ``nav_gap``, ``no_reference``), in drawing order."""
     polygons = [
         np.asarray(v, dtype=np.float64)[:, 0]
         for shade in ax.collections

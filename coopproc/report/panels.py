@@ -21,6 +21,7 @@ from matplotlib.figure import Figure
 
 from coopproc.report.pages import panel_label
 from coopproc.report.style import DEFAULT_STYLE, PANEL_HEIGHT_IN, FigureStyle
+from coopproc.report.title_fit import legend_room, wrap_titles
 
 __all__ = [
     "Layout",
@@ -254,8 +255,13 @@ class Panels:
         """The figure of the panels at ``indices`` (labels from their index)."""
         fig, axes = self.layout(len(indices))
         drawn = []
+        titles = []
         for ax, i in zip(axes, indices, strict=True):
             drawn.append(self.draw(ax, i))
-            ax.set_title(panel_label(i, self.titles[i]), loc="left")
+            titles.append(ax.set_title(panel_label(i, self.titles[i]), loc="left"))
         self.finish(fig, axes, drawn)
+        # titles wider than their column on two lines (measured with the legend and labels
+        # in place), then a fixed-margin page taller where the legend needs it
+        wrap_titles(fig, axes, titles)
+        legend_room(fig, titles)
         return fig

@@ -103,7 +103,7 @@ def run_one(
     import matplotlib
 
     matplotlib.use("Agg")
-    from coopproc.checks.coverage import prepare_run
+    from coopproc.checks.coverage import nav_gap_spans, prepare_run
     from coopproc.io import read_session
     from coopproc.run.output import write_run
     from coopproc.run.pipeline import run_pipeline
@@ -118,6 +118,7 @@ def run_one(
         session = read_session(session_path)
         phases.start("prepare")
         session, _ = prepare_run(session)
+        nav_gaps = nav_gap_spans(session)  # run.json's, before the samples are let go of
 
         def let_go_of_samples() -> None:  # the pipeline's metrics have read them
             nonlocal session
@@ -142,6 +143,7 @@ def run_one(
             summary=facts,
             timings_before={k: phases.timings_s[k] for k in ("read", "prepare")},
             timings_after={"summary": phases.timings_s["summary"]},
+            nav_gaps=nav_gaps,
         )
     except CoopprocError as err:
         return failed_outcome(session_path, out_dir, str(err))

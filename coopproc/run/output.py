@@ -25,7 +25,7 @@ from coopproc.io.injected import session_injected
 from coopproc.io.outdir import atomic_output_dir, write_csv
 from coopproc.io.parquet import require_pyarrow, write_parquet
 from coopproc.memory import release_freed_memory
-from coopproc.model import Session
+from coopproc.model import FloatArray, Session
 from coopproc.report.bootstrap import DEFAULT_LEVEL
 from coopproc.report.comparisons import comparisons
 from coopproc.report.consistency import with_consistency
@@ -137,6 +137,7 @@ def write_run(
     timings_before: Mapping[str, float] | None = None,
     timings_after: Mapping[str, float] | None = None,
     input_sha256: Future[dict[Path, str]] | None = None,
+    nav_gaps: Mapping[str, FloatArray] | None = None,
 ) -> RunFiles:
     """Write every output of a run into ``out_dir`` (atomically; see coopproc.io.outdir).
 
@@ -149,7 +150,9 @@ def write_run(
     ``started``: ``duration_s`` is then measured on that monotonic clock, like the phases
     (the system clock may be stepped during a long run: a VM's was, by 9 s, in a day's
     run); None: from the system clock. ``input_sha256``: :func:`hash_inputs` of
-    ``session.inputs`` begun earlier (None: hashed here).
+    ``session.inputs`` begun earlier (None: hashed here). ``nav_gaps``: where each
+    platform's navigation is missing (:func:`~coopproc.checks.coverage.nav_gap_spans` of
+    the session before its samples were let go of), run.json ``nav_gaps``.
     """
     phase = progress or (lambda label: None)
     digests = {} if input_sha256 is None else input_sha256.result()
@@ -198,6 +201,11 @@ def write_run(
         "calibration": calibration_facts(output),
         "timings_s": timings,
         "start_time": started.isoformat(timespec="seconds"),
+    }
+    # where the navigation is missing, per platform: the figures shade it as such
+    info["nav_gaps"] = {
+        pid: [[round(float(a), 6), round(float(b), 6)] for a, b in spans]
+        for pid, spans in (nav_gaps or {}).items()
     }
     if session.clock is not None:  # the clock offsets estimated (checks.clock)
         info["clock"] = clock_facts(session.clock)

@@ -120,3 +120,48 @@ def test_nav_gaps_keeps_the_cooperative_increments_of_the_others(
     for platform in "AB":
         assert _times(positions, platform, "observed").max() - start > 598.0
     assert _times(positions, "C", "observed").max() <= c_last
+
+
+def test_nav_gaps_are_recorded_and_shaded_as_such(
+    e2e_runs: Callable[[str, int], E2ERun],
+) -> None:
+    """run.json ``nav_gaps`` from the session before its samples are let go of; the figures
+    shade those stretches as "Navigation gap", not as a UWB outage (issue 32.8)."""
+    import json
+
+    from coopproc.report.figures import distance_errors_figure, position_errors_figure
+    from coopproc.report.gaps import shaded_spans
+    from coopproc.report.rundir import load_run
+
+    run = e2e_runs("nav-gaps", 0)
+    info = json.loads((run.out / "run.json").read_text())
+    nav = {p: pd.read_csv(run.session / f"nav_{p}.csv")["time"].to_numpy() for p in "AC"}
+    t0 = float(min(nav["A"][0], run.ranges["time"].min()))
+    gaps = info["nav_gaps"]
+    assert sorted(gaps) == ["A", "C"]  # B (the leader) has none
+    (a_gap,) = gaps["A"]  # nav_A.csv has no rows at 270-330 s (5 Hz: 269.9 and 330.1 kept)
+    assert np.allclose(np.subtract(a_gap, t0), [269.9, 330.1], atol=1e-6)
+    (c_end,) = gaps["C"]  # nav_C.csv ends at 539.9 s, the run at 600 s
+    assert c_end[0] == pytest.approx(float(nav["C"][-1]), abs=1e-6)
+    assert c_end[1] - t0 == pytest.approx(600.0, abs=0.05)
+    loaded = load_run(run.out)
+    origin = loaded.time_origin_s
+    positions = position_errors_figure(loaded)
+    distances = distance_errors_figure(loaded)
+    assert positions is not None and distances is not None
+    a, b, c = positions.axes  # platforms A, B, C
+    assert np.allclose(shaded_spans(a, "nav_gap"), np.subtract([a_gap], origin), atol=0.3)
+    assert shaded_spans(a, "uwb_outage").size == 0
+    assert shaded_spans(b, "nav_gap").size == 0 and shaded_spans(b, "uwb_outage").size == 0
+    # to the end of the drawn data (the positions' last epoch, 599 s: at range epochs)
+    ((c_from, c_to),) = shaded_spans(c, "nav_gap")
+    assert c_from == pytest.approx(c_end[0] - origin, abs=0.3) and 598.5 < c_to <= c_end[1] - origin
+    ab, ac, bc = distances.axes  # A-B: A's gap only; A-C: both; B-C: C's end
+    assert np.allclose(shaded_spans(ab, "nav_gap"), np.subtract([a_gap], origin), atol=1.5)
+    assert shaded_spans(ac, "nav_gap").shape == (2, 2)
+    ((bc_from, bc_to),) = shaded_spans(bc, "nav_gap")
+    assert bc_from == pytest.approx(c_end[0] - origin, abs=1.5) and bc_to > 598.5
+    for ax in (*positions.axes, *distances.axes):
+        assert shaded_spans(ax, "uwb_outage").size == 0  # nothing called an outage
+    labels = [t.get_text() for legend in distances.legends for t in legend.get_texts()]
+    assert "Navigation gap" in labels and "UWB outage" not in labels

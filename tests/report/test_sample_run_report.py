@@ -119,7 +119,9 @@ def test_gaps_are_computed_when_a_page_draws_them_once_per_run(
     for name in ("pair_gaps", "method_gaps"):
         real = getattr(figures, name)
         monkeypatch.setattr(
-            figures, name, lambda rows, real=real, name=name: calls.append(name) or real(rows)
+            figures,
+            name,
+            lambda rows, *nav, real=real, name=name: calls.append(name) or real(rows, *nav),
         )
     run = load_run(sample_run)
     pages = list(figure_pages(run))
