@@ -163,11 +163,12 @@ class FusionParams:
         },
     )
     cp_folds: int = field(
-        default=4,
+        default=0,
         metadata={
-            "help": "the ranging stage's CP DI of a pair comes from a fusion without its "
-            "own ranges: the pairs split into this many folds, one forward fusion each "
-            "(leave_out.py; 0: paper 000's cooperative solution of all ranges)"
+            "help": "> 0: the ranging stage's CP DI of a pair comes from a fusion without "
+            "its own ranges, the pairs split into this many folds, one forward fusion each "
+            "(leave_out.py; 4 is the tested setting); 0: paper 000's cooperative solution "
+            "of all ranges"
         },
     )
     dr_states_every_s: float = field(

@@ -52,7 +52,7 @@ def network() -> Simulation:
 def _left_out(sim: Simulation, frame: pd.DataFrame) -> dict[str, dict[str, np.ndarray]]:
     session = sim.session
     sigma = dict.fromkeys(session.ranges.pairs, 0.1)
-    out = leave_pair_out(session, frame, FusionParams(), sigma, {}, {})
+    out = leave_pair_out(session, frame, FusionParams(cp_folds=4), sigma, {}, {})
     return {p: {m: t.enu_m for m, t in ends.items()} for p, ends in out.trajectories.items()}
 
 
@@ -72,7 +72,7 @@ def test_a_pairs_solution_does_not_see_its_own_ranges(network: Simulation) -> No
     after = _left_out(network, bad)
     for m in before[target]:
         np.testing.assert_array_equal(after[target][m], before[target][m])
-    fold = pair_folds(list(session.ranges.pairs), FusionParams().cp_folds)
+    fold = pair_folds(list(session.ranges.pairs), 4)
     others = [p for p in session.ranges.pairs if fold[p] != fold[target]]
     moved = [
         p for p in others if any(np.abs(after[p][m] - before[p][m]).max() > 0.05 for m in before[p])
@@ -85,8 +85,8 @@ def test_the_left_out_solution_is_close_to_the_truth(network: Simulation) -> Non
     truth on average (the navigation alone is worse)."""
     session = network.session
     sol = leave_pair_out(
-        session, session.ranges.frame, FusionParams(), dict.fromkeys(session.ranges.pairs, 0.1),
-        {}, {},
+        session, session.ranges.frame, FusionParams(cp_folds=4),
+        dict.fromkeys(session.ranges.pairs, 0.1), {}, {},
     )  # fmt: skip
     for pair, ends in sol.trajectories.items():
         for m, traj in ends.items():
@@ -104,8 +104,8 @@ def test_three_platforms_keep_paper_000s_solution() -> None:
     sim = simulate("paper-experiment", seed=0, duration_s=60.0)
     session = sim.session
     sol = leave_pair_out(
-        session, session.ranges.frame, FusionParams(), dict.fromkeys(session.ranges.pairs, 0.1),
-        {}, {},
+        session, session.ranges.frame, FusionParams(cp_folds=4),
+        dict.fromkeys(session.ranges.pairs, 0.1), {}, {},
     )  # fmt: skip
     assert MIN_LINKS == 2 and not sol.trajectories and sol.folds == 3
     assert set(sol.kept) == set(session.ranges.pairs)
