@@ -22,6 +22,7 @@ times the robust spread of those residuals, combined with the declared sigma as 
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -71,6 +72,16 @@ def window_ids(time_s: FloatArray, window_s: float) -> np.ndarray:
     if time_s.shape[0] == 0:
         return np.zeros(0, dtype=np.int64)
     return np.floor((time_s - time_s[0]) / window_s + 1e-9).astype(np.int64)
+
+
+def window_slices(time_s: FloatArray, window_s: float) -> list[tuple[int, int]]:
+    """(first, end) row of each calibration window of :func:`window_ids` (time-sorted
+    rows; empty windows give empty slices)."""
+    if time_s.shape[0] == 0:
+        return []
+    win = window_ids(time_s, window_s)
+    bounds = np.searchsorted(win, np.arange(int(win[-1]) + 2))
+    return list(itertools.pairwise(bounds.tolist()))
 
 
 def robust_sigma(values: FloatArray) -> float:

@@ -23,7 +23,6 @@ the observation, and an innovation beyond the gate marks a CP jump that is not u
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -31,7 +30,7 @@ import numpy as np
 from numba import njit
 
 from coopproc.model import FloatArray
-from coopproc.stages.ranging.calibration import window_ids
+from coopproc.stages.ranging.calibration import window_slices
 
 __all__ = [
     "DEFAULT_DRIFT_SIGMA_MPS",
@@ -281,9 +280,7 @@ def windowed_cp_noise_var(
     out = np.zeros(time_s.shape[0])
     if time_s.shape[0] == 0:
         return out
-    win = window_ids(time_s, window_s)
-    bounds = np.searchsorted(win, np.arange(int(win[-1]) + 2))
-    for lo, hi in itertools.pairwise(bounds.tolist()):
+    for lo, hi in window_slices(time_s, window_s):
         out[lo:hi] = cp_noise_var(di_dr_m[lo:hi], di_cp_m[lo:hi])
     return out
 

@@ -8,7 +8,6 @@ from the relative velocity, and the distance filter's numbers (:func:`kernel_par
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -16,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from coopproc.model import FloatArray, Session, Trajectory, pair_members
-from coopproc.stages.ranging.calibration import robust_sigma, window_ids
+from coopproc.stages.ranging.calibration import robust_sigma, window_slices
 from coopproc.stages.ranging.config import RangingConfig
 from coopproc.stages.ranging.di import anchored_increments, di_variance, range_increments
 from coopproc.stages.ranging.nlos import KernelParams
@@ -94,10 +93,8 @@ def velocity_windows(
     change = np.empty_like(range_m)
     change[0] = np.nan
     change[1:] = np.diff(range_m)
-    win = window_ids(time_s, window_s)
-    bounds = np.searchsorted(win, np.arange(int(win[-1]) + 2))
     di, var = di_dr_m.copy(), var_m2.copy()
-    for lo, hi in itertools.pairwise(bounds.tolist()):
+    for lo, hi in window_slices(time_s, window_s):
         by_nav = robust_sigma(change[lo:hi] - di_dr_m[lo:hi])
         by_velocity = robust_sigma(change[lo:hi] - rn_m[lo:hi])
         if by_velocity < by_nav:
