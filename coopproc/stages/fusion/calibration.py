@@ -62,7 +62,7 @@ from coopproc.stages.fusion.calibration_bias import (
     postfit_residuals,
     residuals_by_row,
 )
-from coopproc.stages.fusion.calibration_dr import dr_noise_factor
+from coopproc.stages.fusion.calibration_dr import dr_noise_cv, dr_noise_factor
 from coopproc.stages.fusion.calibration_subset import CALIBRATION_EPOCHS, calibration_rows
 from coopproc.stages.fusion.dr_states import dr_followers
 from coopproc.stages.fusion.fuse import FusionOutput, FusionParams, fuse
@@ -251,6 +251,7 @@ def calibrated_fuse(
     max_epochs: int | None = CALIBRATION_EPOCHS,
     forward: bool = True,
     forward_sigma: bool = True,
+    dr_factor: float | None = None,
 ) -> tuple[FusionOutput, FusionCalibration]:
     """Fuse with per-pair sigmas and drift scales estimated from the data (module docstring).
 
@@ -263,7 +264,9 @@ def calibrated_fuse(
     ``max_epochs``: above this many distinct range times the platform range-bias
     iteration fuses an evenly thinned subset (:func:`calibration_rows`; None: always
     every range). ``forward``: the result's forward trajectories are built (False: the
-    smoothed only, :func:`fuse`); ``forward_sigma``: with their sigmas.
+    smoothed only, :func:`fuse`); ``forward_sigma``: with their sigmas. ``dr_factor``:
+    the followers' DR noise factor, chosen already (the observed ranges' cross-validation,
+    for a processed range set); None: chosen here (:mod:`.calibration_dr`).
     """
     if not params.self_calibrate:
         plain = fuse(
@@ -274,8 +277,18 @@ def calibrated_fuse(
     # 1. dead reckoning that the ranges contradict, with the given range sigmas; what the
     # fusions of this range set share is prepared once (fusion_inputs)
     inputs = fusion_inputs(session, ranges, params, "ranges")
-    # 0. the followers' DR noise level by the innovations' likelihood (state "dr")
-    dr_factor, dr_scores = dr_noise_factor(session, ranges, params, inputs)
+    # 0. the followers' DR noise level (state "dr"): by leave-pair-out cross-validation
+    # (default), or by the innovations' likelihood (dr_noise_search), or given
+    dr_scores: dict[float, float] = {}
+    how = "given"
+    if dr_factor is None and params.dr_noise_search:
+        dr_factor, dr_scores = dr_noise_factor(session, ranges, params, inputs)
+        how = "the factor of the most likely range innovations"
+    elif dr_factor is None:
+        dr_factor, dr_scores = dr_noise_cv(session, ranges, params, inputs.moving)
+        how = "the factor whose fusions best predict the ranges of pairs left out of them"
+    elif dr_factor != 1.0:
+        how = "the factor the observed ranges' cross-validation chose"
     with_dr = set(dr_followers(session, inputs.moving, params))
     start = dict.fromkeys(sorted(with_dr), dr_factor) if dr_factor != 1.0 else {}
     first, scale, first_nis = _drift_scales(
@@ -346,7 +359,7 @@ def calibrated_fuse(
     if dr_factor != 1.0:
         notes.append(
             f"fusion ({label}): the followers' dead-reckoning noise is {dr_factor:g} x the "
-            "[fusion] figures (the factor of the most likely range innovations)"
+            f"[fusion] figures ({how})"
         )
     for platform, total in sorted(scale.items()):
         factor = total / start.get(platform, 1.0)  # the NIS rounds' part

@@ -54,9 +54,12 @@ __all__ = [
 def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
     """Fuse one range set (see the module docstring)."""
     floor = None
+    dr_factor = None  # the observed ranges' DR noise factor, for a processed range set
     observed_cal = inp.observed.calibration if inp.observed is not None else None
     if isinstance(observed_cal, FusionCalibration):
         floor = observed_cal.pair_sigma_m
+        if params.dr_noise_cv:  # the platforms' figure: chosen once, on the observed ranges
+            dr_factor = observed_cal.dr_noise_factor
     digest = range_rows_digest(
         inp.session, inp.ranges, range_sigma_default(inp.session, params.range_sigma_m)
     )
@@ -79,6 +82,7 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
             # the forward solution is the CP solution's increments only (memory, issue 11)
             forward=inp.want_cp and inp.output == "ranges" and params.state == "position",
             forward_sigma=False,  # the ranging stage reads the CP solution's positions
+            dr_factor=dr_factor,
         )
         cp = None
         if inp.want_cp:

@@ -153,6 +153,15 @@ class FusionParams:
             "range innovations are the most likely (calibration_dr.py)"
         },
     )
+    dr_noise_cv: bool = field(
+        default=False,
+        metadata={
+            "help": "state 'dr': scale the followers' DR noise figures by the factor whose "
+            "fusions best predict the ranges of pairs left out of them (leave-pair-out "
+            "cross-validation on the observed ranges, only tightening; calibration_dr.py; off "
+            "by default: DI-fused is then worse than observed-fused on paper-experiment seed 2)"
+        },
+    )
     robust_smoother_iterations: int = field(
         default=1,
         metadata={

@@ -1,0 +1,63 @@
+"""The followers' DR noise factor by leave-pair-out cross-validation (calibration_dr.py):
+it tightens the figures where the ranges' left-out pairs say so, on sample_logs (the
+simulator's paper-experiment, whose dead reckoning is 2-3 deg/h and 0.2-0.6 %: far
+better than the default figures), and through `coopproc run` the observed fusion gets the
+error that factor buys."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from coopproc.checks.coverage import prepare_run
+from coopproc.cli import main
+from coopproc.io import read_session
+from coopproc.stages.fusion.calibration_dr import dr_noise_cv
+from coopproc.stages.fusion.params import FusionParams
+
+SAMPLE = Path(__file__).resolve().parents[3] / "sample_logs"
+
+
+@pytest.fixture(scope="module")
+def sample() -> tuple[object, pd.DataFrame]:
+    session, _ = prepare_run(read_session(SAMPLE))
+    return session, session.ranges.frame[["time", "from", "to", "range", "sigma"]]
+
+
+def test_the_cv_tightens_a_dead_reckoning_better_than_its_figures(sample: tuple) -> None:
+    session, ranges = sample
+    params = FusionParams(dr_noise_cv=True)
+    factor, scores = dr_noise_cv(session, ranges, params, list(session.moving_platforms()))
+    # measured 0.03125 (0.0716 m), 1/16 0.0726, 1/4 0.0919, 1 0.1278 m: monotone
+    assert factor <= 1.0 / 16.0
+    assert set(scores) >= {1.0 / 16.0, 0.25, 1.0} and max(scores) == 1.0  # never loosens
+    assert scores[1.0] > 1.5 * scores[factor]
+    assert scores[0.25] > scores[1.0 / 16.0]
+    # off, the position state, or one pair: no search
+    assert dr_noise_cv(session, ranges, FusionParams(), ["A", "B", "C"]) == (1.0, {})
+    position = dataclasses.replace(params, state="position")
+    assert dr_noise_cv(session, ranges, position, ["A", "B", "C"]) == (1.0, {})
+    one_pair = ranges[(ranges["from"] == "A") & (ranges["to"] == "B")]
+    assert dr_noise_cv(session, one_pair, params, ["A", "B", "C"]) == (1.0, {})
+
+
+def test_the_cv_factor_through_run(tmp_path: Path) -> None:
+    config = tmp_path / "run.toml"
+    config.write_text("[fusion]\ndr_noise_cv = true\n")
+    out = tmp_path / "out"
+    res = CliRunner().invoke(
+        main, ["run", str(SAMPLE), "-o", str(out), "--config", str(config), "--no-figures"]
+    )
+    assert res.exit_code == 0, res.output
+    assert "dead-reckoning noise is 0.03125 x the [fusion] figures (the factor whose" in (
+        res.output
+    )
+    pos = pd.read_csv(out / "positions.csv")
+    mean = pos.groupby(["platform", "method"])["error_h"].mean()
+    # 0.132 / 0.140 m with the default figures (a GTSAM factor graph: 0.077 / 0.094 m)
+    assert mean[("A", "observed")] < 0.05 and mean[("C", "observed")] < 0.06
+    assert mean[("A", "di")] < mean[("A", "observed")]
