@@ -59,7 +59,7 @@ from coopproc.stages.fusion.dr_quality import DeadReckoningQuality, dead_reckoni
 from coopproc.stages.fusion.dr_states import dr_states_of
 from coopproc.stages.fusion.range_weights import range_weights_of
 from coopproc.stages.ranging.table import observed_table
-from coopproc.stages.registry import POSITION_STAGES, RANGE_STAGES
+from coopproc.stages.registry import POSITION_STAGES, RANGE_STAGES, range_stage_of
 
 __all__ = ["PipelineOutput", "run_pipeline"]
 
@@ -323,6 +323,7 @@ def _run_position_step(
     if stage.needs_observed and step.range_set != "observed":
         observed = products[stage.method("observed")]
     own = session if stage.uwb_only else dr_session
+    producer = range_stage_of(step.range_set)
     position_input = PositionInput(
         own,
         step.range_set,
@@ -332,6 +333,7 @@ def _run_position_step(
         config.run.positions_at,
         observed=observed,
         want_cp="cp" in step.outputs,
+        smoothed=producer is not None and step.range_set in producer.smoothed,
     )
     return stage.run(position_input, config.params_for(stage.section))
 

@@ -117,6 +117,10 @@ class RangeStage:
     help: str
     #: True: it needs the cooperative solution with the observed ranges (input ``cp``)
     needs_cp: bool = False
+    #: the methods whose ranges are smoothed over time (errors correlated from epoch to
+    #: epoch, and with the dead reckoning that smoothed them): their fusion keeps the
+    #: [fusion] DR figures (calibration_dr.py)
+    smoothed: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,6 +140,8 @@ class PositionInput:
     #: True: also give the solution at the range epochs as ``cp`` (a range processor
     #: needs the cooperative solution)
     want_cp: bool = False
+    #: True: the range set's ranges are smoothed over time (:attr:`RangeStage.smoothed`)
+    smoothed: bool = False
 
 
 @dataclass(frozen=True, eq=False)

@@ -33,17 +33,22 @@ def test_injected_gross_ranges_are_rejected_and_scored(tmp_path: Path) -> None:
     n_ranges = int(pd.read_csv(gross / "ranges.csv")["range"].notna().sum())
     assert (weights.groupby("method").size() == n_ranges).all()  # every range, each method
     observed = weights[weights["method"] == "observed"]
-    # the observed fusion rejects exactly the two spikes (the simulated NLOS is < 1 m)
+    # the observed fusion rejects the two spikes, and on the NLOS pairs A-B and B-C the
+    # simulated NLOS ranges that its dead reckoning (DR noise factor 1/32 by the
+    # cross-validation, calibration_dr.py) no longer follows: 0.61-0.77 m, 4.1-5.2 sigma
     rejected = observed[observed["rejected"] == 1]
-    assert sorted(zip(rejected["pair"], rejected["time"].round(3), strict=True)) == sorted(
-        zip(injected["pair"], injected["time"].round(3), strict=True)
-    )
+    spikes = set(zip(injected["pair"], injected["time"].round(3), strict=True))
+    assert spikes <= set(zip(rejected["pair"], rejected["time"].round(3), strict=True))
     assert (rejected["gamma"] == 0.0).all()
+    assert set(rejected["pair"]) == {"A-B", "A-C", "B-C"}
+    assert (rejected[rejected["pair"] == "A-C"]["time"].round(3) == 108300.034).all()
     # the residual judged is the spike, far beyond k1 = 4 (measured 19.93 m / 132.9 and
-    # 4.94 m / 33.0)
-    size = rejected.set_index("pair")["innovation"]
-    assert abs(size["B-C"] - 20.0) < 0.3 and abs(size["A-C"] - 5.0) < 0.3
-    assert (rejected["standardized"].abs() > 10.0).all()
+    # 4.94 m / 33.0); the NLOS ones are beyond k1 and under 1 m
+    spike = rejected[rejected["standardized"].abs() > 10.0].set_index("pair")["innovation"]
+    assert len(spike) == 2
+    assert abs(spike["B-C"] - 20.0) < 0.3 and abs(spike["A-C"] - 5.0) < 0.3
+    nlos = rejected[rejected["standardized"].abs() <= 10.0]
+    assert (nlos["standardized"].abs() > 4.0).all() and (nlos["innovation"].abs() < 1.0).all()
     for pair, t in zip(injected["pair"], injected["time"], strict=True):
         mine = observed[observed["pair"] == pair]
         near = mine[(np.abs(mine["time"] - t) < 3.0) & (np.abs(mine["time"] - t) > 1e-6)]
@@ -54,9 +59,13 @@ def test_injected_gross_ranges_are_rejected_and_scored(tmp_path: Path) -> None:
     assert (ac["nlos_true"], ac["detected"], ac["tp"], ac["fp"], ac["fn"]) == (1, 1, 1, 0, 0)
     assert ac["events"] == 1 and ac["precision"] == 1.0 and ac["recall"] == 1.0
     bc = scores.loc[("B-C", "fusion:observed")]
-    assert bc["events"] == 1 and bc["tp"] >= 1 and bc["fp"] == 0
+    # the spike and the NLOS epochs, none clean (measured 8 events, recall 0.625)
+    assert bc["events"] >= 2 and bc["tp"] >= 10 and bc["fp"] == 0
     facts = json.loads((out / "run.json").read_text())["summary"]["fusion_outliers"]
     assert list(facts) == ["observed", "rn", "di"]
-    assert facts["observed"]["rejected"] == 2 and facts["observed"]["rejected_outliers"] == 2
+    # every rejection is a true outlier (measured 18 of 18)
+    assert facts["observed"]["rejected"] >= 10
+    assert facts["observed"]["rejected_outliers"] == facts["observed"]["rejected"]
     line = next(x for x in res.output.splitlines() if x.startswith("fusion down-weighted"))
-    assert "(2 rejected) in observed" in line
+    n = facts["observed"]["rejected"]
+    assert f"({n} rejected) in observed" in line and f" ({n}) of the " in line

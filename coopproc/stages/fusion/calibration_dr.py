@@ -68,15 +68,25 @@ followers' (their dead reckoning's noise), so it is chosen once, on the observed
 and the fusions of the processed range sets take it (a DI range is smoothed with the same
 dead reckoning, so it cannot judge it).
 
-Why it is not the default yet: it makes the observed fusion much better on the
-simulator (``paper-experiment`` seed 0, A/C 0.132/0.140 -> 0.031/0.048 m, where a GTSAM
-factor graph with evidence-tuned odometry gets 0.077/0.094 m; seed 2 A/C 0.040/0.038 m),
-and MiLUV's (DI-fused 0.079 -> 0.070 m), and leaves TIERS, plaza2 and tuc as they were
-(factor 1). But the DI ranges' own errors then show: on seed 2, C's DI-fused error
-is 0.048 m against 0.038 m observed-fused (its own CV factor for the DI fusion gives the
-same), which breaks paper 000's pattern there, and the injected-gross-range test sees the
-observed fusion reject 16 more ranges (the simulated NLOS ranges, which a tight dead
-reckoning no longer follows). The DI smoothing has to get better first.
+Which fusions take it: the observed ranges' fusion chooses it, the RN-Based set (the
+observed ranges less RN's NLOS estimates) takes it, and a smoothed set (DI-Based, the
+median baseline: :attr:`~coopproc.stages.base.RangeStage.smoothed`) keeps the [fusion]
+figures. A smoothed range is smoothed with the same dead reckoning, so its errors are
+correlated with it and from epoch to epoch; fused with the tight factor, DI's own errors
+show (``paper-experiment`` seed 2, C: DI-fused 0.048 m with the factor, 0.034 m with the
+figures, against 0.038 m observed-fused), and a CV of its own for the DI ranges picks
+1/16 (fooled by that correlation) with the same 0.048 m.
+
+Measured through ``coopproc run`` (mean horizontal error, followers A / C; before: the
+[fusion] figures for every set): ``paper-experiment`` seed 0 (sample_logs) observed
+0.132/0.140 -> 0.031/0.048 m (a GTSAM factor graph with evidence-tuned odometry:
+0.077/0.094 m), RN 0.035/0.042 -> 0.024/0.035 m, DI 0.020/0.023 m unchanged; seed 2
+observed 0.110/0.104 -> 0.040/0.038 m, RN 0.038/0.054 m, DI 0.032/0.034 m; the
+``noisy-leader`` observed 0.033/0.048 m, RN 0.025/0.031 m, DI 0.024/0.024 m. With the
+observed fusion this good, the observed fusion's robust refit rejects the simulated NLOS
+ranges (0.6-0.8 m, sample_logs: 18 rejections, every one a true outlier) and RN's partial
+corrections can make RN-fused worse than observed-fused (seed 2, C: 0.054 against
+0.038 m: a corrected NLOS range is no longer rejected).
 """
 
 from __future__ import annotations

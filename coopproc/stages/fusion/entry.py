@@ -54,12 +54,12 @@ __all__ = [
 def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
     """Fuse one range set (see the module docstring)."""
     floor = None
-    dr_factor = None  # the observed ranges' DR noise factor, for a processed range set
+    dr_factor = None  # the DR noise factor: chosen here (observed ranges) or the figures'
     observed_cal = inp.observed.calibration if inp.observed is not None else None
     if isinstance(observed_cal, FusionCalibration):
         floor = observed_cal.pair_sigma_m
-        if params.dr_noise_cv:  # the platforms' figure: chosen once, on the observed ranges
-            dr_factor = observed_cal.dr_noise_factor
+        if params.dr_noise_cv:  # the observed ranges' factor; smoothed ranges: the figures
+            dr_factor = 1.0 if inp.smoothed else observed_cal.dr_noise_factor
     digest = range_rows_digest(
         inp.session, inp.ranges, range_sigma_default(inp.session, params.range_sigma_m)
     )

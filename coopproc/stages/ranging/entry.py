@@ -62,4 +62,5 @@ STAGE = RangeStage(
     help="paper 000: DI smoothing, distance filter, NLOS detection and estimation "
     "(rn = RN-Based reference method, di = DI-Based)",
     needs_cp=True,
+    smoothed=("di",),  # DI smoothing; RN is the observed ranges less its estimates
 )

@@ -48,4 +48,5 @@ STAGE = RangeStage(
     section="median",
     run=median_ranges,
     help="running median of each pair's observed ranges (a model-free baseline)",
+    smoothed=("median",),
 )

@@ -30,7 +30,7 @@ def sample() -> tuple[object, pd.DataFrame]:
 
 def test_the_cv_tightens_a_dead_reckoning_better_than_its_figures(sample: tuple) -> None:
     session, ranges = sample
-    params = FusionParams(dr_noise_cv=True)
+    params = FusionParams()  # dr_noise_cv = true, the default
     factor, scores = dr_noise_cv(session, ranges, params, list(session.moving_platforms()))
     # measured 0.03125 (0.0716 m), 1/16 0.0726, 1/4 0.0919, 1 0.1278 m: monotone
     assert factor <= 1.0 / 16.0
@@ -38,7 +38,8 @@ def test_the_cv_tightens_a_dead_reckoning_better_than_its_figures(sample: tuple)
     assert scores[1.0] > 1.5 * scores[factor]
     assert scores[0.25] > scores[1.0 / 16.0]
     # off, the position state, or one pair: no search
-    assert dr_noise_cv(session, ranges, FusionParams(), ["A", "B", "C"]) == (1.0, {})
+    off = FusionParams(dr_noise_cv=False)
+    assert dr_noise_cv(session, ranges, off, ["A", "B", "C"]) == (1.0, {})
     position = dataclasses.replace(params, state="position")
     assert dr_noise_cv(session, ranges, position, ["A", "B", "C"]) == (1.0, {})
     one_pair = ranges[(ranges["from"] == "A") & (ranges["to"] == "B")]
