@@ -179,6 +179,13 @@ def ins_solution(
             if k is not None:
                 scales[platform] = k
     for platform in ins_platforms(session):
+        if nhc and platform not in session.odometer and session.platforms[platform].nhc is False:
+            # nothing to add to ins (a multirotor): its run, not a second start-up search
+            plain, _ = ins_solution(session, ranges, params, nhc=False)
+            if platform in plain:
+                out[platform] = plain[platform]
+                notes.append(f"INS of {platform}: ins_nhc = ins (nhc = false, no odometer)")
+            continue
         got = _run_platform(
             session, platform, ranges, params, nhc=nhc, uwb=True, odo_scale=scales.get(platform)
         )
