@@ -38,7 +38,7 @@ class Alignment:
     roll: float
     pitch: float
     yaw: float
-    heading_source: Literal["gyrocompass", "given", "motion"]
+    heading_source: Literal["gyrocompass", "given", "motion", "search"]
     sigma_level: float
     sigma_yaw: float
     static_samples: int

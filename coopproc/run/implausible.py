@@ -12,8 +12,9 @@ every platform is checked for
 - **a track its ranges deny**: the median |range - distance to the anchor| over the
   platform's ranges to anchors inside the track's span (the track interpolated at each
   range time) above :data:`RANGE_MISFIT_M`. A drift needs no jump: an INS on ranges
-  thinned to one per anchor every 3 s (the handcart scenario made a tag) drifts 600 m at
-  3 m/s, and its ranges are off by hundreds of metres (a good track: decimetres).
+  thinned to one per anchor every 3 s (the handcart scenario made a tag) drifted 600 m at
+  3 m/s before its start was searched (coopproc.ins.startup), and its ranges were off by
+  hundreds of metres (a good track: decimetres).
 
 A flagged method gets a ``warning:`` line in the closing summary and its counts and first
 offending epochs in run.json (``summary.implausible``); its rows stay in positions.csv
@@ -39,7 +40,8 @@ __all__ = ["SIGMA_EXPLODED_M", "implausible_line", "implausible_methods"]
 SIGMA_EXPLODED_M = 100.0
 #: A median range misfit above this (m) is a track the ranges deny: every method of the
 #: shared real sessions stays within 0.45 m (plaza2's ``lsq_rts``; hanyang_los 0.02 m,
-#: tuc 0.1 m), the handcart INS on thinned ranges is 15-184 m off. (The mirror solution
+#: tuc 0.1 m), the handcart INS on thinned ranges was 15-184 m off before the searched
+#: start (coopproc.ins.startup; now 0.03 m). (The mirror solution
 #: of a 3-anchor round fits its ranges: :mod:`~coopproc.stages.fusion.anchor_lsq` guards.)
 RANGE_MISFIT_M = 2.0
 #: Epochs named per flagged method in run.json.

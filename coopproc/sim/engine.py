@@ -101,6 +101,8 @@ def simulate(
     drifting = min((a.id for a in world.actors if a.nav == "dr"), default=None)
     for actor in sorted(world.actors, key=lambda a: a.id):
         heading = heading_of(actor.truth_enu_m)
+        if actor.yaw_rad is not None:  # a body that does not point along its course
+            heading = np.mod(90.0 - np.degrees(actor.yaw_rad), 360.0)
         truth = Trajectory(actor.id, time, actor.truth_enu_m, heading_deg=heading, source="truth")
         truth_traj[actor.id] = truth
         plats[actor.id] = actor_platform(actor, params)

@@ -91,10 +91,18 @@ def _held(angle: FloatArray, moving: np.ndarray) -> FloatArray:
 
 
 def imu_truth(
-    truth: Trajectory, time_s: FloatArray, origin_llh: tuple[float, float, float], earth: bool
+    truth: Trajectory,
+    time_s: FloatArray,
+    origin_llh: tuple[float, float, float],
+    earth: bool,
+    body: str = "vehicle",
 ) -> ImuTruth:
-    """The error-free gyro and accelerometer samples along ``truth`` at ``time_s``."""
+    """The error-free gyro and accelerometer samples along ``truth`` at ``time_s``;
+    ``body`` "multirotor": tilted by its thrust, yawed by ``truth.heading_deg``
+    (:mod:`coopproc.sim.multirotor`)."""
     spline = CubicSpline(truth.time_s, truth.enu_m, axis=0)
+    if body == "multirotor":
+        return _multirotor_truth(spline, truth, time_s, origin_llh, earth)
     p, v, a = spline(time_s), spline(time_s, 1), spline(time_s, 2)
     vh = np.hypot(v[:, 0], v[:, 1])
     moving = vh > _HOLD_SPEED_MPS
@@ -122,6 +130,33 @@ def imu_truth(
         vel_enu_mps=v,
         yaw_rad=yaw,
         pitch_rad=pitch,
+    )
+
+
+def _multirotor_truth(
+    spline: CubicSpline,
+    truth: Trajectory,
+    time_s: FloatArray,
+    origin_llh: tuple[float, float, float],
+    earth: bool,
+) -> ImuTruth:
+    from coopproc.sim.multirotor import multirotor_imu
+
+    assert truth.heading_deg is not None
+    yaw = CubicSpline(truth.time_s, np.unwrap(np.radians(90.0 - truth.heading_deg)))
+    lat = np.radians(origin_llh[0])
+    w_ie = EARTH_RATE_RADPS * np.array([0.0, np.cos(lat), np.sin(lat)]) if earth else None
+    dt = float(np.median(np.diff(time_s))) if time_s.size > 1 else 0.0
+    gravity = lambda up: normal_gravity(origin_llh[0], origin_llh[2] + up)  # noqa: E731
+    gyro, accel, c = multirotor_imu(spline, yaw, time_s, gravity, w_ie, dt)
+    return ImuTruth(
+        time_s=time_s,
+        gyro_radps=gyro,
+        accel_mps2=accel,
+        enu_m=spline(time_s),
+        vel_enu_mps=spline(time_s, 1),
+        yaw_rad=np.arctan2(c[:, 1, 0], c[:, 0, 0]),
+        pitch_rad=np.arcsin(np.clip(c[:, 2, 0], -1.0, 1.0)),
     )
 
 
@@ -212,10 +247,13 @@ def add_raw_sensors(sim: Simulation) -> Simulation:
             continue
         t0, t1 = truth.span_s
         t_imu = _grid(t0, t1 - t0, p.imu_rate_hz)
-        ideal = imu_truth(truth, t_imu, sim.session.origin_llh, p.imu_earth_rate)
+        ideal = imu_truth(truth, t_imu, sim.session.origin_llh, p.imu_earth_rate, p.imu_body)
         rng = named_rng(sim.seed, f"imu:{pid}")
         gyro, accel, draws = imu_errors(ideal, grade, p.imu_rate_hz, rng)
         imu[pid] = ImuData(pid, "simulated", t_imu, gyro, accel, "rate", 0.0)
+        if p.imu_body == "multirotor":  # no wheels
+            rows.append({"platform": pid, "grade": grade.name, **draws, "odo_scale": np.nan})
+            continue
         odo_rng = named_rng(sim.seed, f"odo:{pid}")
         scale = float(scales.get(pid, odo_rng.normal(0.0, p.odo_scale_sigma)))
         t_odo = _grid(t0, t1 - t0, p.odo_rate_hz)
@@ -223,10 +261,12 @@ def add_raw_sensors(sim: Simulation) -> Simulation:
         odo[pid] = OdometerData(pid, "simulated", t_odo, speed, "speed")
         rows.append({"platform": pid, "grade": grade.name, **draws, "odo_scale": scale})
     # session.toml declares what the files are: the grade drawn, and NHC (the simulated
-    # body has no lateral or vertical velocity: roll 0, yaw along the course, see above)
+    # vehicle has no lateral or vertical velocity: roll 0, yaw along the course, see
+    # above; a multirotor: nhc = false)
     declared = ImuNoise(grade=grade.name)
+    nhc = p.imu_body == "vehicle"  # a multirotor's body velocity has every direction
     platforms = {
-        pid: dataclasses.replace(plat, nhc=True, imu=declared) if pid in imu else plat
+        pid: dataclasses.replace(plat, nhc=nhc, imu=declared) if pid in imu else plat
         for pid, plat in sim.session.platforms.items()
     }
     session = dataclasses.replace(sim.session, imu=imu, odometer=odo, platforms=platforms)

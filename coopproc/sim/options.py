@@ -99,6 +99,12 @@ def _imu(p: SimParams) -> str | None:
     return None if p.imu_rate_hz > 0 else "without IMU data (imu_rate_hz = 0; e.g. --imu 100)"
 
 
+def _odometer(p: SimParams) -> str | None:
+    if p.imu_body != "vehicle":
+        return "without an odometer (imu_body = multirotor: no wheels)"
+    return _imu(p)
+
+
 #: What only acts with ``gnss_obs`` (coopproc.sim.gnss_obs).
 GNSS_OPTIONS = (
     "gnss_nav", "gnss_rinex_version", "gnss_rate_hz", "gnss_mask_deg", "gnss_code_sigma_m",
@@ -130,7 +136,8 @@ NEEDS: dict[str, Callable[[SimParams], str | None]] = {
     "slip_rate_per_hour": _slips,
     "imu_grade": _imu,
     "imu_earth_rate": _imu,
-    "odo_rate_hz": _imu,
+    "odo_rate_hz": _odometer,
+    "imu_body": _imu,
     **dict.fromkeys(GNSS_OPTIONS, _gnss),
 }
 

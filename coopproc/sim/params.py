@@ -224,6 +224,12 @@ class SimParams:
         True, "IMU gyros sense the earth rotation (and the accelerometers Coriolis)", sparse=True
     )
     odo_rate_hz: float = _f(10.0, "odometer rate, Hz (1-1000), with imu_rate_hz", sparse=True)
+    imu_body: str = _f(
+        "vehicle",
+        "how the IMU's body moves: vehicle (x along the course, roll 0: NHC holds, odometer "
+        "written) | multirotor (tilted by its thrust, yaw its own: no NHC, no odometer)",
+        sparse=True,
+    )
 
     # raw GNSS (issue 13): off unless gnss_obs (coopproc.sim.gnss_obs)
     gnss_obs: bool = _f(
@@ -295,6 +301,8 @@ class SimParams:
         if self.imu_grade not in IMU_GRADE_FIGURES:
             grades = " | ".join(IMU_GRADE_FIGURES)
             raise ValueError(f"imu_grade must be one of {grades}, found {self.imu_grade!r}")
+        if self.imu_body not in ("vehicle", "multirotor"):
+            raise ValueError(f"imu_body must be vehicle | multirotor, found {self.imu_body!r}")
         if self.platforms < 1:
             raise ValueError(f"platforms must be >= 1, found {self.platforms}")
         if self.start_tow_s < 0 or self.start_tow_s + self.duration_s >= 604800.0:

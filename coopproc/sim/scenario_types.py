@@ -36,6 +36,9 @@ class Actor:
     truth_enu_m: FloatArray  # (n, 3) on the world's time grid
     #: True: the nav file is in the platform's own frame (start 0, initial heading 0).
     own_frame: bool = False
+    #: (n,) body yaw (rad, counter-clockwise from east) of a body whose heading is not its
+    #: course (a multirotor); None: the heading is the course over ground.
+    yaw_rad: FloatArray | None = None
 
 
 @dataclass(frozen=True, eq=False)

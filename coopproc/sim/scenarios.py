@@ -30,6 +30,7 @@ from coopproc.sim.ins_worlds import (
     handcart,
     land_vehicle,
 )
+from coopproc.sim.multirotor import QUADROTOR_DEFAULTS, quadrotor
 from coopproc.sim.params import NavGapSpec, NlosSpec, OutageSpec, SimParams
 from coopproc.sim.paths import rounded_polygon, rounded_rectangle
 from coopproc.sim.scenario_types import Actor, World, named_rng
@@ -297,6 +298,21 @@ SCENARIOS: dict[str, Scenario] = {
         land_vehicle,
         LAND_VEHICLE_DEFAULTS,
         unused=_ANCHORS_UNUSED,
+    ),
+    "quadrotor": Scenario(
+        "quadrotor",
+        "issue 31: 3 drones (consumer IMU at 200 Hz, no navigation file, role tag) flying "
+        "3-D curves in a 6.5 x 7 m lab from the first sample on (no static start), each "
+        "ranging its 6 anchors in turn at 2 Hz (one range per anchor every 3 s); two "
+        "10 s NLOS bursts on ifo001",
+        quadrotor,
+        QUADROTOR_DEFAULTS,
+        unused={
+            **_ANCHORS_UNUSED,
+            **_TAG_UNUSED,
+            "distance_rate_mps": "no formation: each drone flies a curve of its own",
+            "height_amplitude_m": "no terrain: the drones fly their own heights",
+        },
     ),
     "single-auxiliary": Scenario(
         "single-auxiliary",

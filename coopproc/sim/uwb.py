@@ -41,6 +41,9 @@ class PairModel:
     laplace_m: float = 0.0
     #: Scale of Student-t (2 dof) noise instead of the Gaussian: heavy tails; 0: Gaussian.
     student_t_m: float = 0.0
+    #: Offset of the pair's epochs in the ranging period, s; None: 13 ms + 21 ms per pair
+    #: (a schedule of the scenario's own: the quadrotor's tags poll anchors in turn).
+    offset_s: float | None = None
 
     @property
     def pair(self) -> str:
@@ -85,13 +88,13 @@ def range_times_rel(
     """Ranging epochs of every link over the truth's common span, s from ``start_s``.
 
     Each pair at the ranging rate with its own offset in the period (13 ms + 21 ms per
-    pair in sorted order), as a DW1000 polls pairs in turn.
+    pair in sorted order, or the link's ``offset_s``), as a DW1000 polls pairs in turn.
     """
     period = 1.0 / params.range_rate_hz
     t_end = min(float(traj.time_s[-1]) for traj in truth.values()) - start_s
     out = {}
     for index, link in enumerate(sorted(links, key=lambda item: item.pair)):
-        offset = (0.013 + 0.021 * index) % period
+        offset = (0.013 + 0.021 * index) % period if link.offset_s is None else link.offset_s
         t_rel = np.round(
             offset + period * np.arange(int(np.floor((t_end - offset) / period)) + 1), 6
         )

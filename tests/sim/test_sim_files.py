@@ -100,6 +100,7 @@ _SHORT = {
     "noisy-leader": ["--duration", "120"],
     "body-blocked": ["--duration", "120"],
     "nav-gaps": ["--duration", "180"],
+    "quadrotor": ["--duration", "60"],
 }
 
 

@@ -39,6 +39,7 @@ _BASE: dict[str, dict[str, Any]] = {
     "noisy-leader": {"duration_s": 120.0},
     "body-blocked": {"duration_s": 120.0},
     "nav-gaps": {"duration_s": 120.0},
+    "quadrotor": {"duration_s": 120.0, "imu_rate_hz": 0.0, "platforms": 8},
 }
 
 Value = Callable[[Simulation], Any]
@@ -66,7 +67,7 @@ _CHANGE: dict[str, Value] = {
     "nav_rate_hz": lambda sim: 5.0,
     "range_rate_hz": lambda sim: 2.0,
     "ref_rate_hz": lambda sim: 1.0,
-    "speed_mps": lambda sim: 0.8,
+    "speed_mps": lambda sim: 0.8 if sim.truth.params.speed_mps != 0.8 else 1.0,
     "distance_rate_mps": lambda sim: 0.2,
     "height_amplitude_m": lambda sim: 1.0,
     "gyro_bias_dph": lambda sim: 10.0,
@@ -113,6 +114,7 @@ _CHANGE: dict[str, Value] = {
     "imu_grade": lambda sim: "consumer" if sim.truth.params.imu_grade != "consumer" else "tactical",
     "imu_earth_rate": _flip("imu_earth_rate"),
     "odo_rate_hz": lambda sim: 20.0,
+    "imu_body": lambda sim: "vehicle" if sim.truth.params.imu_body != "vehicle" else "multirotor",
 }
 
 
@@ -130,7 +132,8 @@ _NEEDS: dict[str, dict[str, Value]] = {
     "aux2_noise_m": {"second_aux": _single_only(True)},
     "imu_grade": {"imu_rate_hz": lambda sim: 50.0},
     "imu_earth_rate": {"imu_rate_hz": lambda sim: 50.0},
-    "odo_rate_hz": {"imu_rate_hz": lambda sim: 50.0},
+    "odo_rate_hz": {"imu_rate_hz": lambda sim: 50.0, "imu_body": lambda sim: "vehicle"},
+    "imu_body": {"imu_rate_hz": lambda sim: 50.0},
 }
 
 _AUX = ("aux_static", "second_aux", "aux2_bias_m", "aux2_noise_m")
@@ -178,6 +181,10 @@ _REFUSED: dict[tuple[str, str], str] = {
     ("distance_rate_mps", "tag-only"): "no formation",
     ("distance_rate_mps", "single-auxiliary"): "no formation",
     ("platforms", "paper-table1"): "must be 2",
+    **{(o, "quadrotor"): "no GNSS/INS platform" for o in _LEADER},
+    **{(o, "quadrotor"): "the tag has no dead reckoning" for o in _TAG_DR},
+    ("distance_rate_mps", "quadrotor"): "no formation",
+    ("height_amplitude_m", "quadrotor"): "no terrain",
 }
 
 

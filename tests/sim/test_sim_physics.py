@@ -218,4 +218,5 @@ def test_bad_parameters_are_one_line_config_errors() -> None:
         "tag-only",
         "handcart",
         "land-vehicle",
+        "quadrotor",
     }

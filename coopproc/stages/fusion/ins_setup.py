@@ -18,7 +18,9 @@
   and the heading of the navigation file, else of the first motion of the fixes; in
   motion from the first sample, levelling from the mean specific force of the first
   second (its error is the acceleration over g: about 1 deg for 0.2 m/s^2) with the
-  configured sigmas.
+  configured sigmas. A heading from the first motion alone (no navigation heading, no
+  gyrocompassing) is marked ``search``: the INS stage searches it on the ranges
+  (:mod:`coopproc.ins.startup`), which also refines the position, velocity and level.
 """
 
 from __future__ import annotations
@@ -51,6 +53,9 @@ class InsStart:
     vel_enu_mps: FloatArray
     #: what the start was taken from, for the notes
     how: str
+    #: the heading is a guess from the first motion (no navigation heading, no
+    #: gyrocompassing): the INS stage searches it (coopproc.ins.startup)
+    search: bool = False
 
 
 def anchor_ranges(
@@ -160,10 +165,14 @@ def ins_start(
         al = coarse_align(
             imu.time_s, imu.gyro_radps, imu.accel_mps2, lat, figures, yaw=yaw, motion=motion
         )
-        return InsStart(al, enu, np.zeros(3), f"{how}, aligned at rest ({static_s:.0f} s)")
+        return InsStart(
+            al, enu, np.zeros(3), f"{how}, aligned at rest ({static_s:.0f} s)",
+            search=al.heading_source == "motion",
+        )  # fmt: skip
     first = imu.time_s <= t0 + 1.0
     roll, pitch = level(imu.accel_mps2[first].mean(axis=0))
     heading_from = "navigation heading"
+    search = yaw is None
     if yaw is None:
         _, yaw = heading_from_motion(*motion)
         heading_from = "first motion of the fixes"
@@ -177,7 +186,9 @@ def ins_start(
         0,
     )
     vel = _velocity(nav if nav is not None and len(nav) >= 2 else source, t_start)
-    return InsStart(al, enu, vel, f"{how}, aligned in motion (heading: {heading_from})")
+    return InsStart(
+        al, enu, vel, f"{how}, aligned in motion (heading: {heading_from})", search=search
+    )
 
 
 def odometer_scale(

@@ -16,6 +16,7 @@ solution; velocity and attitude go to states.csv.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -111,6 +112,18 @@ class InsParams:
     heading_sigma_deg: float = field(
         default=10.0, metadata={"help": "heading 1-sigma when aligned in motion (deg)"}
     )
+    heading_search: int = field(
+        default=12,
+        metadata={
+            "help": "start headings tried when neither a navigation heading nor "
+            "gyrocompassing gives one (the best fit of the ranges is taken; 0 = the first "
+            "motion's heading alone; docs/methods-ins.md, Start)"
+        },
+    )
+    search_window_s: float = field(
+        default=30.0,
+        metadata={"help": "seconds of motion (after a static start) each heading is tried on"},
+    )
 
     def __post_init__(self) -> None:
         for mode in self.modes:
@@ -118,6 +131,11 @@ class InsParams:
                 raise ValueError(f"unknown INS mode '{mode}' (known: {', '.join(INS_MODES)})")
         if not 0 < self.k0 < self.k1:
             raise ValueError(f"k0 = {self.k0}, k1 = {self.k1}: expected 0 < k0 < k1")
+        if self.heading_search < 0 or self.search_window_s <= 0:
+            raise ValueError(
+                f"heading_search = {self.heading_search}, search_window_s = "
+                f"{self.search_window_s}: expected >= 0 and > 0"
+            )
         for name in ("range_sigma_m", "nhc_sigma_mps", "odo_sigma_mps", "start_sigma_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} = {getattr(self, name)}, expected > 0")
@@ -161,6 +179,13 @@ def ins_solution(
             if k is not None:
                 scales[platform] = k
     for platform in ins_platforms(session):
+        if nhc and platform not in session.odometer and session.platforms[platform].nhc is False:
+            # nothing to add to ins (a multirotor): its run, not a second start-up search
+            plain, _ = ins_solution(session, ranges, params, nhc=False)
+            if platform in plain:
+                out[platform] = plain[platform]
+                notes.append(f"INS of {platform}: ins_nhc = ins (nhc = false, no odometer)")
+            continue
         got = _run_platform(
             session, platform, ranges, params, nhc=nhc, uwb=True, odo_scale=scales.get(platform)
         )
@@ -230,6 +255,24 @@ def _run_platform(
         sigma_vel_mps=params.start_sigma_mps,
         smooth=uwb,
     )
+    how = start.how
+    if start.search and uwb and params.heading_search > 0:
+        from coopproc.ins.startup import START_NIS_MAX, start_up
+
+        n_static = start.alignment.static_samples
+        static_s = float(imu.time_s[n_static - 1] - imu.time_s[0]) if n_static > 1 else 0.0
+        found = start_up(
+            imu, aiding, config, static_s=static_s, window_s=params.search_window_s,
+            count=params.heading_search,
+        )  # fmt: skip
+        config = dataclasses.replace(found.config, smooth=config.smooth)
+        how = f"{how}; heading by {found.describe()}"
+        if found.refined_nis > START_NIS_MAX:
+            how += (
+                f"; warning: no candidate fits its ranges (NIS RMS above {START_NIS_MAX:g}): "
+                "the start may be wrong; a navigation file with a heading, a static start "
+                "of 5 s or denser ranges would give one"
+            )
     result = run_ins(imu, aiding, config)
     used = ["UWB ranges to anchors" if uwb else "no UWB"]
     used += ["NHC"] if use_nhc else []
@@ -237,7 +280,7 @@ def _run_platform(
         used += [
             "odometer" + ("" if odo_scale is None else f" (scale {odo_scale:+.2%} vs ins_rts)")
         ]
-    return result, f"INS of {platform}: {', '.join(used)}; start: {start.how}"
+    return result, f"INS of {platform}: {', '.join(used)}; start: {how}"
 
 
 def dead_reckoning(session: Session, platform: str, params: InsParams) -> tuple[Trajectory, str]:
