@@ -71,3 +71,70 @@ def test_a_run_calls_no_kernel_outside_the_list(tmp_path: Path) -> None:
     listed = {f"{m}:{k}" for m, k, _ in RUN_KERNELS}
     assert called - listed == set()
     assert {k for k in listed if after.get(k, 0) == 0} == set()
+
+
+def test_the_kernels_compiled_ahead_are_called_with_their_listed_signatures(
+    tmp_path: Path,
+) -> None:
+    """A run of sample_logs calls each kernel of jit_ahead.AHEAD with the signature the
+    second process compiles (else it compiles for nothing and the run compiles again)."""
+    if not SAMPLE.is_dir():
+        pytest.skip("no sample_logs/ in this checkout")
+    import importlib
+
+    from coopproc.jit_ahead import AHEAD, signature
+
+    result = CliRunner().invoke(
+        main, ["run", str(SAMPLE), "-o", str(tmp_path / "run"), "-q", "--force"]
+    )
+    assert result.exit_code == 0, result.output
+    listed = {(m, k) for m, k, _ in RUN_KERNELS}
+    for module, kernel, code in AHEAD:
+        assert (module, kernel) in listed
+        compiled = getattr(importlib.import_module(module), kernel).signatures
+        assert signature(code) in [tuple(s) for s in compiled], f"{module}.{kernel}"
+
+
+_LOAD_READONLY = """
+import numpy as np
+from coopproc.io.csv_fast import _any_slow
+values = np.zeros(3)
+values.flags.writeable = False
+_any_slow(values)
+print(sum(_any_slow.stats.cache_hits.values()), sum(_any_slow.stats.cache_misses.values()))
+"""
+
+
+def test_a_kernel_compiled_ahead_is_loaded_by_the_run_not_compiled_again(
+    tmp_path: Path,
+) -> None:
+    """``python -m coopproc.jit_ahead`` writes the compile into the cache under the key
+    the run's call looks up: the run's process loads it (a cache hit, no miss)."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
+    ahead = subprocess.run(
+        [sys.executable, "-m", "coopproc.jit_ahead", "coopproc.io.csv_fast:_any_slow"],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert ahead.returncode == 0, ahead.stderr
+    out = subprocess.run(
+        [sys.executable, "-c", _LOAD_READONLY], env=env, capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["1", "0"]
+
+
+def test_the_note_says_the_longer_share_when_a_second_process_compiles() -> None:
+    from coopproc.jit_ahead import AHEAD
+    from coopproc.jit_cache import AHEAD_START_S, compile_note
+
+    ahead = {(m, k) for m, k, _ in AHEAD}
+    here = sum(s for m, k, s in RUN_KERNELS if (m, k) not in ahead)
+    there = sum(s for m, k, s in RUN_KERNELS if (m, k) in ahead)
+    assert here > there + AHEAD_START_S  # the fusion's kernels are the longer share
+    alone = compile_note(cold=RUN_KERNELS)
+    together = compile_note(cold=RUN_KERNELS, ahead=ahead)
+    assert alone == "compiling the numerical kernels (once after install, about 40 s)"
+    assert together == "compiling the numerical kernels (once after install, about 30 s)"
+    assert compile_note(cold=[]) is None
