@@ -138,3 +138,32 @@ def test_the_note_says_the_longer_share_when_a_second_process_compiles() -> None
     assert alone == "compiling the numerical kernels (once after install, about 40 s)"
     assert together == "compiling the numerical kernels (once after install, about 30 s)"
     assert compile_note(cold=[]) is None
+
+
+@pytest.mark.slow
+def test_a_cold_run_with_kernels_compiled_ahead_writes_the_warm_runs_files(
+    tmp_path: Path,
+) -> None:
+    """An empty numba cache: the run says the longer share (about 30 s, not 40), the
+    second process compiles the later kernels, and the tables are byte for byte those
+    of a run with the cache warm (the same compiled code)."""
+    if not SAMPLE.is_dir():
+        pytest.skip("no sample_logs/ in this checkout")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
+    runs = {}
+    for name in ("cold", "warm"):
+        out = tmp_path / name
+        done = subprocess.run(
+            [sys.executable, "-m", "coopproc", "run", str(SAMPLE), "-o", str(out),
+             "--no-figures"],
+            env=env, capture_output=True, text=True,
+        )  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        runs[name] = (out, done.stderr)
+    note = "compiling the numerical kernels (once after install, about 30 s)"
+    assert note in runs["cold"][1] and "compiling" not in runs["warm"][1]
+    cold, warm = runs["cold"][0], runs["warm"][0]
+    tables = sorted(p.name for p in cold.glob("*.csv"))
+    assert tables and tables == sorted(p.name for p in warm.glob("*.csv"))
+    for name in tables:
+        assert (cold / name).read_bytes() == (warm / name).read_bytes(), name
