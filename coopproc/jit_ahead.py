@@ -102,12 +102,16 @@ def compile_ahead(cold: Sequence[tuple[str, str, float]] | None) -> Iterator[boo
     if not todo or _cpus() < 2:
         yield False
         return
-    child = subprocess.Popen(
-        [sys.executable, "-P", "-m", "coopproc.jit_ahead", *todo],
-        stdin=subprocess.DEVNULL,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
+    try:
+        child = subprocess.Popen(
+            [sys.executable, "-P", "-m", "coopproc.jit_ahead", *todo],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+    except OSError:  # no interpreter to start (an embedded Python): the run compiles all
+        yield False
+        return
     try:
         yield True
     finally:

@@ -167,3 +167,34 @@ def test_a_cold_run_with_kernels_compiled_ahead_writes_the_warm_runs_files(
     assert tables and tables == sorted(p.name for p in warm.glob("*.csv"))
     for name in tables:
         assert (cold / name).read_bytes() == (warm / name).read_bytes(), name
+
+
+def test_the_second_process_is_started_for_cold_kernels_and_stopped_after(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import coopproc.jit_ahead as ahead
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "numba"))
+    started: list[subprocess.Popen[bytes]] = []
+    real = subprocess.Popen
+
+    def popen(*args: object, **kwargs: object) -> subprocess.Popen[bytes]:
+        started.append(real(*args, **kwargs))  # type: ignore[call-overload]
+        return started[-1]
+
+    monkeypatch.setattr(ahead.subprocess, "Popen", popen)
+    cold = [("coopproc.io.csv_fast", "_format_rows", 1.9)]
+    with ahead.compile_ahead(cold) as running:
+        assert running and len(started) == 1
+        assert started[0].args[-1] == "coopproc.io.csv_fast:_format_rows"
+    assert started[0].poll() is not None  # stopped (or done) when the run ends
+    with ahead.compile_ahead([("coopproc.stages.fusion.ekf", "ekf_forward", 18.9)]) as running:
+        assert not running  # the run's own share: nothing to start
+    monkeypatch.setattr(ahead, "_cpus", lambda: 1)
+    with ahead.compile_ahead(cold) as running:
+        assert not running  # one CPU: nothing to gain
+    monkeypatch.setattr(ahead, "_cpus", lambda: 2)
+    monkeypatch.setattr(ahead.sys, "executable", str(tmp_path / "no-python"))
+    with ahead.compile_ahead(cold) as running:
+        assert not running  # no interpreter to start: the run compiles everything
+    assert len(started) == 1
