@@ -12,7 +12,13 @@ numba cache (NUMBA_CACHE_DIR pointed at a new temporary directory: every kernel 
 compiled, as on the first run after an install) and ``--repeat`` times with that cache
 warm: wall-clock and CPU seconds (the children's user + system time: what the load of
 the shared machine does not stretch) and the load average. Targets: first run <= 30 s,
-later runs <= 8 s (wall-clock, 2-core machine). ``--no-run`` skips them.
+later runs <= 8 s (wall-clock, 2-core machine). ``--no-run`` skips them. The runs write
+Python's bytecode cache (``PYTHONDONTWRITEBYTECODE`` is dropped from their environment):
+an installed package has it (pip compiles the modules on install, an editable install on
+its first import), and without it every run compiles the ~300 modules' source again
+(1.1 s CPU on this machine, whose environment sets it). On a cold run with two CPUs a
+second process compiles the later kernels meanwhile (coopproc/jit_ahead.py): its CPU
+time is in the CPU seconds printed.
 
     /work/venv/bin/python benchmarks/cli_start.py [--repeat 5] [--no-run]
 """
@@ -60,6 +66,7 @@ def run_seconds(cache_dir: str, out_dir: str) -> tuple[float, float]:
     """Wall-clock and CPU seconds of one ``coopproc run sample_logs`` with numba's cache
     in ``cache_dir``."""
     env = {**os.environ, "NUMBA_CACHE_DIR": cache_dir}
+    env.pop("PYTHONDONTWRITEBYTECODE", None)  # as installed (module docstring)
     command = [sys.executable, "-P", "-m", "coopproc", "run", str(SAMPLE), "-o", out_dir]
     cpu = _children_cpu()
     start = time.perf_counter()

@@ -19,16 +19,17 @@ and nothing is said.
 :data:`RUN_KERNELS` holds, per kernel, the CPU seconds its first compile took in a run
 of ``sample_logs`` with an empty cache (numba 0.68, the 2-core machine of issue 32, taken
 from numba's compile events: each kernel's compile with the callees compiled first for
-it). A cold run's note sums those of the kernels not yet cached; the wall-clock time
-is about that on an idle machine and grows with its load.
+it). A cold run's note sums those of the kernels not yet cached, the longer of the two
+shares when a second process compiles the later kernels meanwhile (:mod:`coopproc.jit_ahead`);
+the wall-clock time is about that on an idle machine and grows with its load.
 """
 
 from __future__ import annotations
 
 import importlib
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 
-__all__ = ["RUN_KERNELS", "cold_kernels", "compile_note"]
+__all__ = ["AHEAD_START_S", "RUN_KERNELS", "cold_kernels", "compile_note"]
 
 #: (module, kernel, CPU seconds of its first compile) of every numba kernel a run of
 #: ``coopproc run`` calls from Python, in the order a run reaches them (measured on
@@ -82,12 +83,25 @@ def cold_kernels(
     return cold
 
 
-def compile_note(kernels: Sequence[tuple[str, str, float]] = RUN_KERNELS) -> str | None:
+#: Seconds the second process of :mod:`coopproc.jit_ahead` takes to start (imports).
+AHEAD_START_S = 2.0
+
+
+def compile_note(
+    kernels: Sequence[tuple[str, str, float]] = RUN_KERNELS,
+    *,
+    cold: Sequence[tuple[str, str, float]] | None = None,
+    ahead: Collection[tuple[str, str]] = (),
+) -> str | None:
     """The one line a run prints before it compiles its kernels, None when they are all
-    cached (or the cache cannot be read)."""
-    cold = cold_kernels(kernels)
+    cached (or the cache cannot be read). ``cold``: :func:`cold_kernels` if the caller has
+    it; ``ahead``: the (module, kernel) a second process compiles meanwhile
+    (:mod:`coopproc.jit_ahead`): the longer of the two shares is said."""
+    cold = cold_kernels(kernels) if cold is None else cold
     if not cold:
         return None
-    seconds = sum(s for _, _, s in cold)
+    here = sum(s for m, k, s in cold if (m, k) not in ahead)
+    there = sum(s for m, k, s in cold if (m, k) in ahead)
+    seconds = max(here, there + AHEAD_START_S) if there else here
     about = f"about {5 * max(1, round(seconds / 5))} s" if seconds >= 5 else "a few seconds"
     return f"compiling the numerical kernels (once after install, {about})"

@@ -106,6 +106,7 @@ def run(
     # before the imports and the work: a read-only or mistyped OUT fails at once
     check_output_dir(out_dir, force=force, protect=[session])
 
+    import contextlib
     import dataclasses
 
     import matplotlib
@@ -113,7 +114,8 @@ def run(
     matplotlib.use("Agg")
     from coopproc.checks.coverage import nav_gap_spans, prepare_run
     from coopproc.io import read_session
-    from coopproc.jit_cache import compile_note
+    from coopproc.jit_ahead import AHEAD, compile_ahead
+    from coopproc.jit_cache import cold_kernels, compile_note
     from coopproc.run.calibration_summary import calibration_lines
     from coopproc.run.chain import resolve
     from coopproc.run.concurrent_steps import group_steps, workers
@@ -150,7 +152,10 @@ def run(
     # read, prepare, the chain's steps, metrics, summary, tables, (figures,) html
     steps = resolve(config.pipeline)
     total = len(steps) + 6 + (1 if config.run.figures else 0)
-    with PhaseProgress(total, bar=show_bar, log=None if quiet else note, prefix="run") as phases:
+    with (
+        PhaseProgress(total, bar=show_bar, log=None if quiet else note, prefix="run") as phases,
+        contextlib.ExitStack() as compiling_ahead,
+    ):
         phases.start("read")
         data = read_session(session, strict=strict)
         figure_options = _figure_options(
@@ -172,7 +177,14 @@ def run(
         phases.set_total(total - len(steps) + len(group_steps(steps, together)))
         for text in data.notes:  # implausible jumps are "warning: ..." (io/plausible.py)
             note(text if text.startswith("warning: ") else f"note: {text}")
-        compiling = None if quiet else compile_note()  # the first run's minute, said
+        # a cold cache: the later kernels compiled in a second process meanwhile
+        # (jit_ahead), and the first run's half minute said
+        cold = cold_kernels()
+        if compiling_ahead.enter_context(compile_ahead(cold)):
+            ahead = {(m, k) for m, k, _ in AHEAD}
+        else:
+            ahead = set()
+        compiling = None if quiet else compile_note(cold=cold, ahead=ahead)
         if compiling is not None:
             note(compiling)
 

@@ -27,8 +27,8 @@ from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import chi2
 
+from coopproc.distributions import chi2_ppf
 from coopproc.errors import InputError
 from coopproc.gnss.corrections import (
     CodeErrorModel,
@@ -277,7 +277,7 @@ def _chi2_ok(fit: _Fit, opt: SppOptions) -> bool:
 
 @lru_cache(maxsize=256)
 def _chi2_limit(alpha: float, dof: int) -> float:
-    return float(chi2.ppf(1.0 - alpha, dof))
+    return float(chi2_ppf(1.0 - alpha, dof))
 
 
 def _wls(

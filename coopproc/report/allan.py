@@ -47,7 +47,6 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import allantools
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
@@ -159,6 +158,8 @@ class ImuAllan:
 
 def allan_curve(rate: FloatArray, rate_hz: float) -> tuple[FloatArray, FloatArray]:
     """Overlapping Allan deviation of rate samples at log-spaced averaging times, s."""
+    import allantools  # here: it imports scipy.stats (~0.8 s CPU), for --stochastic only
+
     n = rate.size
     longest = max(n // 10, 1)
     m = np.unique(np.round(np.logspace(0, math.log10(longest), _PER_DECADE * 8)))

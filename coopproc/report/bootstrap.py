@@ -71,8 +71,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 from scipy import fft as sp_fft
-from scipy import stats
 
+from coopproc.distributions import t_ppf, t_sf
 from coopproc.model import FloatArray
 
 __all__ = [
@@ -322,7 +322,7 @@ def spread(samples: FloatArray) -> float:
 
 
 def _t(level: float, dof: float) -> float:
-    return float(stats.t.ppf(0.5 + level / 2.0, dof))
+    return float(t_ppf(0.5 + level / 2.0, dof))
 
 
 def interval(value: float, sd: float, level: float, dof: float) -> tuple[float, float]:
@@ -339,7 +339,7 @@ def p_value(value: float, sd: float, dof: float) -> float:
         return float("nan")
     if sd == 0:
         return 1.0 if value == 0 else 0.0
-    return float(2.0 * stats.t.sf(abs(value) / sd, dof))
+    return float(2.0 * t_sf(abs(value) / sd, dof))
 
 
 def quantile_interval(

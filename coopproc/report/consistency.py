@@ -26,8 +26,8 @@ from collections.abc import Iterator, Mapping
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
+from coopproc.distributions import chi2_ppf
 from coopproc.model import FloatArray, pair_members
 from coopproc.report.table_specs import method_label
 
@@ -61,7 +61,7 @@ _ATT = ("roll", "pitch", "yaw")
 
 def bound(dof: int, level: float = 0.95) -> float:
     """The chi-square quantile a consistent filter's NIS / NEES stays below at ``level``."""
-    return float(stats.chi2.ppf(level, dof))
+    return float(chi2_ppf(level, dof))
 
 
 def nis_series(

@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
-from scipy import stats
 
+from coopproc.distributions import chi2_ppf
 from coopproc.model import FloatArray
 from coopproc.report.consistency import nees_series, nis_series
 from coopproc.report.methods import position_methods
@@ -81,7 +81,7 @@ def consistency_panels(run: RunTables, opts: FigureOptions, _groups: Any = None)
         order = np.argsort(t, kind="stable")
         tm, xm = window_means(t[order] - t0, x[order], WINDOW)
         n = WINDOW * dof
-        lo, hi = stats.chi2.ppf([0.025, 0.975], n) / n
+        lo, hi = chi2_ppf([0.025, 0.975], n) / n
         ax.axhspan(lo, hi, color="0.85", label=f"95 % band (consistent, {WINDOW} epochs)")
         ax.axhline(1.0, color="0.4", linewidth=0.8)
         if tm.size:

@@ -56,7 +56,6 @@ from dataclasses import asdict, dataclass, field, fields, replace
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
 from coopproc.model import FloatArray
 from coopproc.report.allan import ImuAllan
@@ -214,6 +213,8 @@ def _noise(
     pair: str, r: FloatArray, acf: FloatArray, lags: FloatArray, interval: float
 ) -> UwbNoise:
     """Statistics of the residuals ``r`` (counts set to ``n``; callers replace them)."""
+    from scipy import stats  # here: ~0.8 s to import, for `report --stochastic` only
+
     n = r.size
     std = float(np.std(r, ddof=1))
     med = float(np.median(r))

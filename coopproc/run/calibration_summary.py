@@ -95,12 +95,15 @@ def calibration_facts(output: PipelineOutput) -> dict[str, Any]:
             "scale_error": _num(d.scale_error, 5),
             "scale_sigma": _num(d.scale_sigma, 5),
         }
-    return {
+    facts_of = {
         "ranging": pairs,
         "fusion": fusion,
         "dead_reckoning": platforms,
         "notes": list(output.notes),
     }
+    if output.declared_sigma is not None:  # the declared [uwb] sigma checked
+        facts_of["uwb_sigma"] = output.declared_sigma.facts()
+    return facts_of
 
 
 def _fmt(value: float, spec: str, unit: str = "") -> str:
@@ -128,6 +131,17 @@ def _dr_figures(q: DeadReckoningQuality, declared: str) -> str:
     )
 
 
+def _declared_sigma(prior_m: float, output: PipelineOutput) -> str:
+    """The bracket of a pair's UWB line: the declared sigma, and the figure that replaced
+    it when the data contradicted it (run/declared_sigma.py)."""
+    if not math.isfinite(prior_m):
+        return ""
+    checked = output.declared_sigma
+    if checked is not None and checked.used_m is not None and prior_m == checked.used_m:
+        return f" [{checked.declared_m:.3f} m, contradicted: {checked.used_m:.3f} m used]"
+    return f" [{prior_m:.3f} m]"
+
+
 def calibration_lines(output: PipelineOutput) -> list[str]:
     """A few lines per pair and platform for the terminal."""
     lines = ["self-calibration (declared values in brackets):"]
@@ -142,9 +156,7 @@ def calibration_lines(output: PipelineOutput) -> list[str]:
         parts = []
         cal = by_pair.get(pair)
         if cal is not None:
-            declared = (
-                f" [{cal.declared_sigma_m:.3f} m]" if math.isfinite(cal.declared_sigma_m) else ""
-            )
+            declared = _declared_sigma(cal.declared_sigma_m, output)
             text = (
                 f"UWB white noise {cal.white_sigma_m:.3f} m{declared}, innovation "
                 f"{cal.detect_sigma_m:.3f} m, DI growth {cal.growth_m2ps:.4f} m^2/s ({cal.source})"

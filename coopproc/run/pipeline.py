@@ -45,6 +45,7 @@ from coopproc.run.chain import Step, resolve
 from coopproc.run.concurrent_steps import group_label, group_steps, run_concurrently, workers
 from coopproc.run.config import RunConfig
 from coopproc.run.declared import DeclaredDrifts, check_drifts, declared_quality
+from coopproc.run.declared_sigma import DeclaredSigma, check_declared_sigma, with_sigma
 from coopproc.run.gnss_methods import gnss_pipeline
 from coopproc.run.implausible import implausible_methods
 from coopproc.run.ins import states_table, with_ins
@@ -91,6 +92,8 @@ class PipelineOutput:
     fusion_outlier_scores: pd.DataFrame | None = None
     #: methods whose positions jump or whose covariance exploded (run/implausible.py)
     implausible: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    #: the declared ``[uwb] sigma`` against the data (run/declared_sigma.py)
+    declared_sigma: DeclaredSigma | None = None
 
 
 def run_pipeline(
@@ -112,6 +115,9 @@ def run_pipeline(
         return run_with_outages(session, config, run_pipeline, progress)
     step_label = progress or (lambda label: None)
     timings: dict[str, float] = {}
+    # the declared [uwb] sigma against the ranges and the DR, before anything uses it
+    sigma_checked = check_declared_sigma(session)
+    session = with_sigma(session, sigma_checked)
 
     @contextlib.contextmanager
     def timed(label: str) -> Iterator[None]:
@@ -129,6 +135,8 @@ def run_pipeline(
     session, pipeline, more = with_ins(session, pipeline, config.params_for("ins"))
     pipeline, more = gnss_pipeline(pipeline, session, config.params_for("gnss"), more)
     tag_notes += odo_notes + more
+    if sigma_checked is not None and sigma_checked.note is not None:
+        tag_notes.insert(0, sigma_checked.note)
     dr_session = without_tags(session)
     steps = resolve(pipeline)
     for step in steps:
@@ -278,6 +286,7 @@ def run_pipeline(
         nlos_methods=nlos_methods,
         fusion_outlier_scores=outliers,
         implausible=implausible,
+        declared_sigma=sigma_checked,
     )
 
 

@@ -62,8 +62,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 import pandas as pd
-from scipy.stats import chi2
 
+from coopproc.distributions import chi2_ppf
 from coopproc.model import FloatArray, Session
 from coopproc.names import LSQ_QUALITY_COLUMNS
 from coopproc.stages.base import PositionProduct
@@ -197,7 +197,7 @@ def _test(
     vdop = np.sqrt(np.maximum(q[:, 2, 2], 0.0)) if dim == 3 else np.full(x.shape[0], np.nan)
     stat = np.where(rd.has, w * (rd.rng - rho) ** 2 / rd.var, 0.0).sum(axis=1)
     dof = rd.has.sum(axis=1) - dim
-    crit = chi2.ppf(1.0 - params.residual_alpha, np.maximum(dof, 1))
+    crit = chi2_ppf(1.0 - params.residual_alpha, np.maximum(dof, 1))
     passes = (dof < 1) | (stat <= crit)
     return hdop, vdop, stat, dof, passes
 
