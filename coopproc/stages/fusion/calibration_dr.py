@@ -75,7 +75,11 @@ figures. A smoothed range is smoothed with the same dead reckoning, so its error
 correlated with it and from epoch to epoch; fused with the tight factor, DI's own errors
 show (``paper-experiment`` seed 2, C: DI-fused 0.048 m with the factor, 0.034 m with the
 figures, against 0.038 m observed-fused), and a CV of its own for the DI ranges picks
-1/16 (fooled by that correlation) with the same 0.048 m.
+1/16 (fooled by that correlation) with the same 0.048 m. Tried and not kept: the DI
+fusion's own CV with the left-out pairs scored on their observed ranges (which the
+smoothing did not touch): DI-fused went from 0.029 to 0.027 m on average over seeds 0-3
+and ``noisy-leader`` (A and C), but on seed 2 it picked 1/4 and C's DI-fused error became
+0.047 m, 1.23 x observed-fused.
 
 Measured through ``coopproc run`` (mean horizontal error, followers A / C; before: the
 [fusion] figures for every set): ``paper-experiment`` seed 0 (sample_logs) observed
