@@ -47,16 +47,16 @@ def test_the_cv_tightens_a_dead_reckoning_better_than_its_figures(sample: tuple)
 
 
 def test_the_cv_factor_through_run(tmp_path: Path) -> None:
-    config = tmp_path / "run.toml"
-    config.write_text("[fusion]\ndr_noise_cv = true\n")
     out = tmp_path / "out"
-    res = CliRunner().invoke(
-        main, ["run", str(SAMPLE), "-o", str(out), "--config", str(config), "--no-figures"]
-    )
+    res = CliRunner().invoke(main, ["run", str(SAMPLE), "-o", str(out), "--no-figures"])
     assert res.exit_code == 0, res.output
     assert "dead-reckoning noise is 0.03125 x the [fusion] figures (the factor whose" in (
         res.output
     )
+    # RN's ranges are the observed ones less its estimates: the same factor; DI's are
+    # smoothed with the dead reckoning (RangeStage.smoothed): the [fusion] figures
+    assert "fusion (rn): the followers' dead-reckoning noise is 0.03125 x" in res.output
+    assert "fusion (di): the followers' dead-reckoning noise" not in res.output
     pos = pd.read_csv(out / "positions.csv")
     mean = pos.groupby(["platform", "method"])["error_h"].mean()
     # 0.132 / 0.140 m with the default figures (a GTSAM factor graph: 0.077 / 0.094 m)
