@@ -204,7 +204,7 @@ def _positions_like(n: int, seed: int = 3) -> pd.DataFrame:
     return frame
 
 
-# the 150 000-row gzip case is slow (pandas compresses 12 MB); gzip over chunks is also
+# the 150 000-row gzip case is slow (pandas writes and gzips them); gzip over chunks is also
 # checked at 7 and 1000 rows a chunk below
 @pytest.mark.parametrize(
     "name", ["positions.csv", pytest.param("positions.csv.gz", marks=pytest.mark.slow)]
