@@ -147,6 +147,7 @@ def test_duration_is_measured_on_a_monotonic_clock(
     assert info["timings_s"]["other"] < 60
 
 
+@pytest.mark.slow  # a run with every figure
 def test_phases_are_logged_and_timings_add_up_to_the_wall_time(
     session: Path, tmp_path: Path
 ) -> None:

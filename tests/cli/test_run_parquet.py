@@ -160,6 +160,7 @@ def test_without_pyarrow_parquet_is_a_one_line_error(
     assert res.stderr.count("\n") == 1 and 'pip install "coopproc[parquet]"' in res.stderr
 
 
+@pytest.mark.slow  # three batches of runs
 def test_batch_pools_and_resumes_parquet_runs(
     runs: tuple[Path, Path, Path], tmp_path: Path
 ) -> None:

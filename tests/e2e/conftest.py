@@ -60,15 +60,18 @@ def simulate_and_run(root: Path, scenario: str, seed: int, *extra: str) -> E2ERu
 
 
 @pytest.fixture(scope="session")
-def e2e_runs(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str, int], E2ERun]:
-    """Cached simulate+run per (scenario, seed) for the whole test session."""
-    cache: dict[tuple[str, int], E2ERun] = {}
+def e2e_runs(tmp_path_factory: pytest.TempPathFactory) -> Callable[..., E2ERun]:
+    """Cached simulate+run per (scenario, seed, simulate options) for the whole test
+    session (per xdist worker)."""
+    cache: dict[tuple[str, int, tuple[str, ...]], E2ERun] = {}
     root = tmp_path_factory.mktemp("e2e")
 
-    def get(scenario: str, seed: int) -> E2ERun:
-        key = (scenario, seed)
+    def get(scenario: str, seed: int, *extra: str) -> E2ERun:
+        key = (scenario, seed, extra)
         if key not in cache:
-            cache[key] = simulate_and_run(root, scenario, seed)
+            where = root / str(len(cache)) if extra else root
+            where.mkdir(exist_ok=True)
+            cache[key] = simulate_and_run(where, scenario, seed, *extra)
         return cache[key]
 
     return get

@@ -110,6 +110,7 @@ def test_tag_height_matters_and_rts_beats_lsq_without_robust_factor(tmp_path: Pa
     assert _metric(out, "tag", "lsq_rts") < _metric(out, "tag", "lsq")
 
 
+@pytest.mark.slow  # two 600-s anchor runs
 def test_tag_in_a_mixed_session_leaves_the_dead_reckoning_methods_alone(
     tmp_path: Path,
 ) -> None:

@@ -27,6 +27,7 @@ from tests.e2e.conftest import E2ERun, simulate_and_run
 
 REAL = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "real"
 SCENARIOS = ("dr-faults", "noisy-leader", "body-blocked", "nav-gaps", "paper-experiment")
+EXACT = ("--set", "exact_ranges=true")
 
 
 def _flags(ranges: pd.DataFrame, spans: pd.DataFrame, pair: str) -> np.ndarray:
@@ -106,16 +107,14 @@ def test_dr_faults_are_estimated_in_the_state(e2e_runs: Callable[[str, int], E2E
     assert abs(quality["scale"] - scale) < 0.006  # measured 0.0050 (DR-state CP)
 
 
-def test_rn_reproduces_table2_with_a_noisy_leader(
-    e2e_runs: Callable[[str, int], E2ERun], tmp_path: Path
-) -> None:
+def test_rn_reproduces_table2_with_a_noisy_leader(e2e_runs: Callable[..., E2ERun]) -> None:
     run = e2e_runs("noisy-leader", 0)
     for pair in ("A-B", "B-C"):  # NLOS pairs: roughly halved
         assert run.metric(pair, "rn", "rmse") <= 0.65 * run.metric(pair, "observed", "rmse")
     change = run.metric("A-C", "rn", "rmse") / run.metric("A-C", "observed", "rmse") - 1.0
     assert abs(change) <= 0.03  # paper: -0.3 %
     # fusing the true distances bounds what any range processing can give the positions
-    perfect = simulate_and_run(tmp_path, "noisy-leader", 0, "--set", "exact_ranges=true")
+    perfect = e2e_runs("noisy-leader", 0, *EXACT)  # shared with test_exact_ranges_stay_exact
     for platform in ("A", "C"):
         observed = run.position(platform, "observed", "mean")
         rn = run.position(platform, "rn", "mean")
@@ -157,9 +156,12 @@ def test_a_gnss_noisy_leader_with_an_ins_velocity(tmp_path: Path) -> None:
     assert abs(change) <= 0.03
 
 
-@pytest.mark.parametrize("scenario", ["noisy-leader", "dr-faults"])
-def test_exact_ranges_stay_exact(tmp_path: Path, scenario: str) -> None:
-    run = simulate_and_run(tmp_path, scenario, 0, "--set", "exact_ranges=true")
+# noisy-leader's run is shared with the RN test above; dr-faults' own 600-s run is slow
+@pytest.mark.parametrize(
+    "scenario", ["noisy-leader", pytest.param("dr-faults", marks=pytest.mark.slow)]
+)
+def test_exact_ranges_stay_exact(e2e_runs: Callable[..., E2ERun], scenario: str) -> None:
+    run = e2e_runs(scenario, 0, *EXACT)
     assert run.events.empty, run.events
     truth = pd.read_csv(run.session / "truth" / "distances.csv")
     merged = run.ranges.merge(truth, on=["time", "pair"])
@@ -189,7 +191,8 @@ def real_runs(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str], tuple
     return run
 
 
-@pytest.mark.parametrize("name", ["tiers", "tuc"])
+# the TIERS run is a slow one (CI runs it after the README command); tuc's is short
+@pytest.mark.parametrize("name", [pytest.param("tiers", marks=pytest.mark.slow), "tuc"])
 def test_real_sessions(real_runs: Callable[[str], tuple[Path, Path]], name: str) -> None:
     session, out = real_runs(name)
     ranges = pd.read_csv(out / "ranges.csv")
@@ -228,6 +231,7 @@ def test_real_tuc_odometry_too_poor_to_smooth(
     assert (ranges["rn"] == ranges["observed"]).all()
 
 
+@pytest.mark.slow  # the real TIERS run (real_runs)
 def test_real_tiers_names_the_body_blocked_robot(
     real_runs: Callable[[str], tuple[Path, Path]],
 ) -> None:

@@ -150,6 +150,7 @@ def _check_no_bridges(figures: dict[str, Figure]) -> int:
     return checked
 
 
+@pytest.mark.slow  # every figure kind drawn twice, at 40 dpi
 @pytest.mark.parametrize("which", ["sample", "gaps"])
 def test_every_figure_kind_is_a_nonblank_png(
     which: str, sample_run: RunTables, gap_run: RunTables, tmp_path: Path

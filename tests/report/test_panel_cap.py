@@ -151,6 +151,7 @@ def test_html_says_what_the_cap_left_out(
     assert "Left out" not in page
 
 
+@pytest.mark.slow  # figure pages through the CLI
 def test_cli_report_follows_the_runs_max_pages(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

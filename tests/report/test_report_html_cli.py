@@ -92,6 +92,7 @@ def test_cli_errors_are_one_line(out_dir: Path, tmp_path: Path) -> None:
     )
 
 
+@pytest.mark.slow  # every figure drawn as PNG and SVG
 def test_cli_plots_and_html(tmp_path: Path) -> None:
     out = write_run_dir(make_run(n=80), tmp_path / "out")
     result = CliRunner().invoke(main, ["report", str(out), "--svg", "--dpi", "50", "--html"])

@@ -132,6 +132,7 @@ def _png_width_in(src: str) -> float:
         return image.width / round(float(image.info["dpi"][0]))  # PNG keeps dots per metre
 
 
+@pytest.mark.slow  # every figure drawn for the page
 def test_every_figure_at_one_scale(run: tuple[Path, RunTables]) -> None:
     """One-column (3.5 in) and full-width (7 in) figures: the same pixels per inch."""
     page = parse(render_html(run[0], run[1]))

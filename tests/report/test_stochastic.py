@@ -271,7 +271,8 @@ def test_cli_recovers_the_sample_logs_noise(sample_run: Path, tmp_path: Path) ->
     np.testing.assert_allclose(allan["random_walk"].iloc[:3], 0.0035, rtol=0.15)
 
 
-def test_cli_figures_html_and_errors(tmp_path: Path) -> None:
+@pytest.mark.slow  # every figure drawn for the page
+def test_cli_figures_and_html(tmp_path: Path) -> None:
     out = write_run_dir(make_run(n=80), tmp_path / "out")
     code, text = _cli("report", str(out), "--stochastic", "--plots", "--dpi", "50", "--html")
     assert code == 0, text
@@ -282,6 +283,10 @@ def test_cli_figures_html_and_errors(tmp_path: Path) -> None:
     assert '<h2 id="stochastic">Stochastic analysis</h2>' in page
     images = re.findall(r'<img alt="(\w+)"', page)
     assert images[-2:] == ["uwb_acf", "uwb_pdf"]
+
+
+def test_cli_table_and_errors(tmp_path: Path) -> None:
+    out = write_run_dir(make_run(n=80), tmp_path / "out")
     code, text = _cli("report", str(out), "--stochastic", "--table")  # both, Table 2 first
     assert code == 0 and text.index("UWB range residuals") > 0 and text.startswith("Table 2.")
     twice = ("--imu", str(tmp_path / "imu_A.csv"), "--imu", str(tmp_path / "x" / "imu_A.csv"))

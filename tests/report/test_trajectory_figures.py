@@ -163,6 +163,7 @@ def _panels(path: Path) -> list[str]:
         return str(image.info["Panels"]).split("; ")
 
 
+@pytest.mark.slow  # every figure drawn through the CLI
 def test_cli_pairs_and_style_reach_every_figure(tmp_path: Path) -> None:
     out = write_run_dir(make_run(n=80), tmp_path / "out")
     args = ["report", str(out), "--plots", "--pairs", "B-C", "--style", "single-column"]

@@ -95,6 +95,7 @@ def test_di_without_rn(default_run: Path, tmp_path: Path) -> None:
     ]
 
 
+@pytest.mark.slow  # a run with every figure (docs/extending.md's worked example)
 def test_median_worked_example(default_run: Path, tmp_path: Path) -> None:
     """docs/extending.md: the median processor added to the default chain."""
     toml = '[pipeline]\nranges = ["rn", "di", "median"]\n\n[median]\nwindow = 7\n'
