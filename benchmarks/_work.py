@@ -178,7 +178,7 @@ def smoothable_pairs(session: Path, passthrough_gain: float | None = None) -> di
     for name, g in err.groupby("platform"):
         g = g.set_index("time").reindex(grid)
         e[str(name)] = g[["error_east", "error_north"]].to_numpy(float)
-        traj = pd.read_csv(truth / f"traj_{name}.csv")
+        traj = pd.read_csv(truth / f"traj_{name}.csv", usecols=["time", "east", "north"])
         t = traj["time"].to_numpy(float)
         pos[str(name)] = np.column_stack(
             [np.interp(grid, t, traj[c].to_numpy(float)) for c in ("east", "north")]
@@ -192,11 +192,10 @@ def smoothable_pairs(session: Path, passthrough_gain: float | None = None) -> di
         los /= np.maximum(np.linalg.norm(los, axis=1, keepdims=True), 1e-9)
         rel = e[b] - e[a]
         step = np.sum(np.diff(rel, axis=0) * los[1:], axis=1)
-        gains = []
-        for w in np.unique(windows):
-            s = step[(windows == w) & np.isfinite(step)]
-            if s.size:
-                gains.append(steady_gain(float(np.mean(s * s)), r))
+        ok = np.isfinite(step)
+        n = np.bincount(windows[ok])
+        sq = np.bincount(windows[ok], weights=step[ok] ** 2, minlength=n.size)
+        gains = [steady_gain(float(sq[w] / n[w]), r) for w in np.flatnonzero(n)]
         out[str(pair)] = bool(gains) and float(np.nanmedian(gains)) <= passthrough_gain
     return out
 
