@@ -1,14 +1,16 @@
 """Shared pieces of the benchmarks: the simulator's session shapes, repeated timing and
 target lines (imported by the scripts in this directory, which Python puts on sys.path).
 
-- sessions come from the simulator's ``large`` scenario (seed 0: nav 10 Hz, every pair
+- sessions come from the simulator's ``large`` scenario (seed 0 unless a benchmark picks
+  another, as ``scale.py --workload dense`` does: nav 10 Hz, every pair
   ranging at 1 Hz with staggered polling, i.e. a distinct time per pair, 5 Hz reference)
   written by ``write_simulation``, exactly as ``coopproc simulate --scenario large``
   writes them; ``--cache DIR`` keeps them between runs;
 - every figure is the median of ``repeat`` runs after one warm-up run (numba compiled
   or loaded from its cache, files in the page cache), peers included;
 - one line per target: ``target <what>: met|missed (ratio x.xx)``, ratio = measured /
-  target (met when <= 1 for an upper bound, >= 1 for a lower bound);
+  target (met when <= 1 for an upper bound, >= 1 for a lower bound), or ``not
+  comparable: <reason>`` when the run did not do the work (``_work.verdict``);
 - the 1-minute load average is printed with each figure: the machine is shared.
 """
 
