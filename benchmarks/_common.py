@@ -1,14 +1,16 @@
 """Shared pieces of the benchmarks: the simulator's session shapes, repeated timing and
 target lines (imported by the scripts in this directory, which Python puts on sys.path).
 
-- sessions come from the simulator's ``large`` scenario (seed 0: nav 10 Hz, every pair
+- sessions come from the simulator's ``large`` scenario (seed 0 unless a benchmark picks
+  another, as ``scale.py --workload dense`` does: nav 10 Hz, every pair
   ranging at 1 Hz with staggered polling, i.e. a distinct time per pair, 5 Hz reference)
   written by ``write_simulation``, exactly as ``coopproc simulate --scenario large``
   writes them; ``--cache DIR`` keeps them between runs;
 - every figure is the median of ``repeat`` runs after one warm-up run (numba compiled
   or loaded from its cache, files in the page cache), peers included;
 - one line per target: ``target <what>: met|missed (ratio x.xx)``, ratio = measured /
-  target (met when <= 1 for an upper bound, >= 1 for a lower bound);
+  target (met when <= 1 for an upper bound, >= 1 for a lower bound), or ``not
+  comparable: <reason>`` when the run did not do the work (``_work.verdict``);
 - the 1-minute load average is printed with each figure: the machine is shared.
 """
 
@@ -61,9 +63,10 @@ def session_dir(
     platforms: int,
     cache: Path | None = None,
     mcap: str | None = None,
+    seed: int = 0,
     **overrides: Any,
 ) -> Path:
-    """The ``large`` session of ``platforms`` x ``hours`` (seed 0) as files on disk.
+    """The ``large`` session of ``platforms`` x ``hours`` (``seed``) as files on disk.
 
     Simulated and written once per cache directory (``cache`` None: a temporary one
     removed at exit); a cached session is reused as is (delete the cache when the
@@ -73,13 +76,15 @@ def session_dir(
     root = cache if cache is not None else _temp_root()
     extra = "".join(f"_{k}{v}" for k, v in sorted(overrides.items()))
     extra += f"_mcap{mcap}" if mcap else ""
-    path = root / f"large_p{platforms}_h{hours:g}_s0{extra}"
+    path = root / f"large_p{platforms}_h{hours:g}_s{seed}{extra}"
     if not (path / "session.toml").is_file():
         from coopproc.sim import simulate, write_simulation
 
         root.mkdir(parents=True, exist_ok=True)
         start = time.perf_counter()
-        sim = simulate("large", seed=0, duration_s=hours * 3600.0, platforms=platforms, **overrides)
+        sim = simulate(
+            "large", seed=seed, duration_s=hours * 3600.0, platforms=platforms, **overrides
+        )
         if mcap:
             write_simulation(sim, path, force=True, mcap=True, mcap_encoding=mcap)  # type: ignore[arg-type]
         else:
@@ -110,11 +115,19 @@ def spread(times: Sequence[float]) -> str:
     return f"{min(times):.3f}-{max(times):.3f} s over {len(times)}"
 
 
-def target(what: str, measured: float, limit: float, *, at_most: bool) -> str:
-    """``target <what>: met|missed (ratio x.xx)``; ratio = measured / limit."""
+def target(
+    what: str, measured: float, limit: float, *, at_most: bool, incomplete: str | None = None
+) -> str:
+    """``target <what>: met|missed (ratio x.xx)``; ratio = measured / limit.
+
+    ``incomplete``: why the run behind ``measured`` did not do the work the target is
+    about (``_work.verdict``): then ``not comparable: <reason>`` instead of met/missed,
+    with the ratio still shown."""
     ratio = measured / limit if limit else float("inf")
     met = ratio <= 1.0 if at_most else ratio >= 1.0
     shown = f"{ratio:.2f}" if ratio >= 0.1 else f"{ratio:.2g}"
+    if incomplete:
+        return f"target {what}: not comparable: {incomplete} (ratio {shown})"
     return f"target {what}: {'met' if met else 'missed'} (ratio {shown})"
 
 

@@ -27,22 +27,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from _common import load, run_cli, session_dir, target
+from _work import overlaps
 
 TRUE_SIGMA_M = 0.08  # SimParams.uwb_noise_m of the large scenario
-
-
-def _overlaps(events: pd.DataFrame, truth: pd.DataFrame) -> tuple[int, int]:
-    """(true events some detected event overlaps, detected events that overlap none)."""
-    found = 0
-    used = np.zeros(len(events), dtype=bool)
-    for pair, group in truth.groupby("pair"):
-        mine = events[events["pair"] == pair]
-        for start, end in group[["start", "end"]].to_numpy(float):
-            hit = (mine["start"] <= end + 1.0) & (mine["end"] >= start - 1.0)
-            if hit.any():
-                found += 1
-                used[np.flatnonzero(events.index.isin(mine.index[hit]))] = True
-    return found, int(np.count_nonzero(~used))
 
 
 def measure(hours: float, cache: Path | None, extra: list[str]) -> dict[str, float]:
@@ -73,7 +60,7 @@ def measure(hours: float, cache: Path | None, extra: list[str]) -> dict[str, flo
         "seconds": run.seconds,
     }
     for method in ("di", "rn"):
-        found, false = _overlaps(events[events["method"] == method].reset_index(drop=True), truth)
+        found, false = overlaps(events[events["method"] == method], truth)
         row[f"{method}_found"] = found
         row[f"{method}_false"] = false
         row[f"{method}_false_per_h"] = false / hours
