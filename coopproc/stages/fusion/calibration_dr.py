@@ -1,4 +1,4 @@
-"""The followers' dead-reckoning noise level, chosen by the innovations' likelihood.
+"""The followers' dead-reckoning noise level: by leave-pair-out cross-validation, or by likelihood.
 
 With DR states (``[fusion] state = "dr"``) the systematic part of a dead reckoning's
 error (heading, heading rate, odometer scale) is in the state, and what the process noise
@@ -28,9 +28,9 @@ That likelihood is fooled by range errors that last (an NLOS run, multipath alon
 path): a looser dead reckoning lets the forward filter follow them, so the next
 innovations shrink. On the simulator's ``paper-experiment`` it picks 4 x for the observed
 ranges (mean follower error 0.215 m against 0.132 m at 1 x and 0.032 m at 1/16 x), on
-TIERS, plaza2, tuc and MiLUV 16-32 x (TIERS tb4 0.18 -> 0.81 m). So it is off by default.
-The other search (:func:`dr_noise_cv`, ``[fusion] dr_noise_cv = true``, also off by
-default, see below) judges a factor by **leave-pair-out cross-validation** instead:
+TIERS, plaza2, tuc and MiLUV 16-32 x (TIERS tb4 0.18 -> 0.81 m). So it is off by default
+(``dr_noise_search``), and the default search (:func:`dr_noise_cv`, ``[fusion] dr_noise_cv
+= true``) judges a factor by **leave-pair-out cross-validation** instead:
 
 - the pairs are split into :data:`CV_FOLDS` folds
   (:func:`~coopproc.stages.fusion.leave_out.pair_folds`); each fold's ranges are
@@ -64,9 +64,7 @@ hours does not change because the recording goes on). The CV fusions take the gi
 sigmas and the robust refit of ``robust_smoother_iterations`` (with the forward pass's
 IGG-III factors alone the scores were not monotone on ``paper-experiment``). A session
 with fewer than two pairs of :data:`CV_MIN_ROWS` ranges keeps 1. The factor is the
-followers' (their dead reckoning's noise), so it is chosen once, on the observed ranges,
-and the fusions of the processed range sets take it (a DI range is smoothed with the same
-dead reckoning, so it cannot judge it).
+followers' (their dead reckoning's noise), so it is chosen once, on the observed ranges.
 
 Which fusions take it: the observed ranges' fusion chooses it, the RN-Based set (the
 observed ranges less RN's NLOS estimates) takes it, and a smoothed set (DI-Based, the
