@@ -356,19 +356,22 @@ def _run_range_step(
 ) -> RangeProduct:
     stage = RANGE_STAGES[step.stage]
     cp = None
+    dr_states: pd.DataFrame | None = None
     if stage.needs_cp:
         assert cp_product is not None and cp_product.cp is not None  # chain.resolve
         forward, smoothed = cp_product.cp
         cp = forward if config.run.cp_solution == "forward" else smoothed
+        dr_states = (  # its DR states alike (the causal filter's: dr_corrected.py)
+            cp_product.dr_states_forward if cp is forward else cp_product.dr_states
+        )
     # the leave-pair-out solutions are causal: with cp_solution "smoothed", paper 000's
     left_out = (
         cp_product.cp_left_out
         if cp_product is not None and config.run.cp_solution == "forward"
         else None
     )
-    product = stage.run(
-        RangeInput(session, base, cp, left_out), config.params_for(stage.section), step.methods
-    )
+    inp = RangeInput(session, base, cp, left_out, dr_states)
+    product = stage.run(inp, config.params_for(stage.section), step.methods)
     for method in step.methods:
         values = product.values.get(method)
         if values is None or np.shape(values) != (len(base),):

@@ -76,6 +76,9 @@ class RangeInput:
     #: each pair's cooperative solution without its own ranges (the causal one), when the
     #: stage declares ``needs_cp`` and the fusion gives it; None: ``cp`` for every pair
     cp_left_out: LeftOutCP | None = None
+    #: the cooperative fusion's DR states (dr_states.csv's columns, one method) when it
+    #: carries them: the ranging stage corrects the followers' DR displacements by them
+    dr_states: pd.DataFrame | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -179,6 +182,8 @@ class PositionProduct:
     #: the followers' dead-reckoning errors, for estimators that estimate them
     #: (DR_STATES_COLUMNS with an empty method; dr_states.csv)
     dr_states: pd.DataFrame | None = None
+    #: the same as the causal filter estimates them (the ranging stage's DR DI)
+    dr_states_forward: pd.DataFrame | None = None
     #: each range the estimator used and its robust factor, for estimators that weigh
     #: them (RANGE_WEIGHTS_COLUMNS but method and rejected; range_weights.csv)
     range_weights: pd.DataFrame | None = None

@@ -110,6 +110,7 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
         calibration=cal,
         notes=cal.notes,
         dr_states=fused.dr_states,
+        dr_states_forward=fused.dr_states_forward,
         range_weights=range_weights_frame(inp.ranges, fused),
     )
 

@@ -75,6 +75,9 @@ class FusionOutput:
     #: (:func:`~coopproc.stages.fusion.dr_states.dr_states_table`); None with state
     #: "position".
     dr_states: pd.DataFrame | None = None
+    #: The same as the causal forward filter estimates them (the ranging stage's DR DI
+    #: takes these: the answer for a stretch does not depend on what follows it)
+    dr_states_forward: pd.DataFrame | None = None
     #: The robust factor of every range as the returned solution used it (the final
     #: pass's: with the robust smoother's refits, the factors of the last refit), for
     #: range_weights.csv; None when the solution was discarded (``discard``).
@@ -250,6 +253,7 @@ def fuse(
         decisions = RangeDecisions(source, judged[0], judged[1], gamma[at])
     del at, judged
     dr_table = dr_states_table(moving, epochs, dr, (dr_xs, dr_vs)) if dr.active else None
+    dr_forward = dr_states_table(moving, epochs, dr, (dr_xf, dr_vf)) if dr.active else None
     del dr_xf, dr_vf, dr_xs, dr_vs
     # memory (issue 11): the observations and the range rows are spent (unless the caller
     # keeps its inputs for another fusion); free them before the trajectories are built
@@ -267,7 +271,7 @@ def fuse(
     held = built.pop(0) if forward else {}
     return FusionOutput(
         smoothed=built[0], forward=held, epochs_s=epochs, observations=table,
-        dr_states=dr_table, decisions=decisions,
+        dr_states=dr_table, dr_states_forward=dr_forward, decisions=decisions,
     )  # fmt: skip
 
 

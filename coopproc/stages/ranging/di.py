@@ -65,6 +65,14 @@ class DISmoothingParams:
             "(paper 000 fig. 1 closed loop); nav: eq. (2) on the nav positions alone"
         },
     )
+    dr_states: bool = field(
+        default=False,
+        metadata={
+            "help": "true: DR DI from the followers' navigation corrected by the causal "
+            "fusion's DR states (heading and scale; ranging/dr_corrected.py); false: the "
+            "navigation as recorded (paper 000)"
+        },
+    )
     gate_sigma: float = field(
         default=3.0,
         metadata={

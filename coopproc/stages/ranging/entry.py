@@ -26,7 +26,7 @@ def ranging_stage(inp: RangeInput, params: RangingConfig, methods: tuple[str, ..
     """Run :func:`run_ranging` and keep the requested methods."""
     if inp.cp is None:
         raise StageError("ranging: no cooperative solution (the chain must fuse 'observed')")
-    out = run_ranging(inp.session, inp.cp, params, methods, inp.cp_left_out)
+    out = run_ranging(inp.session, inp.cp, params, methods, inp.cp_left_out, inp.dr_states)
     table = out.ranges
     same = len(table) == len(inp.table) and np.array_equal(
         table["time"].to_numpy(), inp.table["time"].to_numpy()

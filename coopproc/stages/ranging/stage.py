@@ -55,6 +55,7 @@ from coopproc.stages.ranging.di import (
     di_variance,
     smooth_di,
 )
+from coopproc.stages.ranging.dr_corrected import corrected_navigation
 from coopproc.stages.ranging.local import LocalCalibration, calibrate_windows
 from coopproc.stages.ranging.nlos import (
     DistanceFilterOutput,
@@ -266,6 +267,7 @@ def run_ranging(
     config: RangingConfig,
     methods: tuple[str, ...] = ("rn", "di"),
     left_out: LeftOutCP | None = None,
+    dr_states: pd.DataFrame | None = None,
 ) -> RangingOutput:
     """Process every pair's ranges with the DI-Based and the RN-Based methods (paper 000).
 
@@ -283,7 +285,12 @@ def run_ranging(
     # each platform's navigation columns and velocity once, shared by its pairs; the
     # pairs prepared two at a time (np.interp, most of it, releases the GIL: 6.9 -> ~4 s
     # at a day, issue 11), each by the same arithmetic, so the same arrays
-    tracks = PlatformTracks(session, config, session.ranges.pairs)
+    corrected = {}
+    if dr_states is not None and config.di.dr_states:
+        for platform, rows in dr_states.groupby("platform", sort=True):
+            if platform in session.nav:
+                corrected[str(platform)] = corrected_navigation(session.nav[str(platform)], rows)
+    tracks = PlatformTracks(session, config, session.ranges.pairs, corrected)
 
     def prepared(pair: str) -> PairInputs:
         own = left_out.trajectories.get(pair) if left_out is not None else None

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import threading
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -33,9 +33,16 @@ class PlatformTracks:
     """Navigation positions and velocities of the platforms of ``pairs`` (their order of
     use), each platform's columns kept until :meth:`done` was called for its last pair."""
 
-    def __init__(self, session: Session, config: RangingConfig, pairs: Sequence[str]) -> None:
+    def __init__(
+        self,
+        session: Session,
+        config: RangingConfig,
+        pairs: Sequence[str],
+        corrected: Mapping[str, Trajectory] | None = None,
+    ) -> None:
         self._session = session
         self._config = config
+        self._corrected = dict(corrected or {})
         self._left = Counter(p for pair in pairs for p in pair_members(pair))
         self._positions: dict[str, list[FloatArray]] = {}
         self._velocities: dict[str, list[FloatArray]] = {}
@@ -51,17 +58,22 @@ class PlatformTracks:
             raise StageError(f"ranging: no navigation for platform '{platform}'")
         return traj
 
-    def positions(self, platform: str, time_s: FloatArray) -> FloatArray:
-        """``platform``'s navigation positions at ``time_s`` (an anchor: its position)."""
+    def positions(self, platform: str, time_s: FloatArray, corrected: bool = False) -> FloatArray:
+        """``platform``'s navigation positions at ``time_s`` (an anchor: its position);
+        ``corrected``: its navigation corrected by the fusion's DR states where it has them
+        (:mod:`~coopproc.stages.ranging.dr_corrected`), the DR DI's input."""
         if self._fixed(platform) or platform not in self._session.nav:
             return platform_positions(
                 self._session, self._session.nav, platform, time_s, "navigation", True
             )
+        key = platform
         traj = self._session.nav[platform]
-        columns = self._positions.get(platform)
+        if corrected and platform in self._corrected:
+            key, traj = platform + "\0corrected", self._corrected[platform]
+        columns = self._positions.get(key)
         if columns is None:
             columns = [np.ascontiguousarray(traj.enu_m[:, a]) for a in range(3)]
-            self._positions[platform] = columns
+            self._positions[key] = columns
         return columns_at(traj, columns, time_s)
 
     def measured_velocity(self, platform: str) -> bool:
@@ -94,4 +106,5 @@ class PlatformTracks:
                 self._left[platform] -= 1
                 if self._left[platform] <= 0:
                     self._positions.pop(platform, None)
+                    self._positions.pop(platform + "\0corrected", None)
                     self._velocities.pop(platform, None)
