@@ -31,10 +31,11 @@ from functools import partial
 import numpy as np
 from _common import load, median_seconds, spread, target
 
+from coopproc.estimation.locate_result import LocateInputs
 from coopproc.model import Session
 from coopproc.sim import simulate
 from coopproc.stages.particle.aacopf import run_aacopf
-from coopproc.stages.particle.inputs import LocateInputs, gather_inputs
+from coopproc.stages.particle.inputs import gather_inputs
 from coopproc.stages.particle.locate import locate
 from coopproc.stages.particle.params import LocateParams
 from coopproc.stages.particle.pf import run_pf

@@ -14,6 +14,11 @@ from numpy.typing import ArrayLike
 from coopproc.model import FloatArray
 
 __all__ = [
+    "EARTH_RATE_RADPS",
+    "WGS84_A",
+    "WGS84_E2",
+    "WGS84_F",
+    "WGS84_GM",
     "ecef2enu",
     "ecef2geodetic",
     "ecef_cov2enu_sigma",
@@ -22,6 +27,17 @@ __all__ = [
     "geodetic2ecef",
     "geodetic2enu",
 ]
+
+#: The WGS-84 ellipsoid, defined once for every module (the numba kernels read them as
+#: module floats): semi-major axis (m), flattening, first eccentricity squared, GM
+#: (m^3/s^2) and earth rotation rate (rad/s); NIMA TR8350.2 table 3.1. The same a and f
+#: as ``pymap3d.Ellipsoid.from_name("wgs84")``, which the conversions below use
+#: (tests/io/test_timeconv_frames.py checks them against it).
+WGS84_A = 6378137.0
+WGS84_F = 1.0 / 298.257223563
+WGS84_E2 = WGS84_F * (2.0 - WGS84_F)
+WGS84_GM = 3.986004418e14
+EARTH_RATE_RADPS = 7.2921151467e-5
 
 Origin = tuple[float, float, float]
 

@@ -6,7 +6,8 @@ Containers are frozen; stages return new objects and never mutate their inputs.
 
 Output tables (``Result``) are pandas DataFrames whose columns are fixed by the data
 contract (``shared/design/DATA.md``, mirrored in ``docs/formats.md``); the column tuples
-(:mod:`coopproc.names`, re-exported here) are the single source of those names.
+(:mod:`coopproc.names`, re-exported here) are the single source of those names; the
+array type and the gap rule come from :mod:`coopproc.sampling` (re-exported too).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import functools
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
+from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
@@ -37,9 +38,8 @@ from coopproc.names import (
     pair_members,
     pair_name,
 )
-
-if TYPE_CHECKING:  # coopproc.sensors imports this module
-    from coopproc.sensors import ImuData, OdometerData
+from coopproc.sampling import GAP_FACTOR, FloatArray, gap_limit_s
+from coopproc.sensors import ImuData, OdometerData
 
 __all__ = [
     "DI_COLUMNS",
@@ -69,29 +69,10 @@ __all__ = [
     "pair_name",
 ]
 
-FloatArray = NDArray[np.float64]
-
 Role = Literal["follower", "leader", "anchor", "tag"]
 #: ``tag``: moves, has no navigation solution of its own (DATA.md "Raw sensors").
 ROLES: tuple[str, ...] = ("follower", "leader", "anchor", "tag")
 TimeBase = Literal["gps_tow", "unix", "relative"]
-
-
-#: A gap in a time series: an interval between consecutive epochs longer than this many
-#: times the median interval (the one rule of :meth:`Trajectory.interpolate_within`, the
-#: coverage checks and the figures).
-GAP_FACTOR = 2.5
-
-
-def gap_limit_s(time_s: FloatArray) -> float:
-    """The longest interval between consecutive epochs of ``time_s`` that is not a gap, s.
-
-    :data:`GAP_FACTOR` times the median interval; infinite with fewer than two epochs.
-    """
-    t = np.asarray(time_s, dtype=np.float64)
-    if t.shape[0] < 2:
-        return float("inf")
-    return GAP_FACTOR * float(np.median(np.diff(t)))
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,8 @@
 :class:`ImuData` (``imu_<ID>.csv``, ``sensor_msgs/msg/Imu``) and :class:`OdometerData`
 (``odo_<ID>.csv``, ``nav_msgs/msg/Odometry`` twist): what the readers of
 :mod:`coopproc.io.imu_csv` / :mod:`coopproc.io.odo_csv` and the bag reader return, what
-the simulator writes, and what the INS stages read from :class:`coopproc.model.Session`.
+the simulator writes, and what the INS stages read from ``coopproc.model.Session``
+(which imports this module).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from typing import Literal
 
 import numpy as np
 
-from coopproc.model import FloatArray, gap_limit_s
+from coopproc.sampling import FloatArray, gap_limit_s
 
 __all__ = ["IMU_GRADE_FIGURES", "ImuData", "ImuGrade", "OdometerData"]
 

@@ -1,4 +1,5 @@
-"""The layout rules of docs/architecture.md: what each package may import, module size."""
+"""The layout rules of docs/architecture.md: what each package may import, no import
+cycle, module size."""
 
 from __future__ import annotations
 
@@ -8,17 +9,30 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1] / "coopproc"
-SHARED = ("model", "names", "memory", "sensors", "errors", "frames", "timeconv", "configtools")
+SHARED = (
+    "model",
+    "names",
+    "memory",
+    "sampling",
+    "sensors",
+    "errors",
+    "frames",
+    "timeconv",
+    "configtools",
+)
 
 #: package -> coopproc packages/modules it must not import
 FORBIDDEN: dict[str, tuple[str, ...]] = {
+    # the model layer: numpy/numba/scipy and the shared modules only (issue 34)
+    "estimation": ("stages", "run", "report", "cli", "sim", "checks", "io", "ins", "gnss"),
     "io": ("stages", "run", "report", "cli", "sim", "checks"),
     "checks": ("stages", "run", "report", "cli", "sim"),
     "stages": ("io", "run", "report", "cli", "sim", "checks"),
-    "report": ("io", "run", "cli", "sim", "checks", "stages.ranging", "stages.fusion"),
+    # reporters read results (estimation.locate_result), not algorithms
+    "report": ("io", "run", "cli", "sim", "checks", "stages"),
     "sim": ("stages", "run", "report", "checks", "cli"),
-    "ins": ("io", "run", "report", "cli", "sim", "checks"),
-    "gnss": ("stages", "run", "report", "cli", "sim", "checks"),
+    "ins": ("io", "run", "report", "cli", "sim", "checks", "stages"),
+    "gnss": ("stages", "run", "report", "cli", "sim", "checks", "ins"),
     "run": ("cli",),
 }
 
@@ -77,3 +91,81 @@ def _raw_imports(path: Path) -> set[str]:
         elif isinstance(node, ast.Import):
             names.update(alias.name for alias in node.names)
     return names
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def import_graph() -> dict[str, set[str]]:
+    """coopproc's modules -> the coopproc modules each imports, at module level or inside a
+    function (``TYPE_CHECKING`` blocks included); ``from coopproc.x import y`` with ``y`` a
+    module imports ``coopproc.x.y``, else ``coopproc.x``."""
+    paths = {_module_name(p): p for p in _modules()}
+    graph: dict[str, set[str]] = {}
+    for name, path in paths.items():
+        edges: set[str] = set()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                for alias in node.names:
+                    sub = f"{node.module}.{alias.name}"
+                    edges.add(sub if sub in paths else node.module)
+            elif isinstance(node, ast.Import):
+                edges.update(alias.name for alias in node.names)
+        graph[name] = {e for e in edges if e in paths and e != name}
+    return graph
+
+
+def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    """One import cycle ``[a, b, ..., a]`` of ``graph``, None when it has none (iterative
+    depth-first search: a back edge to a module on the current path closes a cycle)."""
+    state: dict[str, int] = {}  # 1 on the path, 2 done
+    for root in sorted(graph):
+        if root in state:
+            continue
+        path = [root]
+        stack = [iter(sorted(graph[root]))]
+        state[root] = 1
+        while stack:
+            nxt = next(stack[-1], None)
+            if nxt is None:
+                state[path.pop()] = 2
+                stack.pop()
+            elif state.get(nxt) == 1:
+                return [*path[path.index(nxt) :], nxt]
+            elif nxt not in state:
+                state[nxt] = 1
+                path.append(nxt)
+                stack.append(iter(sorted(graph[nxt])))
+    return None
+
+
+def test_no_import_cycle() -> None:
+    cycle = find_cycle(import_graph())
+    assert cycle is None, "import cycle: " + " -> ".join(cycle or [])
+
+
+def test_the_cycle_finder_finds_cycles() -> None:
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a", "d"}, "d": set()}
+    assert find_cycle(graph) == ["a", "b", "c", "a"]
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": set(), "d": {"c"}}) is None
+    # the graph counts function-level imports and a module imported by its package
+    graph = import_graph()
+    assert "coopproc.estimation.robust" in graph["coopproc.stages.fusion.ekf"]
+    assert "coopproc.run.outages" in graph["coopproc.run.pipeline"]
+
+
+def test_the_model_layer_is_below_the_stages() -> None:
+    """estimation is imported by the INS engine and the stages, and imports neither."""
+    graph = import_graph()
+    users = {
+        m for m, edges in graph.items() if any(e.startswith("coopproc.estimation") for e in edges)
+    }
+    assert {
+        "coopproc.ins.kernels",
+        "coopproc.ins.smoother",
+        "coopproc.report.locate_figures",
+    } <= users
+    below = {e for m, edges in graph.items() if m.startswith("coopproc.estimation.") for e in edges}
+    assert all(e.split(".")[1] in (*SHARED, "estimation") for e in below), sorted(below)

@@ -15,7 +15,7 @@ from coopproc.cli.options import (
 )
 
 if TYPE_CHECKING:
-    from coopproc.report.rundir import RunTables
+    from coopproc.report.run_tables import RunTables
 
 __all__ = ["report"]
 

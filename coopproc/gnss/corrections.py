@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from coopproc.frames import WGS84_A, WGS84_E2
 from coopproc.model import FloatArray
 
 __all__ = [
@@ -27,10 +28,6 @@ __all__ = [
     "saastamoinen_m",
 ]
 
-_A = 6378137.0
-_F = 1.0 / 298.257223563
-_E2 = _F * (2.0 - _F)
-
 
 def ecef_to_llh(xyz: FloatArray) -> tuple[float, float, float]:
     """Geodetic latitude, longitude (rad) and ellipsoidal height (m) of one ECEF point
@@ -38,13 +35,13 @@ def ecef_to_llh(xyz: FloatArray) -> tuple[float, float, float]:
     x, y, z = (float(v) for v in xyz)
     p = np.hypot(x, y)
     if p < 1e-9 and abs(z) < 1e-9:
-        return 0.0, 0.0, -_A
-    lat = np.arctan2(z, p * (1.0 - _E2))
+        return 0.0, 0.0, -WGS84_A
+    lat = np.arctan2(z, p * (1.0 - WGS84_E2))
     h = 0.0
     for _ in range(10):
-        n = _A / np.sqrt(1.0 - _E2 * np.sin(lat) ** 2)
-        h = p / np.cos(lat) - n if abs(np.cos(lat)) > 1e-12 else abs(z) - n * (1 - _E2)
-        new = np.arctan2(z, p * (1.0 - _E2 * n / (n + h)))
+        n = WGS84_A / np.sqrt(1.0 - WGS84_E2 * np.sin(lat) ** 2)
+        h = p / np.cos(lat) - n if abs(np.cos(lat)) > 1e-12 else abs(z) - n * (1 - WGS84_E2)
+        new = np.arctan2(z, p * (1.0 - WGS84_E2 * n / (n + h)))
         if abs(new - lat) < 1e-13:
             lat = new
             break

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from coopproc.frames import WGS84_A, WGS84_E2
 from coopproc.gnss.corrections import (
     CodeErrorModel,
     azel,
@@ -55,9 +56,6 @@ __all__ = [
 #: L1 Doppler observations in order of preference (RINEX 3 and RINEX 2 names).
 DOPPLER_L1 = ("D1C", "D1", "D1W", "D1P", "D1X")
 
-_A = 6378137.0
-_E2 = (1.0 / 298.257223563) * (2.0 - 1.0 / 298.257223563)
-
 
 @dataclass(frozen=True)
 class LocalFrame:
@@ -78,12 +76,12 @@ def local_frame(origin_llh_deg: tuple[float, float, float]) -> LocalFrame:
     """The ENU frame at a geodetic origin (deg, deg, m; WGS 84)."""
     lat, lon = np.radians(origin_llh_deg[0]), np.radians(origin_llh_deg[1])
     h = float(origin_llh_deg[2])
-    n = _A / np.sqrt(1.0 - _E2 * np.sin(lat) ** 2)
+    n = WGS84_A / np.sqrt(1.0 - WGS84_E2 * np.sin(lat) ** 2)
     ecef0 = np.array(
         [
             (n + h) * np.cos(lat) * np.cos(lon),
             (n + h) * np.cos(lat) * np.sin(lon),
-            (n * (1.0 - _E2) + h) * np.sin(lat),
+            (n * (1.0 - WGS84_E2) + h) * np.sin(lat),
         ]
     )
     sl, cl, sp, cp = np.sin(lon), np.cos(lon), np.sin(lat), np.cos(lat)

@@ -16,7 +16,8 @@ from typing import Literal
 import numpy as np
 
 from coopproc.errors import StageError
-from coopproc.ins.earth import EARTH_RATE_RADPS, normal_gravity
+from coopproc.frames import EARTH_RATE_RADPS
+from coopproc.ins.earth import normal_gravity
 from coopproc.ins.models import ImuFigures
 from coopproc.model import FloatArray
 

@@ -9,12 +9,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from coopproc.frames import EARTH_RATE_RADPS, WGS84_A, WGS84_E2, WGS84_F, WGS84_GM
 from coopproc.model import FloatArray
 
 __all__ = [
-    "EARTH_RATE_RADPS",
-    "WGS84_A",
-    "WGS84_E2",
     "earth_rate_enu",
     "ecef_to_enu_matrix",
     "llh_to_ecef",
@@ -23,13 +21,6 @@ __all__ = [
     "transport_rate_enu",
 ]
 
-#: WGS-84 semi-major axis (m), flattening, first eccentricity squared, GM (m^3/s^2).
-WGS84_A = 6378137.0
-WGS84_F = 1.0 / 298.257223563
-WGS84_E2 = WGS84_F * (2.0 - WGS84_F)
-WGS84_GM = 3.986004418e14
-#: WGS-84 earth rotation rate, rad/s (the value of coopproc.io.imu_csv).
-EARTH_RATE_RADPS = 7.2921151467e-5
 #: Somigliana: normal gravity at the equator (m/s^2) and its constant k = (b g_p)/(a g_e) - 1.
 _GAMMA_E = 9.7803253359
 _SOMIGLIANA_K = 0.00193185265241

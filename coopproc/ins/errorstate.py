@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from coopproc.estimation.robust import igg3_scalar
 from coopproc.ins.earth import (
     earth_rate_enu,
     ecef_to_enu_matrix,
@@ -26,7 +27,6 @@ from coopproc.ins.earth import (
 from coopproc.ins.models import ImuFigures
 from coopproc.ins.quat import qmul, quat_to_dcm, rotvec_to_quat, skew
 from coopproc.model import FloatArray
-from coopproc.stages.filters import igg3_scalar
 
 __all__ = [
     "ATT",

@@ -15,6 +15,7 @@ from collections.abc import Callable
 import numba
 import numpy as np
 
+from coopproc.estimation.robust import GAMMA_REJECT, igg3_scalar
 from coopproc.ins.earth import ecef_to_enu_matrix, llh_to_ecef
 from coopproc.ins.errorstate import N_BASE, ErrorStateEkf
 from coopproc.ins.loop import EPOCH_IN, N_STAT, EventPlan, ForwardRun
@@ -27,7 +28,6 @@ from coopproc.ins.propagation import (
 )
 from coopproc.ins.quat import quat_to_dcm
 from coopproc.model import FloatArray
-from coopproc.stages.filters import GAMMA_REJECT, igg3_scalar
 
 __all__ = ["CHUNK", "forward"]
 

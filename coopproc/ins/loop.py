@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from coopproc.estimation.robust import GAMMA_REJECT, igg3_scalar
 from coopproc.ins.errorstate import ErrorStateEkf, Measurement
 from coopproc.ins.mechanize import NavSolution, ins_step
 from coopproc.ins.updates import (
@@ -26,7 +27,6 @@ from coopproc.ins.updates import (
     zero_velocity_update,
 )
 from coopproc.model import FloatArray
-from coopproc.stages.filters import GAMMA_REJECT, igg3_scalar
 
 __all__ = [
     "EPOCH_IN",

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from coopproc.ins.earth import EARTH_RATE_RADPS, WGS84_A, WGS84_E2, WGS84_F, WGS84_GM
+from coopproc.frames import EARTH_RATE_RADPS, WGS84_A, WGS84_E2, WGS84_F, WGS84_GM
 from coopproc.model import FloatArray
 
 __all__ = ["mechanize_reference", "normal_gravity_reference"]

@@ -25,11 +25,11 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from coopproc.estimation.linalg import cholesky_solve_nb
 from coopproc.ins.loop import ForwardRun
 from coopproc.ins.models import ImuFigures
 from coopproc.ins.propagation import apply_correction_nb, continuous_noise, phi_q, propagate_cov
 from coopproc.model import FloatArray
-from coopproc.stages.filters import cholesky_solve_nb
 
 __all__ = ["Smoothed", "smooth"]
 

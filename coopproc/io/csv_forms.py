@@ -228,7 +228,7 @@ def read_table(
     per row).
     """
     form = form or CsvForm()
-    found = plain_head(path, form)
+    found = plain_head(path, form.encoding)
     if found is not None:  # plain ASCII, comma-delimited: the head is all that is needed
         text, lines, index = found
         encoding, codec = "", "utf-8"

@@ -11,12 +11,8 @@ from __future__ import annotations
 import re
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from coopproc.errors import InputError
-
-if TYPE_CHECKING:  # csv_forms imports this module
-    from coopproc.io.csv_forms import CsvForm
 
 __all__ = [
     "HEAD_LINES",
@@ -114,14 +110,15 @@ HEAD_LINES = 1000
 _CHUNK = 1 << 23
 
 
-def plain_head(path: Path, form: CsvForm) -> tuple[str, list[str], int] | None:
+def plain_head(path: Path, encoding: str | None) -> tuple[str, list[str], int] | None:
     """(head text, its first lines, the header's index) of a file that
     :func:`coopproc.io.csv_forms.read_table` reads exactly as from its whole decoded
     text: plain ASCII (so valid UTF-8, no byte order mark), no NUL in its first 4096
     bytes, no declared encoding, not gzip, its header within the first lines and not
-    whitespace-delimited. None otherwise (the caller decodes the whole file). The file
-    is checked in chunks, so its text is never held whole."""
-    if form.encoding is not None or path.name.lower().endswith(".gz"):
+    whitespace-delimited (``encoding``: the one its :class:`~coopproc.io.csv_forms.CsvForm`
+    declares). None otherwise (the caller decodes the whole file). The file is checked
+    in chunks, so its text is never held whole."""
+    if encoding is not None or path.name.lower().endswith(".gz"):
         return None
     try:
         with open(path, "rb") as fh:

@@ -36,6 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from coopproc.errors import InputError
+from coopproc.frames import EARTH_RATE_RADPS
 from coopproc.io._common import InputProblems, Locator, missing_column, numeric_column
 from coopproc.io.csv_traj import read_csv_table
 from coopproc.io.file_names import find_sensor_files, sensor_file_name, sensor_platform
@@ -43,7 +44,6 @@ from coopproc.model import FloatArray, gap_limit_s
 from coopproc.sensors import ImuData
 
 __all__ = [
-    "EARTH_RATE_RADPS",
     "GRAVITY_MPS2",
     "IMU_INCREMENT_COLUMNS",
     "IMU_RATE_COLUMNS",
@@ -77,8 +77,7 @@ IMU_INCREMENT_COLUMNS: tuple[str, ...] = (
 #: DATA.md: 50-1000 Hz.
 IMU_RATE_LIMITS_HZ = (50.0, 1000.0)
 _RATE_SLACK = 0.02
-#: WGS-84 earth rotation rate, rad/s; standard gravity, m/s^2.
-EARTH_RATE_RADPS = 7.2921151467e-5
+#: Standard gravity, m/s^2.
 GRAVITY_MPS2 = 9.80665
 #: Largest full scale of common MEMS gyros (2000 deg/s), rad/s.
 _GYRO_FULL_SCALE_RADPS = 2000.0 * np.pi / 180.0

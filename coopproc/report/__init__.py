@@ -12,7 +12,8 @@ from typing import Any
 
 from coopproc.report.formats import format_tables
 from coopproc.report.metrics import distance_metrics, position_metrics
-from coopproc.report.rundir import RunTables, load_run
+from coopproc.report.run_tables import RunTables
+from coopproc.report.rundir import load_run
 from coopproc.report.scores import nlos_event_scores, nlos_scores
 
 __all__ = [

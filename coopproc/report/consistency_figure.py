@@ -26,7 +26,7 @@ from coopproc.report.consistency import nees_series, nis_series
 from coopproc.report.methods import position_methods
 from coopproc.report.pages import FigureOptions
 from coopproc.report.panels import Panels, stack_layout, time_label
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.table_specs import method_label
 
 __all__ = ["CONSISTENCY_FIGURE_NAMES", "WINDOW", "consistency_panels", "window_means"]

@@ -32,7 +32,7 @@ import pandas as pd
 from coopproc.report.methods import nlos_methods, primary_method
 from coopproc.report.pages import FigureOptions
 from coopproc.report.panels import groups
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.scores import event_bias
 from coopproc.report.tables import method_label
 

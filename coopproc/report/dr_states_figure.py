@@ -17,7 +17,7 @@ from matplotlib.figure import Figure
 
 from coopproc.report.pages import FigureOptions
 from coopproc.report.panels import Panels, legend, stack_layout, time_label
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.style import method_style
 
 __all__ = ["DR_FIGURE_NAMES", "dr_states_panels"]

@@ -23,7 +23,7 @@ from coopproc.report.gaps import break_gaps
 from coopproc.report.methods import position_methods, primary_method
 from coopproc.report.panels import by_method as rows_by_method
 from coopproc.report.panels import time_sorted
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.style import MAX_LINE_POINTS, method_style
 
 __all__ = ["TRACK_CMAP", "error_norm", "plot_error_cdf", "plot_error_track", "track_method"]

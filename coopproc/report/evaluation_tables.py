@@ -30,7 +30,7 @@ from coopproc.report.rpe import (
     check_segments,
     evaluation_and_rpe,
 )
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.tables import METRIC_SPECS, MetricSpec, Table, position_table
 
 __all__ = [

@@ -52,7 +52,7 @@ from coopproc.report.plots import (
     plot_position_errors,
 )
 from coopproc.report.run_spans import nav_gaps_of, outage_windows_of, shade_windows
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.trajectory_plots import (
     mark_anchors,
     mark_start_end,

@@ -44,7 +44,7 @@ from coopproc.report.page_workers import save_pages
 from coopproc.report.pages import FigureOptions, page_ranges, page_stem
 from coopproc.report.panel_cap import Capped, cap_panels
 from coopproc.report.panels import Panels
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 
 __all__ = [
     "FIGURE_NAMES",

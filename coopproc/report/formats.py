@@ -23,7 +23,7 @@ from typing import Literal
 from coopproc.report.bootstrap import DEFAULT_LEVEL
 from coopproc.report.injected import injected_tables
 from coopproc.report.latex import LatexWidth, latex_table
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.table_stats import DEFAULT_SIGNIFICANCE
 from coopproc.report.tables import (
     METRIC_SPECS,

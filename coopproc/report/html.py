@@ -22,7 +22,7 @@ from coopproc.report.formats import render_table
 from coopproc.report.html_figures import figures_section
 from coopproc.report.injected import injected_tables
 from coopproc.report.pages import FigureOptions
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.scores import NLOS_EVENT_SCORE_COLUMNS, nlos_event_scores
 from coopproc.report.stochastic import StochasticReport
 from coopproc.report.stochastic_figures import stochastic_section

@@ -36,7 +36,7 @@ import matplotlib as mpl
 from coopproc.report.figures import PANEL_SEPARATOR, PANELS_KEY, FigurePage, figure_pages
 from coopproc.report.pages import FigureOptions, panel_letter, selection_note
 from coopproc.report.panel_cap import Capped
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.style import RC
 
 __all__ = ["DISPLAY_PX_PER_IN", "EMBED_LIMIT_BYTES", "THUMBNAIL_WIDTH_PX", "figures_section"]

@@ -31,7 +31,7 @@ from coopproc.report.methods import nlos_methods
 from coopproc.report.tables import METRIC_SPECS, MetricSpec, Row, Table
 
 if TYPE_CHECKING:
-    from coopproc.report.rundir import RunTables
+    from coopproc.report.run_tables import RunTables
 
 __all__ = [
     "INJECTED_METRICS",

@@ -22,10 +22,10 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from coopproc.estimation.locate_result import LocateResult
 from coopproc.report.panels import grid, legend, stack
 from coopproc.report.style import DEFAULT_STYLE, FigureStyle, method_style
 from coopproc.report.trajectory_plots import mark_start_end
-from coopproc.stages.particle import LocateResult
 
 __all__ = [
     "plot_locate_errors",

@@ -20,14 +20,12 @@ A run's processing chain is configurable: it may drop methods (no ``rn``; fusion
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import pandas as pd
 
 from coopproc.model import METHODS
-
-if TYPE_CHECKING:
-    from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 
 __all__ = [
     "METHOD_KEYS",

@@ -33,6 +33,7 @@ import numpy as np
 import pandas as pd
 
 from coopproc.report.latex_layout import Grid, LatexWidth, number_cell, render_grid, text_cell
+from coopproc.report.table_specs import method_label
 
 __all__ = ["OUTAGE_COLUMNS", "drift_curves", "format_outages", "outage_table"]
 
@@ -138,8 +139,6 @@ def _rows(
     """The table's rows by window, platform and method in ``order`` (the other tables'
     paper order: own nav, Observed, RN-Based, DI-Based, then the run's others), each
     method by its display name (``labels``; the csv keeps the ids)."""
-    from coopproc.report.tables import method_label  # tables imports rundir, rundir this
-
     rank = {m: i for i, m in enumerate(order)}
     records = sorted(
         outages.to_dict("records"),

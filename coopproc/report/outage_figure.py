@@ -18,7 +18,7 @@ from matplotlib.axes import Axes
 from coopproc.report.outage import drift_curves
 from coopproc.report.pages import FigureOptions
 from coopproc.report.panels import Panels, grid_layout, stack_layout
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.style import method_style
 
 __all__ = ["OUTAGE_FIGURE_NAMES", "WINDOW_MARKERS", "outage_panels"]

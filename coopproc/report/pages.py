@@ -27,7 +27,7 @@ import pandas as pd
 
 from coopproc.errors import ConfigError
 from coopproc.model import pair_members, pair_name
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.style import DEFAULT_STYLE, MAX_PAGES, MAX_PANELS, FigureStyle
 
 __all__ = [

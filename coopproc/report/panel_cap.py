@@ -28,7 +28,7 @@ import pandas as pd
 from coopproc.report.evaluation_plots import track_method
 from coopproc.report.pages import FigureOptions
 from coopproc.report.panels import Panels
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 
 __all__ = [
     "Capped",

@@ -1,8 +1,8 @@
 """An output directory of ``coopproc run`` read back, so reports never recompute.
 
-:class:`RunTables` is the reporters' input: the output tables (DATA.md "Output") and the
-run facts of ``run.json``. :func:`load_run` reads it from a directory; the pipeline builds
-it from its in-memory tables with the plain constructor.
+:class:`~coopproc.report.run_tables.RunTables` is the reporters' input: the output tables
+(DATA.md "Output") and the run facts of ``run.json``. :func:`load_run` reads it from a
+directory; the pipeline builds it from its in-memory tables with the plain constructor.
 
 The per-epoch tables may be Parquet files instead (``coopproc run --format parquet``:
 ``positions.parquet``, ...; :data:`PARQUET_TABLES`); either form is read the same way.
@@ -17,8 +17,7 @@ that run.json ``"methods"`` lists.
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +38,7 @@ from coopproc.model import (
 from coopproc.names import LSQ_QUALITY_COLUMNS, RANGE_WEIGHTS_COLUMNS
 from coopproc.report.methods import METHOD_KEYS, listed_methods, range_methods_of
 from coopproc.report.outage import OUTAGE_COLUMNS
+from coopproc.report.run_tables import RunTables
 from coopproc.report.scores import NLOS_EVENT_SCORE_COLUMNS, NLOS_SCORE_COLUMNS
 
 __all__ = [
@@ -48,7 +48,6 @@ __all__ = [
     "RANGES_TRAILING_COLUMNS",
     "RUN_EXTENSION_FILES",
     "RUN_FILES",
-    "RunTables",
     "find_table",
     "load_run",
     "ranges_columns",
@@ -108,51 +107,6 @@ RUN_EXTENSION_FILES: tuple[tuple[str, str, tuple[str, ...], bool], ...] = (
     ("outages.csv", "outages", OUTAGE_COLUMNS, False),
     ("comparisons.csv", "comparisons", ("kind", "group", "method", "baseline"), False),
 )
-
-
-@dataclass(frozen=True, eq=False)
-class RunTables:
-    """The tables of one run plus its ``run.json`` facts (``info``).
-
-    Optional tables are None when the run did not produce them; ``nlos_estimates`` may be
-    an empty frame.
-    """
-
-    ranges: pd.DataFrame
-    di: pd.DataFrame
-    nlos_events: pd.DataFrame
-    nlos_estimates: pd.DataFrame
-    positions: pd.DataFrame
-    metrics: pd.DataFrame
-    position_metrics: pd.DataFrame
-    nlos_scores: pd.DataFrame | None = None
-    nlos_event_scores: pd.DataFrame | None = None
-    info: Mapping[str, Any] = field(default_factory=dict)
-    injected_scores: pd.DataFrame | None = None
-    evaluation: pd.DataFrame | None = None
-    rpe: pd.DataFrame | None = None
-    #: velocity and attitude of the INS methods (and the reference's where it has them)
-    states: pd.DataFrame | None = None
-    #: outages.csv: drift inside the [run] outages windows (coopproc/report/outage.py)
-    outages: pd.DataFrame | None = None
-    #: dr_states.csv: the fusion's estimate of the followers' dead-reckoning errors
-    dr_states: pd.DataFrame | None = None
-    #: range_weights.csv: the cooperative fusion's IGG-III factor of every range it used
-    range_weights: pd.DataFrame | None = None
-    #: comparisons.csv: paired comparisons of methods, 95 % (report/comparisons.py)
-    comparisons: pd.DataFrame | None = None
-    #: lsq_quality.csv: every epoch of the anchor least squares and its decision
-    lsq_quality: pd.DataFrame | None = None
-
-    @property
-    def time_origin_s(self) -> float:
-        """Earliest time of the ranges and positions tables (0.0 if both are empty)."""
-        times = [
-            float(np.nanmin(f["time"].to_numpy(dtype=np.float64)))
-            for f in (self.ranges, self.positions)
-            if len(f) and np.isfinite(f["time"].to_numpy(dtype=np.float64)).any()
-        ]
-        return min(times) if times else 0.0
 
 
 #: Columns each table must have, by attribute (the leading columns unless listed here).

@@ -27,7 +27,7 @@ from coopproc.report.intervals import (
     interval_columns,
 )
 from coopproc.report.metrics import distance_metrics, position_metrics
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 
 __all__ = [
     "COMPARED_STATS",

@@ -30,7 +30,7 @@ from coopproc.report.change import Change
 from coopproc.report.methods import method_order, nlos_methods, position_methods, range_methods
 from coopproc.report.metrics import POSITION_METRICS_EXTRA_COLUMNS
 from coopproc.report.outlier_scores import FUSION_PREFIX
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.table_rows import Row, Table, best_rows, change_against
 from coopproc.report.table_specs import (
     METHOD_LABELS,

@@ -35,7 +35,7 @@ from coopproc.report.gaps import break_gaps, line_gap_limit_s
 from coopproc.report.methods import position_methods_of
 from coopproc.report.panels import by_method as rows_by_method
 from coopproc.report.panels import time_sorted
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.style import method_style
 
 __all__ = [

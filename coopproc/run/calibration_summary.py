@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from coopproc.run.pipeline import PipelineOutput
+from coopproc.run.pipeline_output import PipelineOutput
 from coopproc.stages.fusion.calibration_bias import bias_words
 from coopproc.stages.fusion.dr_quality import (
     DRIFT_WINDOW_S,

@@ -34,7 +34,7 @@ from coopproc.checks.coverage import session_start_s
 from coopproc.errors import ConfigError, StageError
 from coopproc.model import Session
 from coopproc.report.outage import outage_table
-from coopproc.run.pipeline import PipelineOutput
+from coopproc.run.pipeline_output import PipelineOutput
 from coopproc.stages.ranging.table import observed_table
 
 if TYPE_CHECKING:

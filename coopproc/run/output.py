@@ -35,11 +35,12 @@ from coopproc.report.injected import injected_scores
 from coopproc.report.methods import position_methods_of, range_methods_of
 from coopproc.report.pages import FigureOptions
 from coopproc.report.rpe import evaluation_and_rpe
-from coopproc.report.rundir import RUN_EXTENSION_FILES, RUN_FILES, RunTables, table_file_name
+from coopproc.report.run_tables import RunTables
+from coopproc.report.rundir import RUN_EXTENSION_FILES, RUN_FILES, table_file_name
 from coopproc.run.calibration_summary import calibration_facts
 from coopproc.run.config import RunConfig
 from coopproc.run.outages import OutageOutput, OutageReport
-from coopproc.run.pipeline import PipelineOutput
+from coopproc.run.pipeline_output import PipelineOutput
 
 if TYPE_CHECKING:
     import pandas as pd

@@ -23,7 +23,6 @@ import dataclasses
 import functools
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
@@ -45,55 +44,26 @@ from coopproc.run.chain import Step, resolve
 from coopproc.run.concurrent_steps import group_label, group_steps, run_concurrently, workers
 from coopproc.run.config import RunConfig
 from coopproc.run.declared import DeclaredDrifts, check_drifts, declared_quality
-from coopproc.run.declared_sigma import DeclaredSigma, check_declared_sigma, with_sigma
+from coopproc.run.declared_sigma import check_declared_sigma, with_sigma
 from coopproc.run.gnss_methods import gnss_pipeline
 from coopproc.run.implausible import implausible_methods
 from coopproc.run.ins import states_table, with_ins
 from coopproc.run.odo_methods import odo_pipeline
+from coopproc.run.outages import run_with_outages
+from coopproc.run.pipeline_output import PipelineOutput
 from coopproc.run.positions_table import PositionSamples, positions_table
 from coopproc.run.range_sets import ranges_for, row_sigma
 from coopproc.run.scoring import score_tables
 from coopproc.run.tags import anchor_pipeline, tag_pipeline, tag_rows, widen, without_tags
 from coopproc.stages.base import PositionInput, PositionProduct, RangeInput, RangeProduct
 from coopproc.stages.fusion.anchor_lsq import lsq_quality_of
-from coopproc.stages.fusion.dr_quality import DeadReckoningQuality, dead_reckoning_quality
+from coopproc.stages.fusion.dr_quality import dead_reckoning_quality
 from coopproc.stages.fusion.dr_states import dr_states_of
 from coopproc.stages.fusion.range_weights import range_weights_of
 from coopproc.stages.ranging.table import observed_table
 from coopproc.stages.registry import POSITION_STAGES, RANGE_STAGES, range_stage_of
 
-__all__ = ["PipelineOutput", "run_pipeline"]
-
-
-@dataclass(frozen=True, eq=False)
-class PipelineOutput:
-    """The result tables plus what run.json and the closing summary report."""
-
-    result: Result
-    nlos_scores: pd.DataFrame
-    nlos_event_scores: pd.DataFrame
-    timings_s: Mapping[str, float]
-    sigma: Mapping[str, tuple[float, str]]
-    #: the range processors' self-calibration, (pair, method) -> figures
-    ranging_calibration: Mapping[tuple[str, str], Any]
-    #: each position method's self-calibration (the fusions'), by method
-    fusion_calibration: Mapping[str, Any]
-    #: each moving platform's dead reckoning against the observed cooperative solution
-    dr_quality: Mapping[str, DeadReckoningQuality]
-    notes: tuple[str, ...]
-    #: the steps that ran, in order
-    chain: tuple[Step, ...] = ()
-    #: the run's methods: "ranges" (observed first, ranges.csv order) and "positions"
-    methods: Mapping[str, tuple[str, ...]] | None = None
-    #: the range methods that detect NLOS, in chain order
-    nlos_methods: tuple[str, ...] = ()
-    #: the fusion's outlier decisions scored (report/outlier_scores.py): the
-    #: ``fusion:<method>`` rows of ``nlos_scores`` and their ``rejected_tp``
-    fusion_outlier_scores: pd.DataFrame | None = None
-    #: methods whose positions jump or whose covariance exploded (run/implausible.py)
-    implausible: Mapping[str, Any] = dataclasses.field(default_factory=dict)
-    #: the declared ``[uwb] sigma`` against the data (run/declared_sigma.py)
-    declared_sigma: DeclaredSigma | None = None
+__all__ = ["run_pipeline"]
 
 
 def run_pipeline(
@@ -110,8 +80,6 @@ def run_pipeline(
     before the rest of the metrics, the writing and the figures (about 1.1 GB at a day of
     10 platforms, issue 11)."""
     if config.run.outages:  # ranges withheld in the windows, listed again (run.outages)
-        from coopproc.run.outages import run_with_outages
-
         return run_with_outages(session, config, run_pipeline, progress)
     step_label = progress or (lambda label: None)
     timings: dict[str, float] = {}

@@ -40,7 +40,7 @@ from coopproc.report.allan import (
     imu_allan,
 )
 from coopproc.report.pages import FigureOptions
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.stochastic import (
     MIN_EPOCHS,
     STOCHASTIC_COLUMNS,

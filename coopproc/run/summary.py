@@ -16,7 +16,7 @@ from coopproc.report.change import change_of
 from coopproc.report.consistency import consistency_lines
 from coopproc.report.outlier_scores import FUSION_PREFIX
 from coopproc.run.implausible import implausible_line
-from coopproc.run.pipeline import PipelineOutput
+from coopproc.run.pipeline_output import PipelineOutput
 
 __all__ = ["RunSummary", "fusion_outliers", "summarize"]
 

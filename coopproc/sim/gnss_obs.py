@@ -40,8 +40,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from collections.abc import Mapping, Set
-from dataclasses import dataclass
+from collections.abc import Set
 from pathlib import Path
 
 import numpy as np
@@ -63,13 +62,10 @@ from coopproc.model import FloatArray, Trajectory
 from coopproc.sim.gnss import gauss_markov
 from coopproc.sim.params import CanyonSpec, SimParams
 from coopproc.sim.scenario_types import named_rng
-from coopproc.sim.truth import Simulation
+from coopproc.sim.truth import SimulatedGnss, Simulation
 
 __all__ = [
     "GEONET_ORIGIN_LLH",
-    "GNSS_CLOCK_COLUMNS",
-    "GNSS_ERROR_COLUMNS",
-    "SimulatedGnss",
     "add_gnss_obs",
     "default_nav_path",
     "gnss_session_params",
@@ -79,29 +75,9 @@ __all__ = [
 #: Default ENU origin with ``gnss_obs`` and the shared navigation file: between the GEONET
 #: stations 0759 and 3040 (Miura peninsula, Japan) whose files it comes with.
 GEONET_ORIGIN_LLH = (35.1465, 139.6190, 70.0)
-#: ``truth/gnss_clock.csv``: the receiver clock at every observation epoch, in metres
-#: (c dt_r) and m/s (c dt_r'): seconds would not survive the files' 1e-6 float format.
-GNSS_CLOCK_COLUMNS = ("time", "platform", "clock_bias_m", "clock_drift_mps")
-#: ``truth/gnss_errors.csv``: the terms of every pseudorange written:
-#: P = range + clock_bias - sat_clock + tropo + iono + multipath + noise (metres).
-GNSS_ERROR_COLUMNS = (
-    "time", "platform", "prn", "elevation_deg", "azimuth_deg", "cn0_dbhz", "range",
-    "sat_clock", "tropo", "iono", "multipath", "noise",
-)  # fmt: skip
 _H0, _H_2 = 2e-19, 2e-20  # TCXO Allan-variance coefficients
 _PHASE_SIGMA_CYCLES = 0.01
 _DOPPLER_STEP_S = 0.05
-
-
-@dataclass(frozen=True, eq=False)
-class SimulatedGnss:
-    """Simulated observations per platform, the ephemerides flown, and their truth."""
-
-    observations: Mapping[str, ObsTable]
-    ephemerides: GpsEphemerides
-    rinex_version: int
-    clock: pd.DataFrame  # GNSS_CLOCK_COLUMNS
-    errors: pd.DataFrame  # GNSS_ERROR_COLUMNS
 
 
 def default_nav_path() -> Path:

@@ -37,6 +37,7 @@ import numpy as np
 import pandas as pd
 from scipy.interpolate import CubicSpline
 
+from coopproc.frames import EARTH_RATE_RADPS
 from coopproc.model import FloatArray, ImuNoise, Trajectory
 from coopproc.sensors import IMU_GRADE_FIGURES, ImuData, ImuGrade, OdometerData
 from coopproc.sim.params import SimParams
@@ -44,7 +45,6 @@ from coopproc.sim.scenario_types import named_rng
 from coopproc.sim.truth import IMU_ERROR_COLUMNS, Simulation
 
 __all__ = [
-    "EARTH_RATE_RADPS",
     "ImuTruth",
     "add_raw_sensors",
     "imu_errors",
@@ -53,8 +53,6 @@ __all__ = [
     "odometer_samples",
 ]
 
-#: WGS-84 earth rotation rate, rad/s.
-EARTH_RATE_RADPS = 7.2921151467e-5
 #: Below this horizontal speed the attitude is held, m/s.
 _HOLD_SPEED_MPS = 0.02
 
@@ -62,6 +60,8 @@ _HOLD_SPEED_MPS = 0.02
 def normal_gravity(lat_deg: float, height_m: FloatArray | float) -> FloatArray:
     """Normal gravity (Somigliana, WGS-84) at ``lat_deg``, minus 3.086e-6 /s^2 per metre."""
     s2 = np.sin(np.radians(lat_deg)) ** 2
+    # 0.00669437999013 is e^2 rounded to 14 digits (frames.WGS84_E2 differs by 1e-16):
+    # kept so that the simulated IMU samples stay bit-identical (issue 34).
     g0 = 9.7803253359 * (1 + 0.00193185265241 * s2) / np.sqrt(1 - 0.00669437999013 * s2)
     return np.asarray(g0 - 3.086e-6 * np.asarray(height_m, dtype=np.float64))
 

@@ -4,25 +4,26 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import pandas as pd
 
+from coopproc.gnss.ephemeris import GpsEphemerides
+from coopproc.gnss.rinex_write import ObsTable
 from coopproc.model import Session, Trajectory
 from coopproc.sim.params import SimParams
-
-if TYPE_CHECKING:
-    from coopproc.sim.gnss_obs import SimulatedGnss
 
 __all__ = [
     "DISTANCE_COLUMNS",
     "DR_ERROR_COLUMNS",
     "DR_PARAM_COLUMNS",
+    "GNSS_CLOCK_COLUMNS",
+    "GNSS_ERROR_COLUMNS",
     "GROSS_ERROR_COLUMNS",
     "IMU_ERROR_COLUMNS",
     "NAV_FAULT_COLUMNS",
     "NAV_FRAME_COLUMNS",
     "NLOS_TRUTH_COLUMNS",
+    "SimulatedGnss",
     "Simulation",
     "Truth",
 ]
@@ -86,6 +87,16 @@ IMU_ERROR_COLUMNS: tuple[str, ...] = (
     "odo_scale",
 )
 
+#: ``truth/gnss_clock.csv``: the receiver clock at every observation epoch, in metres
+#: (c dt_r) and m/s (c dt_r'): seconds would not survive the files' 1e-6 float format.
+GNSS_CLOCK_COLUMNS = ("time", "platform", "clock_bias_m", "clock_drift_mps")
+#: ``truth/gnss_errors.csv``: the terms of every pseudorange written:
+#: P = range + clock_bias - sat_clock + tropo + iono + multipath + noise (metres).
+GNSS_ERROR_COLUMNS = (
+    "time", "platform", "prn", "elevation_deg", "azimuth_deg", "cn0_dbhz", "range",
+    "sat_clock", "tropo", "iono", "multipath", "noise",
+)  # fmt: skip
+
 
 @dataclass(frozen=True, eq=False)
 class Truth:
@@ -109,6 +120,17 @@ class Truth:
     imu_errors: pd.DataFrame = field(
         default_factory=lambda: pd.DataFrame(columns=list(IMU_ERROR_COLUMNS))
     )
+
+
+@dataclass(frozen=True, eq=False)
+class SimulatedGnss:
+    """Simulated observations per platform, the ephemerides flown, and their truth."""
+
+    observations: Mapping[str, ObsTable]
+    ephemerides: GpsEphemerides
+    rinex_version: int
+    clock: pd.DataFrame  # GNSS_CLOCK_COLUMNS
+    errors: pd.DataFrame  # GNSS_ERROR_COLUMNS
 
 
 @dataclass(frozen=True, eq=False)

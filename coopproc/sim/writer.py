@@ -39,17 +39,19 @@ import tomli_w
 from coopproc.gnss.rinex_write import gpst_to_calendar, write_nav, write_obs
 from coopproc.io.outdir import atomic_output_dir, write_csv
 from coopproc.model import Session
-from coopproc.sim.gnss_obs import GNSS_CLOCK_COLUMNS, GNSS_ERROR_COLUMNS, SimulatedGnss
 from coopproc.sim.params import SimParams, sparse_table
 from coopproc.sim.truth import (
     DISTANCE_COLUMNS,
     DR_ERROR_COLUMNS,
     DR_PARAM_COLUMNS,
+    GNSS_CLOCK_COLUMNS,
+    GNSS_ERROR_COLUMNS,
     GROSS_ERROR_COLUMNS,
     IMU_ERROR_COLUMNS,
     NAV_FAULT_COLUMNS,
     NAV_FRAME_COLUMNS,
     NLOS_TRUTH_COLUMNS,
+    SimulatedGnss,
     Simulation,
     Truth,
 )

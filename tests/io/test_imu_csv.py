@@ -12,7 +12,8 @@ import pandas as pd
 import pytest
 
 from coopproc.errors import InputError
-from coopproc.io.imu_csv import EARTH_RATE_RADPS, find_imu_files, imu_platform, read_imu_csv
+from coopproc.frames import EARTH_RATE_RADPS
+from coopproc.io.imu_csv import find_imu_files, imu_platform, read_imu_csv
 
 FS = 100.0
 T0 = 432000.0

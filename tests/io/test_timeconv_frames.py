@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pymap3d
 import pytest
 
 from coopproc import frames, timeconv
@@ -60,6 +61,17 @@ def test_geodetic_ecef_known_answers() -> None:
     np.testing.assert_allclose(xyz, [[a, 0, 0], [0, 0, b], [0, a + 100.0, 0]], atol=1e-3)
     back = frames.ecef2geodetic(xyz)
     np.testing.assert_allclose(back[:, 2], [0.0, 0.0, 100.0], atol=1e-6)
+
+
+def test_wgs84_constants_are_pymap3d_s_ellipsoid() -> None:
+    # The one definition (frames.WGS84_*) the numba kernels read must be the ellipsoid
+    # pymap3d converts on: a and b (b = a (1 - f)) to 0.1 mm, e^2 to 1e-15.
+    ell = pymap3d.Ellipsoid.from_name("wgs84")
+    assert ell.semimajor_axis == frames.WGS84_A
+    assert pytest.approx(ell.semiminor_axis, abs=1e-4) == frames.WGS84_A * (1.0 - frames.WGS84_F)
+    assert pytest.approx(ell.flattening, rel=1e-9) == frames.WGS84_F
+    assert pytest.approx(ell.eccentricity**2, abs=1e-15) == frames.WGS84_E2
+    assert pytest.approx(6.69437999014e-3, abs=1e-14) == frames.WGS84_E2  # NIMA TR8350.2
 
 
 def test_enu_of_small_offsets_at_the_equator() -> None:

@@ -5,14 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from coopproc.estimation.angles import heading_deg, wrap_pi
 from coopproc.model import Trajectory
 from coopproc.stages.particle.aco import aco_targets, share_weights, top_k
-from coopproc.stages.particle.increments import (
-    dr_increments,
-    heading_deg,
-    rotation_between,
-    wrap_pi,
-)
+from coopproc.stages.particle.increments import dr_increments, rotation_between
 from coopproc.stages.particle.observability import analyze, observability_matrix, transition
 from coopproc.stages.particle.pf import systematic_resample
 

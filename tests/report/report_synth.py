@@ -13,7 +13,8 @@ from coopproc.model import (
     RANGES_OUT_COLUMNS,
 )
 from coopproc.report.metrics import distance_metrics, position_metrics
-from coopproc.report.rundir import RunTables, ranges_columns
+from coopproc.report.run_tables import RunTables
+from coopproc.report.rundir import ranges_columns
 from coopproc.report.scores import nlos_event_scores, nlos_scores
 
 T0 = 1000.0

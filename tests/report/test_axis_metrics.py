@@ -10,7 +10,7 @@ import pytest
 from coopproc.model import STATES_COLUMNS
 from coopproc.report.axis_metrics import AXIS_METRICS_COLUMNS, axis_metrics
 from coopproc.report.formats import format_tables
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 
 
 def _positions() -> pd.DataFrame:

@@ -12,7 +12,7 @@ from report_synth import make_run
 
 from coopproc.report.figures import FIGURE_NAMES, error_cdf_figure, error_track_figure
 from coopproc.report.html import render_html
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 
 
 @pytest.fixture(scope="module")

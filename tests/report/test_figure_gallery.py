@@ -27,7 +27,8 @@ from coopproc.report.consistency_figure import CONSISTENCY_FIGURE_NAMES
 from coopproc.report.dr_states_figure import DR_FIGURE_NAMES
 from coopproc.report.figures import FIGURE_NAMES, make_figures, write_figures
 from coopproc.report.gaps import shaded_spans
-from coopproc.report.rundir import RunTables, load_run
+from coopproc.report.run_tables import RunTables
+from coopproc.report.rundir import load_run
 
 SAMPLE = Path(__file__).resolve().parents[2] / "sample_logs"
 T0 = 108000.0  # sample_logs' first epoch (GPS TOW)

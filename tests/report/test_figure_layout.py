@@ -26,7 +26,7 @@ from coopproc.report.figures import (
 )
 from coopproc.report.gaps import shaded_spans
 from coopproc.report.pages import FigureOptions
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.style import STYLES
 
 

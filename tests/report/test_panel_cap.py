@@ -25,7 +25,7 @@ from coopproc.report.html import render_html
 from coopproc.report.page_workers import page_workers, save_pages
 from coopproc.report.pages import FigureOptions
 from coopproc.report.panel_cap import cap_indices
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.style import MAX_PAGES
 from coopproc.run.config import RunParams, run_config_from_toml
 

@@ -28,7 +28,8 @@ from coopproc.report.methods import (
     primary_method,
     range_methods,
 )
-from coopproc.report.rundir import RUN_FILES, RunTables, load_run, ranges_columns
+from coopproc.report.run_tables import RunTables
+from coopproc.report.rundir import RUN_FILES, load_run, ranges_columns
 from coopproc.report.style import EXTRA_COLORS, METHOD_STYLES, method_style
 from coopproc.report.tables import build_tables
 

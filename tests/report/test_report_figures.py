@@ -16,7 +16,8 @@ from test_report_rundir import write_run_dir
 from coopproc.errors import ConfigError
 from coopproc.report.figures import FIGURE_NAMES, make_figures, write_figures
 from coopproc.report.plots import plot_distance_errors
-from coopproc.report.rundir import RunTables, load_run
+from coopproc.report.run_tables import RunTables
+from coopproc.report.rundir import load_run
 from coopproc.report.style import COLUMN_WIDTH_IN, PANEL_HEIGHT_IN
 
 

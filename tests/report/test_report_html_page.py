@@ -16,7 +16,8 @@ from test_report_rundir import write_run_dir
 
 from coopproc.report.html import render_html
 from coopproc.report.html_figures import DISPLAY_PX_PER_IN
-from coopproc.report.rundir import RunTables, load_run
+from coopproc.report.run_tables import RunTables
+from coopproc.report.rundir import load_run
 from coopproc.report.scores import NLOS_EVENT_SCORE_COLUMNS
 
 NOTES = [

@@ -16,7 +16,7 @@ from coopproc.report.formats import SIGNIFICANT_MARK, format_tables, render_tabl
 from coopproc.report.intervals import distance_intervals
 from coopproc.report.latex_layout import SINGLE_PT
 from coopproc.report.metrics import distance_metrics, position_metrics
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.tables import build_tables
 
 BARE = make_run()  # 120 epochs of three pairs, an NLOS event on A-B and B-C

@@ -21,7 +21,8 @@ from coopproc.report.change import Change, change_of
 from coopproc.report.evaluation_tables import format_evaluation
 from coopproc.report.formats import format_tables
 from coopproc.report.latex import COLUMN_PT, SINGLE_PT, SPAN_PT, latex_table, tex_escape
-from coopproc.report.rundir import RunTables, load_run
+from coopproc.report.run_tables import RunTables
+from coopproc.report.rundir import load_run
 from coopproc.report.stochastic import StochasticReport, uwb_stochastics
 from coopproc.report.stochastic_format import format_stochastic
 from coopproc.report.tables import POSITION_ALL, build_tables, position_table

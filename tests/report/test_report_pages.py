@@ -25,7 +25,8 @@ from coopproc.report.pages import (
     page_stem,
     panel_letter,
 )
-from coopproc.report.rundir import RunTables, load_run
+from coopproc.report.run_tables import RunTables
+from coopproc.report.rundir import load_run
 
 REPO = Path(__file__).resolve().parents[2]
 

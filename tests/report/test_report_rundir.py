@@ -13,7 +13,8 @@ from report_synth import make_run
 from coopproc.errors import InputError
 from coopproc.io.outdir import write_csv
 from coopproc.report.metrics import distance_metrics, position_metrics
-from coopproc.report.rundir import RunTables, load_run
+from coopproc.report.run_tables import RunTables
+from coopproc.report.rundir import load_run
 
 
 def write_run_dir(run: RunTables, out: Path) -> Path:

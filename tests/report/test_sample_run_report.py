@@ -15,7 +15,8 @@ from click.testing import CliRunner
 from coopproc.cli import main
 from coopproc.report.convergence import convergence_panels
 from coopproc.report.figures import figure_pages
-from coopproc.report.rundir import RunTables, load_run
+from coopproc.report.run_tables import RunTables
+from coopproc.report.rundir import load_run
 from coopproc.report.style import RC
 
 SAMPLE = Path(__file__).resolve().parents[2] / "sample_logs"

@@ -21,7 +21,7 @@ from coopproc.cli.options import STYLE_CHOICES
 from coopproc.report.figures import make_figures
 from coopproc.report.pages import FigureOptions
 from coopproc.report.panels import Panels, grid_layout
-from coopproc.report.rundir import RunTables
+from coopproc.report.run_tables import RunTables
 from coopproc.report.style import STYLE_NAMES, STYLES, figure_style
 from coopproc.report.trajectory_plots import plot_trajectory, run_anchors
 

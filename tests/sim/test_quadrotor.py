@@ -8,13 +8,14 @@ import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline
 
+from coopproc.frames import EARTH_RATE_RADPS
 from coopproc.ins.align import Alignment, static_start
 from coopproc.ins.engine import InsAiding, InsConfig, run_ins
 from coopproc.ins.models import GRADES
 from coopproc.ins.quat import dcm_to_euler
 from coopproc.sensors import ImuData
 from coopproc.sim.engine import simulate
-from coopproc.sim.imu import EARTH_RATE_RADPS, imu_truth, normal_gravity
+from coopproc.sim.imu import imu_truth, normal_gravity
 from coopproc.sim.multirotor import multirotor_imu
 
 DRONES = ("ifo001", "ifo002", "ifo003")

@@ -7,17 +7,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from coopproc.stages.filters import (
+from coopproc.estimation.kalman import kf_predict, kf_update, rts_step
+from coopproc.estimation.linalg import cholesky_solve_nb
+from coopproc.estimation.robust import (
     GAMMA_REJECT,
-    cholesky_solve_nb,
     igg3_factor,
     igg3_scalar,
-    kf_predict,
-    kf_update,
     mad_sigma,
     mad_sigma_nb,
     robust_factors,
-    rts_step,
 )
 from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_RANGE, ekf_forward
 from coopproc.stages.fusion.ekf_update import _observe

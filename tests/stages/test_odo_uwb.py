@@ -21,7 +21,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from coopproc.stages.filters import kf_update, rts_step
+from coopproc.estimation.kalman import kf_update, rts_step
 from coopproc.stages.fusion.odo_kernel import N_STATE, odo_backward, odo_forward
 from coopproc.stages.fusion.odo_track import OdoTrack, OdoUwbParams
 from coopproc.stages.fusion.odo_uwb import fit_note, fit_track
@@ -96,7 +96,7 @@ def _motion(x: np.ndarray, dt: float, v: float, w: float) -> np.ndarray:
 
 
 def test_kernel_matches_dense_ekf_with_numerical_jacobians() -> None:
-    """Filter and RTS against coopproc.stages.filters' formulas, F by central
+    """Filter and RTS against coopproc.estimation.kalman's formulas, F by central
     differences of the motion model (so the kernel's analytic Jacobian is checked)."""
     track, _ = _track(seed=3, n=80)
     x0 = np.array([*track.init_pos, 0.3, 1.0, 1.0, 0.0, 0.0])

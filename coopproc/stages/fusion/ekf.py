@@ -39,8 +39,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from coopproc.estimation.robust import MAD_SCALE, igg3_scalar, mad_sigma_nb
 from coopproc.model import FloatArray
-from coopproc.stages.filters import MAD_SCALE, igg3_scalar, mad_sigma_nb
 from coopproc.stages.fusion.copies import copy1, copy2
 from coopproc.stages.fusion.dr_model import DR_STATES, dr_predict
 from coopproc.stages.fusion.ekf_update import (

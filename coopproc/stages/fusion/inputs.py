@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import Literal
 
 import numpy as np
 import pandas as pd
@@ -38,9 +38,7 @@ from coopproc.stages.fusion.lsq import robust_lsq_positions
 from coopproc.stages.fusion.nav_span import covered_rows, epoch_bounds, span_clip
 from coopproc.stages.fusion.observations import build_observations, nav_sigma
 from coopproc.stages.fusion.output import recorded_slots
-
-if TYPE_CHECKING:
-    from coopproc.stages.fusion.params import FusionParams
+from coopproc.stages.fusion.params import FusionParams
 
 __all__ = ["FusionInputs", "fusion_inputs"]
 

@@ -26,7 +26,6 @@ So ``"epoch"`` stays the default until that calibration accounts for it.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -34,9 +33,7 @@ from coopproc.model import FloatArray, Session
 from coopproc.stages.fusion.data import RangeRows, nav_points
 from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_POSITION, OBS_RANGE
 from coopproc.stages.fusion.nav_span import epoch_bounds, span_clip
-
-if TYPE_CHECKING:
-    from coopproc.stages.fusion.fuse import FusionParams
+from coopproc.stages.fusion.params import FusionParams
 
 __all__ = ["build_observations", "leader_fix_epochs", "nav_sigma"]
 

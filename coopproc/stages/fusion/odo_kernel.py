@@ -33,8 +33,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from coopproc.estimation.linalg import cholesky_solve_nb
+from coopproc.estimation.robust import GAMMA_REJECT, igg3_scalar, mad_sigma_nb
 from coopproc.model import FloatArray
-from coopproc.stages.filters import GAMMA_REJECT, cholesky_solve_nb, igg3_scalar, mad_sigma_nb
 
 __all__ = ["N_STATE", "odo_backward", "odo_forward"]
 

@@ -34,8 +34,8 @@ import numba
 import numpy as np
 import pandas as pd
 
+from coopproc.estimation.robust import igg3_scalar, mad_sigma_nb
 from coopproc.model import FloatArray, Session, Trajectory
-from coopproc.stages.filters import igg3_scalar, mad_sigma_nb
 from coopproc.stages.fusion.anchor_lsq import anchor_fixes
 from coopproc.stages.fusion.data import anchor_positions, clean_ranges, range_sigma_default
 from coopproc.stages.fusion.lsq import LsqParams

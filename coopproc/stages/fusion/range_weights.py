@@ -26,9 +26,9 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
+from coopproc.estimation.robust import GAMMA_REJECT
 from coopproc.names import RANGE_WEIGHTS_COLUMNS, pair_name
 from coopproc.stages.base import PositionProduct
-from coopproc.stages.filters import GAMMA_REJECT
 from coopproc.stages.fusion.fuse import FusionOutput
 
 __all__ = ["range_weights_frame", "range_weights_of", "rejected"]

@@ -23,8 +23,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from coopproc.estimation.robust import MAD_SCALE, igg3_factor
 from coopproc.model import FloatArray
-from coopproc.stages.filters import MAD_SCALE, igg3_factor
 from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_RANGE
 
 __all__ = ["smoothed_gammas"]

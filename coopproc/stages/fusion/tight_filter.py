@@ -43,10 +43,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from coopproc.estimation.kalman import kf_update
+from coopproc.estimation.robust import igg3_factor
 from coopproc.gnss.ephemeris import SPEED_OF_LIGHT
 from coopproc.gnss.tight import GnssEpochs, LocalFrame, epoch_model
 from coopproc.model import FloatArray
-from coopproc.stages.filters import igg3_factor, kf_update
 
 __all__ = ["CvTrack", "RangeRows", "TightOptions", "TrackOutput", "run_tight"]
 

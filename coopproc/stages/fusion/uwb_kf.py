@@ -16,7 +16,7 @@ Observations: the LS position with its covariance N^-1 (H = [I 0]) and, with
 IGG-III (paper 002 eq. (18)) on each innovation standardized by sqrt(diag(H C H^T + R))
 and by the MAD of the last ``MAD_WINDOW`` standardized innovations (eq. (19)-(20), floor
 1, as the cooperative fusion); R_ij -> R_ij / sqrt(gamma_i gamma_j) as
-:func:`coopproc.stages.filters.kf_update`. Update in Joseph form. The forward and
+:func:`coopproc.estimation.kalman.kf_update`. Update in Joseph form. The forward and
 backward loops are compiled with numba.
 """
 
@@ -27,8 +27,9 @@ from collections.abc import Mapping
 import numba
 import numpy as np
 
+from coopproc.estimation.linalg import cholesky_solve_nb
+from coopproc.estimation.robust import igg3_scalar, mad_sigma_nb
 from coopproc.model import FloatArray, Trajectory
-from coopproc.stages.filters import cholesky_solve_nb, igg3_scalar, mad_sigma_nb
 from coopproc.stages.fusion.lsq import LsqFixes, LsqParams
 
 __all__ = ["MAD_WINDOW", "cv_filter", "cv_smooth", "uwb_kf_positions"]

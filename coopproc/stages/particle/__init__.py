@@ -3,7 +3,6 @@
 from coopproc.stages.particle.locate import (
     LOCATE_COLUMNS,
     LOCATE_SUMMARY_COLUMNS,
-    LocateResult,
     locate,
     locate_params,
     observability_table,
@@ -15,7 +14,6 @@ __all__ = [
     "LOCATE_COLUMNS",
     "LOCATE_SUMMARY_COLUMNS",
     "LocateParams",
-    "LocateResult",
     "locate",
     "locate_params",
     "observability_table",

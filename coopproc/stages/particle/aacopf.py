@@ -41,9 +41,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from coopproc.estimation.locate_result import LocateInputs, Track
 from coopproc.stages.particle.aco import aco_targets, share_weights
 from coopproc.stages.particle.core import (
-    Track,
     TrackBuilder,
     init_cloud,
     normalize_log,
@@ -56,7 +56,6 @@ from coopproc.stages.particle.fused import (
     posterior_moments,
     resample_and_jitter,
 )
-from coopproc.stages.particle.inputs import LocateInputs
 from coopproc.stages.particle.modekeep import (
     cancel_cross_mode,
     geometry_separates,

@@ -12,23 +12,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from coopproc.estimation.angles import wrap_pi
+from coopproc.estimation.locate_result import LocateInputs, Mode, Track
 from coopproc.model import FloatArray
 from coopproc.stages.particle.fused import range_update
-from coopproc.stages.particle.increments import wrap_pi
-from coopproc.stages.particle.inputs import LocateInputs
 from coopproc.stages.particle.kernels import (
     jitter_apply,
     propagate_kernel,
     weighted_estimate,
     weighted_moments,
 )
-from coopproc.stages.particle.modes import Mode
 from coopproc.stages.particle.normal import seed_state
 from coopproc.stages.particle.params import LocateParams
 
 __all__ = [
     "Cloud",
-    "Track",
     "TrackBuilder",
     "init_cloud",
     "kernel_jitter",
@@ -79,34 +77,6 @@ class Cloud:
         self.cos_phi = self.sin_phi = None
         if self.mode is not None:
             self.mode = self.mode[idx]
-
-
-@dataclass(frozen=True, eq=False)
-class Track:
-    """What one method estimated at every filter epoch (E epochs)."""
-
-    method: str
-    time_s: FloatArray
-    east_m: FloatArray
-    north_m: FloatArray
-    #: Estimated azimuth at each epoch (math angle, rad).
-    phi_rad: FloatArray
-    #: The initial azimuth (math angle, rad) estimated at each epoch: the estimated azimuth
-    #: minus the target's own-frame turn since the first epoch.
-    initial_azimuth_track_rad: FloatArray
-    #: Final initial-azimuth estimate (the last value of the track), math angle, rad.
-    initial_azimuth_rad: float
-    #: (time, (S, 2) east/north of a seeded subsample of the particles) at a few epochs.
-    snapshots: tuple[tuple[float, FloatArray], ...] = ()
-    #: (E, J) True where an auxiliary was rejected at that epoch (AACOPF step 3).
-    rejected: np.ndarray | None = None
-    #: Eq. (16) literally: the initial azimuth of the heaviest particle's lineage (rad).
-    initial_azimuth_eq16_rad: float | None = None
-    #: Modes of the final estimate, heaviest first (modes.find_modes; () not looked for).
-    modes: tuple[Mode, ...] = ()
-    #: Time until which the AACOPF kept every mode alive (None: not kept, or never
-    #: separated by the geometry; see modekeep.py).
-    modes_kept_until_s: float | None = None
 
 
 def init_cloud(

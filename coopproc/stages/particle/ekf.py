@@ -16,10 +16,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from coopproc.estimation.angles import wrap_pi
+from coopproc.estimation.locate_result import LocateInputs, Track
 from coopproc.model import FloatArray
-from coopproc.stages.particle.core import Track
-from coopproc.stages.particle.increments import wrap_pi
-from coopproc.stages.particle.inputs import LocateInputs
 from coopproc.stages.particle.modes import modes_of_hypotheses
 from coopproc.stages.particle.params import LocateParams
 from coopproc.stages.particle.progress import ProgressFn

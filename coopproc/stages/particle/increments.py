@@ -10,62 +10,19 @@ Angles here are mathematical (radians, counter-clockwise from east), as eq. (3) 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from coopproc.estimation.angles import wrap_pi
+from coopproc.estimation.locate_result import DrIncrements
 from coopproc.model import FloatArray, Trajectory
 
 __all__ = [
-    "DrIncrements",
     "dr_increments",
-    "heading_deg",
     "rotation_between",
-    "wrap_pi",
 ]
 
 #: A step shorter than this (m) has no direction of its own; it keeps the previous one.
 STILL_M = 1e-6
-
-
-def wrap_pi(angle_rad: FloatArray | float) -> FloatArray:
-    """Angles wrapped to [-pi, pi)."""
-    return np.asarray((np.asarray(angle_rad) + np.pi) % (2.0 * np.pi) - np.pi)
-
-
-def heading_deg(phi_rad: FloatArray | float) -> FloatArray:
-    """Math angle (rad, CCW from east) -> heading (degrees clockwise from north, [0, 360))."""
-    return np.asarray((90.0 - np.degrees(np.asarray(phi_rad))) % 360.0)
-
-
-@dataclass(frozen=True, eq=False)
-class DrIncrements:
-    """Eq. (3) inputs at the filter epochs ``time_s`` (length E).
-
-    ``delta_l_m[k]`` and ``delta_phi_rad[k]`` (length E - 1) move a state from epoch k to
-    k + 1: ``phi += delta_phi[k]; x += delta_l[k] cos(phi); y += delta_l[k] sin(phi)``
-    (Algorithm 1, lines 7-8). ``theta_rad[k]`` is the direction of step k in the nav's own
-    frame (a still step keeps the previous direction; leading still steps take the first
-    moving one), so ``delta_phi[k] = theta[k] - theta[k-1]`` and ``delta_phi[0] = 0``.
-    ``step_own_m`` (E - 1, 2) are the raw own-frame steps.
-    """
-
-    time_s: FloatArray
-    delta_l_m: FloatArray
-    delta_phi_rad: FloatArray
-    theta_rad: FloatArray
-    step_own_m: FloatArray
-
-    @property
-    def theta0_rad(self) -> float:
-        """Own-frame direction of the first moving step (the first epoch's azimuth)."""
-        return float(self.theta_rad[0]) if self.theta_rad.size else 0.0
-
-    def heading_own_rad(self) -> FloatArray:
-        """Own-frame direction at each epoch: of the step that ended there (epoch 0: step 0)."""
-        if self.theta_rad.size == 0:
-            return np.zeros(self.time_s.shape[0])
-        return np.concatenate([self.theta_rad[:1], self.theta_rad])
 
 
 def dr_increments(nav: Trajectory, time_s: FloatArray) -> DrIncrements:

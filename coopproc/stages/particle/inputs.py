@@ -9,40 +9,18 @@ at the epoch, or for an anchor without navigation its surveyed ``position``.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
 from coopproc.errors import StageError
-from coopproc.model import FloatArray, Session, pair_name
-from coopproc.stages.particle.increments import DrIncrements, dr_increments
+from coopproc.estimation.locate_result import LocateInputs
+from coopproc.model import Session, pair_name
+from coopproc.stages.particle.increments import dr_increments
 
-__all__ = ["DEFAULT_SIGMA_M", "LocateInputs", "gather_inputs"]
+__all__ = ["DEFAULT_SIGMA_M", "gather_inputs"]
 
 #: Ranging 1-sigma used when neither the ranges nor session.toml give one, metres.
 DEFAULT_SIGMA_M = 0.2
-
-
-@dataclass(frozen=True, eq=False)
-class LocateInputs:
-    """Dense per-epoch inputs: E epochs x J auxiliaries."""
-
-    target: str
-    aux: tuple[str, ...]
-    time_s: FloatArray  # (E,)
-    increments: DrIncrements
-    range_m: FloatArray  # (E, J), NaN where the aux has no range at that epoch
-    sigma_m: FloatArray  # (E, J) ranging 1-sigma
-    aux_en_m: FloatArray  # (E, J, 2) east, north of each auxiliary
-
-    @property
-    def n_epochs(self) -> int:
-        return int(self.time_s.shape[0])
-
-    def first_fix(self) -> tuple[FloatArray, float]:
-        """Auxiliary position (2,) and range of the first epoch's first available range."""
-        j = int(np.argmax(np.isfinite(self.range_m[0])))
-        return self.aux_en_m[0, j], float(self.range_m[0, j])
 
 
 def _sigma_default(session: Session, sigma_m: float) -> float:

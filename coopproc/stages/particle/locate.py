@@ -10,20 +10,20 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from coopproc.configtools import from_table
+from coopproc.estimation.angles import heading_deg, wrap_deg
+from coopproc.estimation.locate_result import LocateInputs, LocateResult, Observability, Track
 from coopproc.model import FloatArray, Session
 from coopproc.stages.particle.aacopf import run_aacopf
-from coopproc.stages.particle.core import Track
 from coopproc.stages.particle.ekf import run_ekf
-from coopproc.stages.particle.increments import heading_deg, rotation_between
-from coopproc.stages.particle.inputs import LocateInputs, gather_inputs
-from coopproc.stages.particle.observability import Observability, analyze
+from coopproc.stages.particle.increments import rotation_between
+from coopproc.stages.particle.inputs import gather_inputs
+from coopproc.stages.particle.observability import analyze
 from coopproc.stages.particle.params import LocateParams
 from coopproc.stages.particle.pf import run_pf
 from coopproc.stages.particle.progress import ProgressFn
@@ -31,7 +31,6 @@ from coopproc.stages.particle.progress import ProgressFn
 __all__ = [
     "LOCATE_COLUMNS",
     "LOCATE_SUMMARY_COLUMNS",
-    "LocateResult",
     "locate",
     "locate_params",
     "observability_table",
@@ -53,29 +52,6 @@ LOCATE_SUMMARY_COLUMNS: tuple[str, ...] = (
 )
 
 
-@dataclass(frozen=True, eq=False)
-class LocateResult:
-    """Tables, observability and what the figures need."""
-
-    table: pd.DataFrame  # LOCATE_COLUMNS -> locate.csv
-    summary: pd.DataFrame  # LOCATE_SUMMARY_COLUMNS -> locate_summary.csv
-    observability: Observability
-    tracks: Mapping[str, Track]
-    inputs: LocateInputs
-    #: Target reference at the filter epochs (E, 2), NaN where none; None: no reference.
-    reference_en_m: FloatArray | None
-    #: Reference initial azimuth, heading degrees; None where it cannot be fitted.
-    reference_initial_azimuth_deg: float | None
-    warnings: tuple[str, ...] = ()
-
-    def azimuth_error_track_deg(self, method: str) -> FloatArray | None:
-        """Initial-azimuth error over time (degrees, signed), None without a reference."""
-        if self.reference_initial_azimuth_deg is None:
-            return None
-        est = heading_deg(self.tracks[method].initial_azimuth_track_rad)
-        return _wrap_deg(est - self.reference_initial_azimuth_deg)
-
-
 def locate_params(table: Mapping[str, Any] | None, where: str = "[locate]") -> LocateParams:
     """LocateParams from a ``[locate]`` TOML table (``lambda`` is accepted for ``lambda_``)."""
     data = dict(table or {})
@@ -84,10 +60,6 @@ def locate_params(table: Mapping[str, Any] | None, where: str = "[locate]") -> L
     if isinstance(data.get("methods"), list):
         data["methods"] = tuple(data["methods"])
     return from_table(LocateParams, data, where)
-
-
-def _wrap_deg(x: FloatArray | float) -> FloatArray:
-    return np.asarray((np.asarray(x) + 180.0) % 360.0 - 180.0)
 
 
 def _reference(
@@ -172,7 +144,7 @@ def locate(
             )
         )
         init_deg = float(heading_deg(tr.initial_azimuth_rad))
-        az_err = np.nan if ref_init is None else float(_wrap_deg(init_deg - ref_init))
+        az_err = np.nan if ref_init is None else float(wrap_deg(init_deg - ref_init))
         have = np.isfinite(err)
         conv = _converged_at(inputs.time_s, err, params.converge_m) if obs.observable else None
         # mode safety (issue 17): the final estimate's modes, weights >= 1e-6 counted

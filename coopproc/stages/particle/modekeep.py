@@ -24,9 +24,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from coopproc.estimation.locate_result import LocateInputs
 from coopproc.model import FloatArray
 from coopproc.stages.particle.core import Cloud, kernel_jitter
-from coopproc.stages.particle.inputs import LocateInputs
 from coopproc.stages.particle.observability import observability_matrix
 from coopproc.stages.particle.params import LocateParams
 

@@ -18,19 +18,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from coopproc.estimation.locate_result import Mode
 from coopproc.model import FloatArray
 
-__all__ = ["Mode", "ModeSplit", "find_modes", "modes_of_hypotheses"]
-
-
-@dataclass(frozen=True)
-class Mode:
-    """One cluster: its weight, weighted mean position and circular mean azimuth (rad)."""
-
-    weight: float
-    east_m: float
-    north_m: float
-    phi_rad: float
+__all__ = ["ModeSplit", "find_modes", "modes_of_hypotheses"]
 
 
 @dataclass(frozen=True, eq=False)

@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from coopproc.estimation.locate_result import LocateInputs
 from coopproc.model import FloatArray
-from coopproc.stages.particle.inputs import LocateInputs
 from coopproc.stages.particle.params import LocateParams
 
 __all__ = ["AuxMonitor", "ranging_noise_m2", "ring_auxiliary"]

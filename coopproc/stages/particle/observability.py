@@ -14,13 +14,12 @@ b_t = sum dL cos phi; :func:`observability_matrix` uses these sums (O(rows)).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
+from coopproc.estimation.locate_result import Observability
 from coopproc.model import FloatArray
 
-__all__ = ["Observability", "analyze", "observability_matrix", "transition"]
+__all__ = ["analyze", "observability_matrix", "transition"]
 
 
 def transition(delta_l_m: float, phi_rad: float) -> FloatArray:
@@ -59,18 +58,6 @@ def observability_matrix(
     ep, _ = np.nonzero(ok)
     rows = np.column_stack([hx[ok], hy[ok], hx[ok] * a[ep] + hy[ok] * b[ep]])  # H(t) prod Phi
     return rows, ep
-
-
-@dataclass(frozen=True)
-class Observability:
-    """Singular values of R_k for the whole run and from which epoch it is observable."""
-
-    singular_values: tuple[float, float, float]
-    observable: bool
-    #: Index of the first epoch after which R_k (rows up to it) stays observable; None never.
-    observable_from: int | None
-    #: sigma_min / sigma_max of R_k built from the rows up to each epoch (E,).
-    ratio_track: FloatArray = field(repr=False)
 
 
 def analyze(

@@ -9,15 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from coopproc.estimation.locate_result import LocateInputs, Track
 from coopproc.model import FloatArray
-from coopproc.stages.particle.core import (
-    Track,
-    TrackBuilder,
-    init_cloud,
-    propagate,
-    update_weights,
-)
-from coopproc.stages.particle.inputs import LocateInputs
+from coopproc.stages.particle.core import TrackBuilder, init_cloud, propagate, update_weights
 from coopproc.stages.particle.kernels import systematic_indices
 from coopproc.stages.particle.modes import find_modes
 from coopproc.stages.particle.params import LocateParams

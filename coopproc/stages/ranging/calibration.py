@@ -27,8 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from coopproc.estimation.robust import MAD_SCALE
 from coopproc.model import FloatArray
-from coopproc.stages.filters import MAD_SCALE
 
 __all__ = [
     "MAD_SCALE",

@@ -47,8 +47,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from coopproc.estimation.robust import MAD_SCALE
 from coopproc.model import FloatArray
-from coopproc.stages.filters import MAD_SCALE
 from coopproc.stages.ranging.calibration import accumulated
 
 __all__ = ["MOTION_STEPS", "OutlierParams", "gross_outliers"]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from coopproc.stages.filters import MAD_SCALE, mad_sigma_nb
+from coopproc.estimation.robust import MAD_SCALE, mad_sigma_nb
 from coopproc.stages.fusion.mad_window import union_median, window_push
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from coopproc.stages.filters import rts_step
+from coopproc.estimation.kalman import rts_step
 from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_POSITION, OBS_RANGE, ekf_forward, nav_at
 from coopproc.stages.fusion.smoother import mbf_backward
 

@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 
-from coopproc.stages.filters import kf_predict, kf_update, rts_step
+from coopproc.estimation.kalman import kf_predict, kf_update, rts_step
 from coopproc.stages.fusion.lsq import LsqFixes, LsqParams
 from coopproc.stages.fusion.uwb_kf import V0_SIGMA_MPS, cv_filter, cv_smooth
 
@@ -25,7 +25,7 @@ def _fixes(seed: int = 0, n: int = 200, sigma: float = 0.1) -> tuple[LsqFixes, n
 
 
 def _dense(fix: LsqFixes, q: float) -> tuple[np.ndarray, np.ndarray]:
-    """The same filter and smoother with coopproc.stages.filters' numpy formulas."""
+    """The same filter and smoother with coopproc.estimation.kalman's numpy formulas."""
     n = len(fix.time_s)
     x = np.concatenate([fix.pos[0], [0.0, 0.0]])
     c = np.zeros((4, 4))
