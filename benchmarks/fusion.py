@@ -11,8 +11,14 @@ Timed, each the median of ``--repeat`` runs after a warm-up (numba compiled or l
   fusion, ``want_cp``: what ``fusion (observed)`` in run.json times), and the peak RSS
   of its first full run above the RSS before it (psutil, sampled every 5 ms; a run on
   the first minute before it loads numba's cache);
-- ``fuse()`` end to end, forward only and forward + RTS, with the compiled forward and
-  RTS kernels timed inside it;
+  the same for the other ``[fusion] state`` beside it (with DR states the stage also runs
+  the DR noise cross-validation's fusions and the ranging stage's CP fusion of its own, so
+  its DR / position ratio is not issue 29's);
+- per fusion: one ``fuse()`` as the stage's final fusion calls it (forward + RTS, no
+  smoothed sigmas; with DR states its robust refit included), DR states and position
+  state, with the compiled forward and smoother kernels timed inside it; issue 29's
+  target is their ratio (<= 1.5; the target line's ratio is that over 1.5);
+- ``fuse()`` forward only;
 - the peer: filterpy's RTS smoother (``KalmanFilter.rts_smoother``, numpy, F = I) on
   ``--filterpy-epochs`` epochs of the same state size, matrices built once outside the
   timing, one warm-up call; reported per epoch.
