@@ -228,7 +228,7 @@ def dr_noise_cv(
         for train, test, test_codes, inputs in folds:
             out = fuse(
                 session, train, params, drift_scale=scale, smoothed_sigma=False,
-                inputs=inputs, forward=False,
+                inputs=inputs, forward=False, dr_states=False,
             )  # fmt: skip
             resid = residuals_by_row(session, out, test)
             for code in np.unique(test_codes):

@@ -114,6 +114,7 @@ def fuse(
     inputs: FusionInputs | None = None,
     forward: bool = True,
     forward_sigma: bool = True,
+    dr_states: bool = True,
 ) -> FusionOutput:
     """Fuse every moving platform's navigation with the ranges.
 
@@ -139,6 +140,9 @@ def fuse(
         reads the smoothed solution only saves their time and memory, issue 11).
     forward_sigma : the forward trajectories' sigmas (False: None; a caller that reads
         their positions only, the ranging stage's CP solution, saves 24 bytes a slot).
+    dr_states : report the DR states (False: ``dr_states`` is None and no pass records
+        them; the positions are the same bits; the DR noise cross-validation's fusions
+        read the positions only).
     """
     if inputs is None:
         inputs = fusion_inputs(session, ranges, params, output)
@@ -161,6 +165,7 @@ def fuse(
         q_coef = drift.astype(np.float64)
         q_squared = True
     dr = dr_layout(session, moving, epochs, params, scale)
+    dr_rec = dr.rec if dr_states else dr.rec[:0]  # the epochs the DR states are reported at
     if dr.active:  # positions first, each follower's DR states after
         n_pos = inputs.x0.shape[0]
         x0 = np.concatenate((inputs.x0, np.zeros(dr.prior.shape[0])))
@@ -189,7 +194,7 @@ def fuse(
     noise = (epochs, nav_t, nav_v, nav_ptr, q_coef, q_squared, dt)
     xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c, dr_xf, dr_vf, std_innov = ekf_forward(
         x0, c0, *noise, *kernel_obs, params.dims, params.robust, params.k0, params.k1,
-        params.mad_floor, params.mad_window, *forward_slots, block, dr.idx, dr.q, dr.rec,
+        params.mad_floor, params.mad_window, *forward_slots, block, dr.idx, dr.q, dr_rec,
         np.zeros(0),
     )  # fmt: skip
     del forward_slots
@@ -222,7 +227,7 @@ def fuse(
         xs_s, var_s, dr_xs, dr_vs = mbf_backward(
             cp_x, cp_c, *noise, *kernel_obs, gamma, dim, rec_ptr, rec_plat, block,
             smoothed_sigma and refits == 0, dr_idx=dr.idx, dr_q=dr.q,
-            dr_rec=dr.rec if refits == 0 else dr.rec[:0],
+            dr_rec=dr_rec if refits == 0 else dr_rec[:0],
         )  # fmt: skip
         for _ in range(refits):
             # the robust factors against the smoothed solution, then the filter and the
@@ -244,7 +249,7 @@ def fuse(
             )  # fmt: skip
             xs_s, var_s, dr_xs, dr_vs = mbf_backward(
                 cp_x, cp_c, *noise, *kernel_obs, gamma, dim, rec_ptr, rec_plat, block,
-                smoothed_sigma, dr_idx=dr.idx, dr_q=dr.q, dr_rec=dr.rec,
+                smoothed_sigma, dr_idx=dr.idx, dr_q=dr.q, dr_rec=dr_rec,
             )  # fmt: skip
     else:
         xs_s, var_s, dr_xs, dr_vs = xs_f, var_f, dr_xf, dr_vf
@@ -252,8 +257,9 @@ def fuse(
     if judged is not None:
         decisions = RangeDecisions(source, judged[0], judged[1], gamma[at])
     del at, judged
-    dr_table = dr_states_table(moving, epochs, dr, (dr_xs, dr_vs)) if dr.active else None
-    dr_forward = dr_states_table(moving, epochs, dr, (dr_xf, dr_vf)) if dr.active else None
+    active = dr.active and dr_states
+    dr_table = dr_states_table(moving, epochs, dr, (dr_xs, dr_vs)) if active else None
+    dr_forward = dr_states_table(moving, epochs, dr, (dr_xf, dr_vf)) if active else None
     del dr_xf, dr_vf, dr_xs, dr_vs
     # memory (issue 11): the observations and the range rows are spent (unless the caller
     # keeps its inputs for another fusion); free them before the trajectories are built

@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
@@ -17,6 +18,7 @@ from coopproc.checks.coverage import prepare_run
 from coopproc.cli import main
 from coopproc.io import read_session
 from coopproc.stages.fusion.calibration_dr import dr_noise_cv
+from coopproc.stages.fusion.fuse import fuse
 from coopproc.stages.fusion.params import FusionParams
 
 SAMPLE = Path(__file__).resolve().parents[3] / "sample_logs"
@@ -44,6 +46,20 @@ def test_the_cv_tightens_a_dead_reckoning_better_than_its_figures(sample: tuple)
     assert dr_noise_cv(session, ranges, position, ["A", "B", "C"]) == (1.0, {})
     one_pair = ranges[(ranges["from"] == "A") & (ranges["to"] == "B")]
     assert dr_noise_cv(session, one_pair, params, ["A", "B", "C"]) == (1.0, {})
+
+
+def test_a_fusion_without_dr_states_has_the_same_positions(sample: tuple) -> None:
+    # the CV's fusions skip the DR states' report (dr_states=False): the same bits
+    session, ranges = sample
+    params = FusionParams()
+    with_dr = fuse(session, ranges, params, smoothed_sigma=False, forward=False)
+    without = fuse(session, ranges, params, smoothed_sigma=False, forward=False, dr_states=False)
+    assert with_dr.dr_states is not None and len(with_dr.dr_states) > 0
+    assert without.dr_states is None
+    assert set(with_dr.smoothed) == set(without.smoothed) == {"A", "B", "C"}
+    for pid, track in with_dr.smoothed.items():
+        assert np.array_equal(track.enu_m, without.smoothed[pid].enu_m)
+    assert with_dr.observations.equals(without.observations)
 
 
 def test_the_cv_factor_through_run(tmp_path: Path) -> None:
