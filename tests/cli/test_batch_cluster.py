@@ -54,10 +54,18 @@ def test_two_sessions_run_on_the_two_workers_of_a_cluster_like_coopproc_run(
     ):
         cluster.scheduler.add_plugin(where)
         pids = client.run(os.getpid)  # worker address -> its process id
+        scheduler = cluster.scheduler_address
         res = CliRunner().invoke(
             main,
-            ["batch", *map(str, sessions), "-o", str(root), "--no-figures", "--scheduler"]
-            + [cluster.scheduler_address],  # noqa: RUF005
+            [
+                "batch",
+                *map(str, sessions),
+                "-o",
+                str(root),
+                "--no-figures",
+                "--scheduler",
+                scheduler,
+            ],
         )
     assert res.exit_code == 0, res.output
     assert "2 of 2 sessions processed" in res.output
