@@ -40,6 +40,13 @@ __all__ = ["batch"]
     show_default=True,
     help="Worker processes of the local cluster.",
 )
+@click.option(
+    "--worker-memory",
+    metavar="SIZE",
+    help="Memory limit of each local worker process (3GB, 1.5GiB, 800MB): a worker "
+    "above 95 % of it is restarted and its session fails; default: this machine's "
+    "memory divided by the workers.",
+)
 @click.option("--threads", is_flag=True, help="Local cluster with threads instead of processes.")
 @click.option("--force", is_flag=True, help="Replace existing per-session output directories.")
 @click.option(
@@ -56,6 +63,7 @@ def batch(
     config_path: Path | None,
     scheduler: str | None,
     workers: int,
+    worker_memory: str | None,
     threads: bool,
     force: bool,
     resume: bool,
@@ -76,8 +84,20 @@ def batch(
     from tqdm import tqdm
 
     from coopproc.run.batch import BatchInterrupted, SessionOutcome, run_batch
+    from coopproc.run.batch_memory import worker_memory_limit
     from coopproc.run.config import load_run_config
 
+    limit = None
+    if scheduler is not None and worker_memory is not None:
+        click.echo(
+            "batch: --worker-memory does not apply to a --scheduler cluster (its workers' "
+            "limits are set where they start: dask worker --memory-limit); ignored",
+            err=True,
+        )
+    elif scheduler is None:
+        limit, capped = worker_memory_limit(worker_memory, workers)
+        if capped is not None:
+            click.echo(capped, err=True)
     config = load_run_config(config_path)
     if no_figures:
         config = dataclasses.replace(config, run=dataclasses.replace(config.run, figures=False))
@@ -113,6 +133,7 @@ def batch(
                 scheduler=scheduler,
                 workers=workers,
                 processes=not threads,
+                worker_memory=limit,
                 force=force,
                 resume=resume,
                 on_done=done,

@@ -39,6 +39,7 @@ from coopproc.run.batch_interrupt import (
     quiet_workers,
     written_since,
 )
+from coopproc.run.batch_memory import failure_line, local_cluster_config, machine_memory
 from coopproc.run.batch_plan import (
     SessionOutcome,
     failed_outcome,
@@ -160,6 +161,7 @@ def run_batch(
     scheduler: str | None = None,
     workers: int = 2,
     processes: bool = True,
+    worker_memory: int | None = None,
     force: bool = False,
     resume: bool = False,
     formats: tuple[str, ...] = ("png",),
@@ -169,6 +171,8 @@ def run_batch(
 
     ``on_done`` is called once per session of this call, as soon as its outcome is known
     (a missing path or a skipped one first). A path given twice is processed once.
+    ``worker_memory``: bytes per local worker (None: this machine's memory / ``workers``;
+    :mod:`coopproc.run.batch_memory`); a ``scheduler``'s cluster has its own limits.
     """
     started = _now()
     if not sessions:
@@ -196,7 +200,11 @@ def run_batch(
     ]
     interrupted = False
     try:
-        computed = _compute(todo, config, formats, scheduler, workers, processes, on_done)
+        limit = None
+        if scheduler is None:
+            limit = worker_memory if worker_memory is not None else machine_memory() // workers
+        local = (workers, processes, limit)
+        computed = _compute(todo, config, formats, scheduler, local, on_done)
     except _Interrupted as stop:
         computed, interrupted = stop.outcomes, True
     for outcome in computed:
@@ -238,22 +246,26 @@ def _compute(
     config: RunConfig,
     formats: tuple[str, ...],
     scheduler: str | None,
-    workers: int,
-    processes: bool,
+    local: tuple[int, bool, int | None],
     on_done: Callable[[SessionOutcome], None] | None,
 ) -> list[SessionOutcome]:
     """Run ``(session, out_dir, force)`` tasks on Dask; their outcomes as they complete.
 
+    ``local``: the local cluster's workers, processes or threads, bytes per worker.
     Raises :class:`_Interrupted` (the cluster closed) after a Ctrl-C.
     """
     if not todo:
         return []
+    import dask
     from dask.distributed import Client, LocalCluster, as_completed
+
+    workers, processes, limit = local
 
     outcomes: list[SessionOutcome] = []
     with SigintFlag() as sigint:
         cluster = None
         client = None
+        settings = dask.config.set(local_cluster_config() if scheduler is None else {})
         try:
             with sigint.ignored():
                 if scheduler is None:
@@ -262,6 +274,7 @@ def _compute(
                         threads_per_worker=1,
                         processes=processes,
                         dashboard_address=None,
+                        memory_limit=limit,
                     )
                 try:
                     client = Client(
@@ -288,7 +301,7 @@ def _compute(
                     outcome = future.result()
                 except Exception as err:  # a worker died or the task raised
                     s, o = futures[future]
-                    outcome = failed_outcome(s, o, f"{type(err).__name__}: {err}")
+                    outcome = failed_outcome(s, o, failure_line(client, err, s, limit))
                 outcomes.append(outcome)
                 if on_done is not None:
                     on_done(outcome)
@@ -311,6 +324,7 @@ def _compute(
                     client.close()
                 if cluster is not None:
                     cluster.close()
+            settings.__exit__(None, None, None)
         if sigint.hit:
             raise _Interrupted(outcomes)
     return outcomes

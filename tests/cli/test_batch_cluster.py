@@ -1,0 +1,103 @@
+"""`coopproc batch --scheduler` on a real two-process Dask cluster, as a user's would be
+(issue 35 part 3): the sessions run on the cluster's worker processes, not here, and
+their tables are byte for byte those of `coopproc run`."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import dask
+import pytest
+from click.testing import CliRunner
+
+from coopproc.cli import main
+
+
+def _simulate(path: Path, seed: int) -> None:
+    args = ["simulate", str(path), "--scenario", "paper-table1", "--seed", str(seed)]
+    res = CliRunner().invoke(main, [*args, "--duration", "40"])
+    assert res.exit_code == 0, res.output
+
+
+@pytest.mark.slow  # 46 s measured on the shared 2-core machine beside a campaign
+def test_two_sessions_run_on_the_two_workers_of_a_cluster_like_coopproc_run(
+    tmp_path: Path,
+) -> None:
+    from distributed import Client, LocalCluster
+    from distributed.diagnostics.plugin import SchedulerPlugin
+
+    sessions = [tmp_path / f"s{seed}" for seed in (3, 4)]
+    for seed, path in zip((3, 4), sessions, strict=True):
+        _simulate(path, seed)
+
+    class WhereRun(SchedulerPlugin):
+        """Which worker finished each task (the scheduler's own record)."""
+
+        def __init__(self) -> None:
+            self.ran: dict[str, str] = {}
+
+        def transition(self, key: Any, start: str, finish: str, *args: Any, **kw: Any) -> None:
+            if start == "processing" and finish == "memory":
+                self.ran[str(key)] = str(kw.get("worker"))
+
+    where = WhereRun()
+    root = tmp_path / "root"
+    # one task per worker at a time: the two sessions go to the two idle workers
+    with (
+        dask.config.set({"distributed.scheduler.worker-saturation": 1.0}),
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        Client(cluster) as client,
+    ):
+        cluster.scheduler.add_plugin(where)
+        pids = client.run(os.getpid)  # worker address -> its process id
+        scheduler = cluster.scheduler_address
+        res = CliRunner().invoke(
+            main,
+            [
+                "batch",
+                *map(str, sessions),
+                "-o",
+                str(root),
+                "--no-figures",
+                "--scheduler",
+                scheduler,
+            ],
+        )
+    assert res.exit_code == 0, res.output
+    assert "2 of 2 sessions processed" in res.output
+    ran = {k: w for k, w in where.ran.items() if k.startswith("run_one-")}
+    assert len(ran) == 2
+    assert set(ran.values()) == set(pids)  # both workers, one session each
+    assert os.getpid() not in pids.values() and len(set(pids.values())) == 2
+    for path in sessions:  # nothing depends on the worker that ran it
+        single = tmp_path / f"single_{path.name}"
+        res = CliRunner().invoke(main, ["run", str(path), "-o", str(single), "--no-figures"])
+        assert res.exit_code == 0, res.output
+        tables = sorted(p.name for p in single.glob("*.csv"))
+        assert {"metrics.csv", "positions.csv", "ranges.csv"} <= set(tables)
+        assert sorted(p.name for p in (root / path.name).glob("*.csv")) == tables
+        for name in tables:
+            assert (root / path.name / name).read_bytes() == (single / name).read_bytes(), name
+
+
+@pytest.mark.parametrize(
+    ("size", "error"),
+    [
+        ("lots", "error: --worker-memory 'lots': not a size; expected e.g. 3GB, 1.5GiB or 800MB"),
+        ("0", "error: --worker-memory '0': must be above 0 (e.g. 3GB)"),
+    ],
+)
+def test_an_unparsable_worker_memory_is_one_line_before_the_work(
+    tmp_path: Path, size: str, error: str
+) -> None:
+    root = tmp_path / "root"
+    res = CliRunner().invoke(
+        main, ["batch", str(tmp_path / "s"), "-o", str(root), "--worker-memory", size]
+    )
+    assert res.exit_code == 1, res.output
+    assert res.output == error + "\n"
+    assert not root.exists()
