@@ -274,6 +274,9 @@ def _compute(
                         threads_per_worker=1,
                         processes=processes,
                         dashboard_address=None,
+                        # its metrics server on a free port: Dask's default 8787 taken (a
+                        # user's dashboard, another cluster) printed a UserWarning
+                        scheduler_kwargs={"dashboard_address": ":0"},
                         memory_limit=limit,
                     )
                 try:
