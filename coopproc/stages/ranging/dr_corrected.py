@@ -5,9 +5,11 @@ takes each platform's own navigation displacement between range epochs. A follow
 dead reckoning rotates its steps by a heading error that grows with time (a gyro bias
 of 2-3 deg/h is 5 deg after 2 h) and scales them by its odometer error, so the DR DI of
 a pair errs by about theta x the relative speed across the line of sight, more and more
-as the recording goes on (the paper-experiment scenario over 2 h: the DI's RMSE on the
-pairs with the leader grew from 0.030 to 0.063 m while the pair between the followers,
-whose headings drift alike, stayed at 0.03 m).
+as the heading error grows (real MiLUV: the fusion finds the drone up to 12.7 deg off;
+with the correction its DI RMSE / observed falls from 0.54 to 0.44, median over pairs,
+docs/methods-ranging.md). On the 2 h paper-experiment sessions, whose followers drift
+a few degrees, the DI's RMSE still grows over the recording with it (about 2 % lower):
+that growth has another cause.
 
 The cooperative fusion with ``[fusion] state = "dr"`` estimates each follower's heading
 correction theta and scale correction s (:mod:`coopproc.stages.fusion.dr_model`:
