@@ -73,14 +73,20 @@ class SigintFlag:
 
 
 def quiet_workers() -> object:
-    """A Dask worker plugin: the local cluster's workers log nothing below ERROR."""
+    """A Dask worker plugin: the local cluster's workers log nothing below CRITICAL.
+
+    A session's failure reaches the user through its task (one line each, batch.py) and a
+    worker killed for memory through the scheduler's events (batch_memory.py), not through
+    a worker's log; at ERROR, a worker whose heartbeat met the scheduler closing after a
+    Ctrl-C printed "Failed to communicate with scheduler" and a 30-line traceback (seen in
+    the slow suite's Ctrl-C test)."""
     from distributed import WorkerPlugin
 
     class QuietWorkers(WorkerPlugin):
         name = "coopproc-quiet-workers"
 
         def setup(self, worker: object) -> None:
-            logging.getLogger("distributed").setLevel(logging.ERROR)
+            logging.getLogger("distributed").setLevel(logging.CRITICAL)
 
     return QuietWorkers()
 
