@@ -26,7 +26,7 @@ from coopproc.cli import main
 from coopproc.io.session import read_session
 from coopproc.run.implausible import implausible_methods
 from coopproc.stages.base import PositionProduct
-from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
+from coopproc.stages.shared.lsq import LsqParams, robust_lsq_positions
 
 pytestmark = pytest.mark.slow  # real-session runs: CI runs them after the README command
 

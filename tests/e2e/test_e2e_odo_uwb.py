@@ -32,10 +32,10 @@ from coopproc.model import Session, Trajectory
 from coopproc.run.chain import PipelineParams
 from coopproc.run.odo_methods import odo_pipeline
 from coopproc.stages.fusion.anchor_lsq import anchor_fixes
-from coopproc.stages.fusion.lsq import LsqParams
 from coopproc.stages.fusion.odo_track import OdoUwbParams, odo_tracks
 from coopproc.stages.fusion.odo_uwb import fit_track, odo_uwb_positions
 from coopproc.stages.fusion.uwb_kf import uwb_kf_positions
+from coopproc.stages.shared.lsq import LsqParams
 
 REAL_TUC = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "real" / "tuc"
 #: lsq_rts on real/tuc with the robot as a tag (issue 12's figure)

@@ -21,7 +21,7 @@ from click.testing import CliRunner
 from coopproc.cli import main
 from coopproc.io.session import read_session
 from coopproc.run.tags import TAG_METHODS
-from coopproc.stages.fusion.lsq import LsqParams, lsq_fixes
+from coopproc.stages.shared.lsq import LsqParams, lsq_fixes
 
 #: the simulator's true UWB white noise (SimParams.uwb_noise_m)
 SIGMA_R = 0.08

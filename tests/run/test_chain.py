@@ -8,8 +8,8 @@ from coopproc.cli.config_cmd import render_config
 from coopproc.errors import ConfigError
 from coopproc.run.chain import PipelineParams, chain_lines, resolve
 from coopproc.run.config import RunConfig, run_config_from_toml
-from coopproc.stages.fusion.lsq import LsqParams
 from coopproc.stages.ranging.median import MedianParams
+from coopproc.stages.shared.lsq import LsqParams
 
 
 def _labels(**pipeline: object) -> list[str]:

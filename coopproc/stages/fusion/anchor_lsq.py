@@ -1,6 +1,6 @@
 """Geometry-aware least-squares fixes from anchors: the input of ``lsq``, ``lsq_kf``, ``lsq_rts``.
 
-:mod:`coopproc.stages.fusion.lsq` solves every epoch from the anchors' centroid and
+:mod:`coopproc.stages.shared.lsq` solves every epoch from the anchors' centroid and
 writes whatever comes out. On real recordings (issue 31) that fails three ways: anchors
 in a compact cluster seen from 50 m (hanyang_los: HDOP up to 29) give epochs with three
 ranges whose horizontal problem has a *mirror* solution (three anchors whose horizontal
@@ -67,9 +67,9 @@ from coopproc.distributions import chi2_ppf
 from coopproc.model import FloatArray, Session
 from coopproc.names import LSQ_QUALITY_COLUMNS
 from coopproc.stages.base import PositionProduct
-from coopproc.stages.fusion.data import anchor_positions, clean_ranges, range_sigma_default
-from coopproc.stages.fusion.lsq import LsqFixes, LsqParams, _design, _gauss_newton
 from coopproc.stages.fusion.uwb_kf import cv_smooth
+from coopproc.stages.shared.data import anchor_positions, clean_ranges, range_sigma_default
+from coopproc.stages.shared.lsq import LsqFixes, LsqParams, _design, _gauss_newton
 
 __all__ = ["AnchorSolution", "anchor_fixes", "lsq_quality_of"]
 

@@ -32,8 +32,8 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from coopproc.model import FloatArray, Session, pair_members, pair_name
-from coopproc.stages.fusion.data import anchor_positions
 from coopproc.stages.fusion.fuse import FusionOutput, FusionParams, fuse
+from coopproc.stages.shared.data import anchor_positions
 
 __all__ = [
     "PairCodes",
@@ -132,7 +132,7 @@ class PairCodes:
 def pair_codes(first: pd.Series, second: pd.Series) -> PairCodes:
     """:class:`PairCodes` of two id columns: one factorization per column, a name per
     distinct (first, second) combination, no string per row (a missing id is named
-    ``str`` of it, as :func:`~coopproc.stages.fusion.data.pair_names` does)."""
+    ``str`` of it, as :func:`~coopproc.stages.shared.data.pair_names` does)."""
     code_a, uniq_a = pd.factorize(first, use_na_sentinel=False)
     code_b, uniq_b = pd.factorize(second, use_na_sentinel=False)
     width = max(len(uniq_b), 1)

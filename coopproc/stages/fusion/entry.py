@@ -10,7 +10,7 @@
   fusion's solution instead of a second, identical fusion. Its IGG-III factor per range
   goes to range_weights.csv (:mod:`~coopproc.stages.fusion.range_weights`).
 - ``lsq``: robust least squares from fixed anchors (paper 003 sec. 2.2,
-  :func:`coopproc.stages.fusion.lsq.robust_lsq_positions`), epoch by epoch; method
+  :func:`coopproc.stages.shared.lsq.robust_lsq_positions`), epoch by epoch; method
   ``lsq`` on the observed ranges, ``lsq_<set>`` on a processed set.
 - ``lsq_kf`` / ``lsq_rts``: the same fixes through a constant-velocity Kalman filter
   (causal) / and its RTS smoother (:mod:`coopproc.stages.fusion.uwb_kf`); methods
@@ -30,14 +30,14 @@ from coopproc.model import Session, Trajectory
 from coopproc.stages.base import PositionInput, PositionProduct, PositionStage
 from coopproc.stages.fusion.anchor_lsq import AnchorSolution, anchor_fixes
 from coopproc.stages.fusion.calibration import FusionCalibration, calibrated_fuse
-from coopproc.stages.fusion.data import range_sigma_default, shared_nav
 from coopproc.stages.fusion.fuse import FusionParams
 from coopproc.stages.fusion.leave_out import leave_pair_out
-from coopproc.stages.fusion.lsq import LsqParams, fixes_trajectory
 from coopproc.stages.fusion.range_digest import range_rows_digest
 from coopproc.stages.fusion.range_kf import range_kf_positions
 from coopproc.stages.fusion.range_weights import range_weights_frame
 from coopproc.stages.fusion.uwb_kf import uwb_kf_positions
+from coopproc.stages.shared.data import range_sigma_default, shared_nav
+from coopproc.stages.shared.lsq import LsqParams, fixes_trajectory
 
 __all__ = [
     "FUSION",

@@ -23,7 +23,11 @@ import pandas as pd
 
 from coopproc.errors import StageError
 from coopproc.model import FloatArray, Session
-from coopproc.stages.fusion.data import (
+from coopproc.stages.fusion.nav_span import covered_rows, epoch_bounds, span_clip
+from coopproc.stages.fusion.observations import build_observations, nav_sigma
+from coopproc.stages.fusion.output import recorded_slots
+from coopproc.stages.fusion.params import FusionParams
+from coopproc.stages.shared.data import (
     RangeRows,
     anchor_positions,
     clean_range_rows_indexed,
@@ -34,11 +38,7 @@ from coopproc.stages.fusion.data import (
     range_sigma_default,
     row_sigmas,
 )
-from coopproc.stages.fusion.lsq import robust_lsq_positions
-from coopproc.stages.fusion.nav_span import covered_rows, epoch_bounds, span_clip
-from coopproc.stages.fusion.observations import build_observations, nav_sigma
-from coopproc.stages.fusion.output import recorded_slots
-from coopproc.stages.fusion.params import FusionParams
+from coopproc.stages.shared.lsq import robust_lsq_positions
 
 __all__ = ["FusionInputs", "fusion_inputs"]
 

@@ -35,8 +35,8 @@ from coopproc.errors import StageError
 from coopproc.ins.align import Alignment, coarse_align, heading_from_motion, level, static_start
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.sensors import ImuData
-from coopproc.stages.fusion.data import anchor_positions, range_sigma_default
-from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
+from coopproc.stages.shared.data import anchor_positions, range_sigma_default
+from coopproc.stages.shared.lsq import LsqParams, robust_lsq_positions
 
 __all__ = ["InsStart", "anchor_ranges", "ins_start", "odometer_scale"]
 

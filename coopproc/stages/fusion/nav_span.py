@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from coopproc.model import FloatArray, Session
-from coopproc.stages.fusion.data import RangeRows
+from coopproc.stages.shared.data import RangeRows
 
 __all__ = ["covered_rows", "epoch_bounds", "nav_spans", "span_clip"]
 

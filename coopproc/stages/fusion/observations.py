@@ -30,10 +30,10 @@ from collections.abc import Mapping
 import numpy as np
 
 from coopproc.model import FloatArray, Session
-from coopproc.stages.fusion.data import RangeRows, nav_points
 from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_POSITION, OBS_RANGE
 from coopproc.stages.fusion.nav_span import epoch_bounds, span_clip
 from coopproc.stages.fusion.params import FusionParams
+from coopproc.stages.shared.data import RangeRows, nav_points
 
 __all__ = ["build_observations", "leader_fix_epochs", "nav_sigma"]
 

@@ -6,7 +6,7 @@ times; each step holds the odometer sample at or before its start (zero-order ho
 forward). The yaw rate comes from the odometer (wheel speeds + wheelbase, or a twist),
 else from the platform's IMU (z gyro averaged over each odometer interval); a platform
 with neither is left out with a note. The initial position is the first robust least-
-squares fix (:func:`coopproc.stages.fusion.lsq.lsq_fixes` with the epoch spanning one
+squares fix (:func:`coopproc.stages.shared.lsq.lsq_fixes` with the epoch spanning one
 polling round of the anchors), its sigma widened by the odometer distance travelled
 until then. The height for the 2D range model is the platform's nav height, else
 ``tag_up_m``.
@@ -22,8 +22,8 @@ import numpy as np
 import pandas as pd
 
 from coopproc.model import FloatArray, Session
-from coopproc.stages.fusion.data import anchor_positions, clean_ranges, range_sigma_default
-from coopproc.stages.fusion.lsq import LsqParams, lsq_fixes
+from coopproc.stages.shared.data import anchor_positions, clean_ranges, range_sigma_default
+from coopproc.stages.shared.lsq import LsqParams, lsq_fixes
 
 __all__ = ["OdoTrack", "OdoUwbParams", "head_of", "odo_tracks"]
 

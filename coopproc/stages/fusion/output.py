@@ -21,8 +21,8 @@ import numpy as np
 import pandas as pd
 
 from coopproc.model import FloatArray, Session, Trajectory
-from coopproc.stages.fusion.data import nav_points, platform_codes
 from coopproc.stages.fusion.nav_span import epoch_bounds
+from coopproc.stages.shared.data import nav_points, platform_codes
 
 __all__ = [
     "recorded_slots",

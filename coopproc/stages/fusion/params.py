@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from coopproc.configtools import from_table
-from coopproc.stages.fusion.lsq import LsqParams
+from coopproc.stages.shared.lsq import LsqParams
 
 __all__ = ["FusionParams", "fusion_params_from_toml"]
 

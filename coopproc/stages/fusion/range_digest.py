@@ -28,7 +28,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from coopproc.model import FloatArray, Session
-from coopproc.stages.fusion.data import platform_codes, row_sigmas
+from coopproc.stages.shared.data import platform_codes, row_sigmas
 
 __all__ = ["range_rows_digest"]
 

@@ -37,9 +37,9 @@ import pandas as pd
 from coopproc.estimation.robust import igg3_scalar, mad_sigma_nb
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.stages.fusion.anchor_lsq import anchor_fixes
-from coopproc.stages.fusion.data import anchor_positions, clean_ranges, range_sigma_default
-from coopproc.stages.fusion.lsq import LsqParams
 from coopproc.stages.fusion.uwb_kf import MAD_WINDOW, V0_SIGMA_MPS, _backward, _transition
+from coopproc.stages.shared.data import anchor_positions, clean_ranges, range_sigma_default
+from coopproc.stages.shared.lsq import LsqParams
 
 __all__ = ["START_SIGMA_M", "range_kf_positions"]
 

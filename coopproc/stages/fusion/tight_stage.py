@@ -26,7 +26,6 @@ from coopproc.errors import StageError
 from coopproc.gnss.tight import GnssEpochs, local_frame, prepare
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.stages.base import NavStates, PositionInput, PositionProduct, PositionStage
-from coopproc.stages.fusion.data import anchor_positions, range_sigma_default
 from coopproc.stages.fusion.tight_dop import dop_note, dop_table
 from coopproc.stages.fusion.tight_filter import (
     RangeRows,
@@ -35,6 +34,7 @@ from coopproc.stages.fusion.tight_filter import (
     run_tight,
 )
 from coopproc.stages.fusion.tight_ins import track_factory
+from coopproc.stages.shared.data import anchor_positions, range_sigma_default
 
 __all__ = ["GNSS_METHODS", "GNSS_STAGES", "GnssParams", "GrossError", "MaskWindow"]
 

@@ -1,7 +1,7 @@
 """UWB-only positioning of a tag: robust LS fixes -> constant-velocity KF -> RTS smoother.
 
 Paper 003 sec. 2.2 positions a UWB tag epoch by epoch by robust least squares (eq. (6)-
-(12), :mod:`coopproc.stages.fusion.lsq`); sec. 2.8 smooths with Rauch-Tung-Striebel.
+(12), :mod:`coopproc.stages.shared.lsq`); sec. 2.8 smooths with Rauch-Tung-Striebel.
 This module filters one tag's fixes with a constant-velocity Kalman filter and smooths
 the result, so that a platform without dead reckoning (role ``tag``) gets a trajectory
 better than its raw fixes (methods ``lsq_kf`` and ``lsq_rts``, docs/methods-fusion.md).
@@ -30,7 +30,7 @@ import numpy as np
 from coopproc.estimation.linalg import cholesky_solve_nb
 from coopproc.estimation.robust import igg3_scalar, mad_sigma_nb
 from coopproc.model import FloatArray, Trajectory
-from coopproc.stages.fusion.lsq import LsqFixes, LsqParams
+from coopproc.stages.shared.lsq import LsqFixes, LsqParams
 
 __all__ = ["MAD_WINDOW", "cv_filter", "cv_smooth", "uwb_kf_positions"]
 

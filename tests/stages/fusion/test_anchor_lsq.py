@@ -12,8 +12,8 @@ import pytest
 
 from coopproc.model import Platform, RangeTable, Session, SessionConfig, pair_name
 from coopproc.stages.fusion.anchor_lsq import anchor_fixes
-from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
 from coopproc.stages.fusion.range_kf import range_kf_positions
+from coopproc.stages.shared.lsq import LsqParams, robust_lsq_positions
 
 #: hanyang_los's cluster: a3, a5, a9 project onto the line x = 2.5775 (a5 above a9)
 CLUSTER = {

@@ -13,8 +13,8 @@ from coopproc.stages.fusion.calibration_bias import (
     postfit_residuals,
     residuals_by_row,
 )
-from coopproc.stages.fusion.data import pair_names
 from coopproc.stages.fusion.fuse import FusionParams, fuse
+from coopproc.stages.shared.data import pair_names
 from tests.stages.fusion.test_fusion import make_session
 
 

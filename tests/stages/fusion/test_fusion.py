@@ -11,8 +11,8 @@ import pytest
 from coopproc.configtools import from_table
 from coopproc.errors import ConfigError, StageError
 from coopproc.model import Platform, RangeTable, Session, SessionConfig, Trajectory, pair_name
-from coopproc.stages.fusion.data import epoch_groups
 from coopproc.stages.fusion.fuse import FusionParams, fuse, fusion_params_from_toml
+from coopproc.stages.shared.data import epoch_groups
 
 
 def make_session(

@@ -10,14 +10,14 @@ import pytest
 
 from coopproc.errors import StageError
 from coopproc.model import Platform
-from coopproc.stages.fusion.data import (
+from coopproc.stages.fusion.fuse import FusionParams, fuse
+from coopproc.stages.shared.data import (
     clean_range_rows,
     clean_ranges,
     nav_at_epochs,
     platform_codes,
     shared_nav,
 )
-from coopproc.stages.fusion.fuse import FusionParams, fuse
 from tests.stages.fusion.test_fusion import make_session
 
 

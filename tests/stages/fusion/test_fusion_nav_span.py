@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 from coopproc.model import RangeTable, Session, Trajectory
-from coopproc.stages.fusion.data import clean_range_rows
 from coopproc.stages.fusion.fuse import FusionParams, fuse
 from coopproc.stages.fusion.inputs import fusion_inputs
 from coopproc.stages.fusion.nav_span import covered_rows, epoch_bounds
 from coopproc.stages.fusion.output import recorded_slots
+from coopproc.stages.shared.data import clean_range_rows
 from tests.stages.fusion.test_fusion import dr_error, horizontal_error, make_session
 
 

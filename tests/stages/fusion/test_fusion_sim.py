@@ -9,7 +9,7 @@ import pytest
 from coopproc.model import Trajectory
 from coopproc.sim import Simulation, simulate
 from coopproc.stages.fusion.fuse import FusionParams, fuse
-from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
+from coopproc.stages.shared.lsq import LsqParams, robust_lsq_positions
 
 
 def h_error(sim: Simulation, traj: Trajectory) -> np.ndarray:

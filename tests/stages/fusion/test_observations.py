@@ -10,9 +10,9 @@ import pandas as pd
 import pytest
 
 from coopproc.model import pair_name
-from coopproc.stages.fusion.data import pair_names
 from coopproc.stages.fusion.fuse import FusionParams
 from coopproc.stages.fusion.observations import leader_fix_epochs
+from coopproc.stages.shared.data import pair_names
 
 
 def _session(nav_times: dict[str, list[float]]) -> Any:

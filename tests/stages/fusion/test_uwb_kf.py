@@ -7,8 +7,8 @@ import dataclasses
 import numpy as np
 
 from coopproc.estimation.kalman import kf_predict, kf_update, rts_step
-from coopproc.stages.fusion.lsq import LsqFixes, LsqParams
 from coopproc.stages.fusion.uwb_kf import V0_SIGMA_MPS, cv_filter, cv_smooth
+from coopproc.stages.shared.lsq import LsqFixes, LsqParams
 
 
 def _fixes(seed: int = 0, n: int = 200, sigma: float = 0.1) -> tuple[LsqFixes, np.ndarray]:

@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from coopproc.model import FloatArray, Session, Trajectory
-from coopproc.stages.fusion.data import (
+from coopproc.stages.shared.data import (
     anchor_positions,
     clean_ranges,
     epoch_groups,

@@ -1,4 +1,5 @@
-"""Input checks and array preparation shared by the fusion EKF and the anchor LSQ."""
+"""Input checks and array preparation shared by the method families: the fusion EKF, the
+anchors' methods, the INS, GNSS and odometer filters."""
 
 from __future__ import annotations
 

@@ -10,7 +10,7 @@ import pytest
 
 from coopproc.model import Platform, RangeTable, Session, SessionConfig, Trajectory, pair_name
 from coopproc.stages.fusion.fuse import FusionParams, fuse
-from coopproc.stages.fusion.lsq import LsqParams, robust_lsq_positions
+from coopproc.stages.shared.lsq import LsqParams, robust_lsq_positions
 
 ANCHORS = {
     "N1": (0.0, 0.0, 2.5),
