@@ -4,7 +4,7 @@
 ``scipy.optimize``, ``integrate`` and ``interpolate`` with them), on every ``coopproc
 run``, for five numbers of this kind: the bootstrap intervals' Student quantiles
 (report/bootstrap.py), the chi-square bounds of the consistency figure and table
-(report/consistency*.py) and of the residual tests (stages/fusion/anchor_lsq.py,
+(report/consistency*.py) and of the residual tests (stages/anchors/anchor_lsq.py,
 gnss/spp.py). These are the same ``scipy.special`` functions ``scipy.stats`` evaluates
 for them (``t.ppf``: ``stdtrit(df, q)``, ``t.sf``: ``stdtr(df, -x)``, ``chi2.ppf``:
 ``2 gammaincinv(df / 2, q)``, scipy 1.17) with its handling of the ends and of invalid

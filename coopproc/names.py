@@ -96,7 +96,7 @@ RANGE_WEIGHTS_COLUMNS: tuple[str, ...] = (
 )
 
 #: lsq_quality.csv (docs/outputs.md, extension): every epoch of a platform's ranges to
-#: anchors that the ``lsq*`` methods solved (coopproc.stages.fusion.anchor_lsq): the
+#: anchors that the ``lsq*`` methods solved (coopproc.stages.anchors.anchor_lsq): the
 #: anchors in it, HDOP / VDOP (unit weight; VDOP empty for a fix at one height), the
 #: chi-square of the robust standardized residuals with ``dof`` degrees of freedom, the
 #: height used (m), and ``status``: ok (a fix) or why it was dropped (dop, residual,

@@ -42,7 +42,7 @@ SIGMA_EXPLODED_M = 100.0
 #: shared real sessions stays within 0.45 m (plaza2's ``lsq_rts``; hanyang_los 0.02 m,
 #: tuc 0.1 m), the handcart INS on thinned ranges was 15-184 m off before the searched
 #: start (coopproc.ins.startup; now 0.03 m). (The mirror solution
-#: of a 3-anchor round fits its ranges: :mod:`~coopproc.stages.fusion.anchor_lsq` guards.)
+#: of a 3-anchor round fits its ranges: :mod:`~coopproc.stages.anchors.anchor_lsq` guards.)
 RANGE_MISFIT_M = 2.0
 #: Epochs named per flagged method in run.json.
 _FIRST = 5

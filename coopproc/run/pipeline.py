@@ -55,8 +55,8 @@ from coopproc.run.positions_table import PositionSamples, positions_table
 from coopproc.run.range_sets import ranges_for, row_sigma
 from coopproc.run.scoring import score_tables
 from coopproc.run.tags import anchor_pipeline, tag_pipeline, tag_rows, widen, without_tags
+from coopproc.stages.anchors.anchor_lsq import lsq_quality_of
 from coopproc.stages.base import PositionInput, PositionProduct, RangeInput, RangeProduct
-from coopproc.stages.fusion.anchor_lsq import lsq_quality_of
 from coopproc.stages.fusion.dr_quality import dead_reckoning_quality
 from coopproc.stages.fusion.dr_states import dr_states_of
 from coopproc.stages.fusion.range_weights import range_weights_of

@@ -8,6 +8,7 @@ method is one module with a :class:`coopproc.stages.base.RangeStage` or
 
 from __future__ import annotations
 
+from coopproc.stages.anchors import entry as anchors_entry
 from coopproc.stages.base import PositionStage, RangeStage
 from coopproc.stages.fusion import entry as fusion_entry
 from coopproc.stages.fusion import odo_uwb
@@ -32,11 +33,11 @@ POSITION_STAGES: dict[str, PositionStage] = {
     s.name: s
     for s in (
         fusion_entry.FUSION,  # cooperative EKF + RTS (papers 002, 003)
-        fusion_entry.LSQ,  # robust least squares from anchors (paper 003)
-        fusion_entry.LSQ_KF,  # lsq + constant-velocity KF (UWB only)
-        fusion_entry.LSQ_RTS,  # lsq + constant-velocity KF + RTS (UWB only, paper 003)
-        fusion_entry.RANGE_KF,  # range-by-range constant-velocity EKF (UWB only)
-        fusion_entry.RANGE_RTS,  # range_kf + RTS smoother
+        anchors_entry.LSQ,  # robust least squares from anchors (paper 003)
+        anchors_entry.LSQ_KF,  # lsq + constant-velocity KF (UWB only)
+        anchors_entry.LSQ_RTS,  # lsq + constant-velocity KF + RTS (UWB only, paper 003)
+        anchors_entry.RANGE_KF,  # range-by-range constant-velocity EKF (UWB only)
+        anchors_entry.RANGE_RTS,  # range_kf + RTS smoother
         odo_uwb.ODO_UWB,  # odometer + UWB EKF (platforms with odo_<ID>.csv)
         odo_uwb.ODO_UWB_RTS,  # odo_uwb + RTS smoother
         *INS_STAGES,  # ins, ins_nhc, ins_rts, ins_nhc_rts (UWB/INS, paper 003 Table 1)

@@ -1,54 +1,32 @@
-"""The position estimators as the chain sees them: registry entries ``fusion`` and ``lsq``.
+"""The cooperative fusion as the chain sees it: registry entry ``fusion``.
 
-- ``fusion``: the centralized cooperative EKF with IGG-III and RTS smoothing, self-
-  calibrated (:func:`coopproc.stages.fusion.calibration.calibrated_fuse`), run once per
-  range set; its positions.csv method is the range set's name (DATA.md: ``observed``,
-  ``rn``, ``di``). The processed sets take the observed fusion's per-pair sigmas as floor.
-  On the observed ranges it also gives the cooperative solution the ranging stage needs.
-  A processed set that holds the observed ranges (the range processing changed none: same
-  :func:`~coopproc.stages.fusion.range_digest.range_rows_digest`) gets the observed
-  fusion's solution instead of a second, identical fusion. Its IGG-III factor per range
-  goes to range_weights.csv (:mod:`~coopproc.stages.fusion.range_weights`).
-- ``lsq``: robust least squares from fixed anchors (paper 003 sec. 2.2,
-  :func:`coopproc.stages.shared.lsq.robust_lsq_positions`), epoch by epoch; method
-  ``lsq`` on the observed ranges, ``lsq_<set>`` on a processed set.
-- ``lsq_kf`` / ``lsq_rts``: the same fixes through a constant-velocity Kalman filter
-  (causal) / and its RTS smoother (:mod:`coopproc.stages.fusion.uwb_kf`); methods
-  ``lsq_kf``, ``lsq_rts`` (``lsq_kf_<set>``, ``lsq_rts_<set>``).
+The centralized cooperative EKF with IGG-III and RTS smoothing, self-calibrated
+(:func:`coopproc.stages.fusion.calibration.calibrated_fuse`), run once per range set; its
+positions.csv method is the range set's name (DATA.md: ``observed``, ``rn``, ``di``). The
+processed sets take the observed fusion's per-pair sigmas as floor. On the observed ranges
+it also gives the cooperative solution the ranging stage needs. A processed set that holds
+the observed ranges (the range processing changed none: same
+:func:`~coopproc.stages.fusion.range_digest.range_rows_digest`) gets the observed fusion's
+solution instead of a second, identical fusion. Its IGG-III factor per range goes to
+range_weights.csv (:mod:`~coopproc.stages.fusion.range_weights`).
 
-``lsq*`` are UWB-only (``uwb_only``): they position a ``tag`` (no navigation of its own);
-the fusion needs every moving platform's navigation and never sees a tag.
+The fusion needs every moving platform's navigation and never sees a tag; the UWB-only
+methods that position one are in :mod:`coopproc.stages.anchors.entry`.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
 
-from coopproc.errors import StageError
-from coopproc.model import Session, Trajectory
 from coopproc.stages.base import PositionInput, PositionProduct, PositionStage
-from coopproc.stages.fusion.anchor_lsq import AnchorSolution, anchor_fixes
 from coopproc.stages.fusion.calibration import FusionCalibration, calibrated_fuse
 from coopproc.stages.fusion.fuse import FusionParams
 from coopproc.stages.fusion.leave_out import leave_pair_out
 from coopproc.stages.fusion.range_digest import range_rows_digest
-from coopproc.stages.fusion.range_kf import range_kf_positions
 from coopproc.stages.fusion.range_weights import range_weights_frame
-from coopproc.stages.fusion.uwb_kf import uwb_kf_positions
 from coopproc.stages.shared.data import range_sigma_default, shared_nav
-from coopproc.stages.shared.lsq import LsqParams, fixes_trajectory
 
-__all__ = [
-    "FUSION",
-    "LSQ",
-    "LSQ_KF",
-    "LSQ_RTS",
-    "RANGE_KF",
-    "RANGE_RTS",
-    "fusion_stage",
-    "lsq_stage",
-]
+__all__ = ["FUSION", "fusion_stage"]
 
 
 def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
@@ -141,70 +119,6 @@ def _same_as_observed(
     )
 
 
-def _product(
-    inp: PositionInput,
-    positions: Mapping[str, Trajectory],
-    solution: AnchorSolution | None = None,
-    name: str = "lsq",
-) -> PositionProduct:
-    """The positions, with a note for each tag that got none (a tag has nothing else),
-    the fixes' notes and their lsq_quality.csv rows (method: the ``lsq`` of the set)."""
-    missing = [
-        p
-        for p in inp.session.platform_ids
-        if inp.session.platforms[p].role == "tag" and p not in positions
-    ]
-    notes = tuple(
-        f"tag {p}: no {inp.range_set} fix (never ranged to enough anchors in one round; "
-        "with anchors polled one at a time, [fusion.lsq] round_max_s must span one "
-        "polling round; range_rts needs no simultaneous ranges); it has no position"
-        for p in missing
-    )
-    if solution is None:
-        return PositionProduct(positions=positions, notes=notes)
-    method = LSQ.method(inp.range_set)
-    notes += tuple(f"{name} ({inp.range_set}): {note}" for note in solution.notes)
-    quality = solution.quality.assign(method=method)
-    return PositionProduct(positions=positions, notes=notes, lsq_quality=quality)
-
-
-def lsq_stage(inp: PositionInput, params: LsqParams) -> PositionProduct:
-    """Robust least-squares fixes of every platform ranging to enough anchors."""
-    solution = anchor_fixes(inp.session, inp.ranges, params)
-    positions = {p: fixes_trajectory(p, f, params.robust) for p, f in solution.fixes.items()}
-    return _product(inp, positions, solution)
-
-
-def lsq_kf_stage(inp: PositionInput, params: LsqParams) -> PositionProduct:
-    """The fixes through the constant-velocity Kalman filter (causal)."""
-    solution = anchor_fixes(inp.session, inp.ranges, params)
-    return _product(inp, uwb_kf_positions(solution.fixes, params, smooth=False), solution)
-
-
-def lsq_rts_stage(inp: PositionInput, params: LsqParams) -> PositionProduct:
-    """The fixes through the constant-velocity Kalman filter and the RTS smoother."""
-    solution = anchor_fixes(inp.session, inp.ranges, params)
-    return _product(inp, uwb_kf_positions(solution.fixes, params, smooth=True), solution)
-
-
-def range_kf_stage(inp: PositionInput, params: LsqParams) -> PositionProduct:
-    """The ranges through the tightly coupled constant-velocity EKF (causal)."""
-    return _product(inp, range_kf_positions(inp.session, inp.ranges, params, smooth=False))
-
-
-def range_rts_stage(inp: PositionInput, params: LsqParams) -> PositionProduct:
-    """The tightly coupled EKF and its RTS smoother."""
-    return _product(inp, range_kf_positions(inp.session, inp.ranges, params, smooth=True))
-
-
-def _has_anchors(session: Session) -> None:
-    if not any(p.role == "anchor" for p in session.platforms.values()):
-        raise StageError(
-            "lsq: the session has no anchors (platforms with role 'anchor'); robust least "
-            "squares positions platforms from ranges to fixed anchors"
-        )
-
-
 FUSION = PositionStage(
     name="fusion",
     params_type=FusionParams,
@@ -215,58 +129,4 @@ FUSION = PositionStage(
     named_by_range_set=True,
     provides_cp=True,
     needs_observed=True,
-)
-
-LSQ = PositionStage(
-    name="lsq",
-    params_type=LsqParams,
-    section="fusion.lsq",
-    run=lsq_stage,
-    help="robust least squares from fixed anchors, epoch by epoch (paper 003 sec. 2.2); "
-    "method lsq (observed ranges) or lsq_<set>",
-    check=_has_anchors,
-    uwb_only=True,
-)
-
-LSQ_KF = PositionStage(
-    name="lsq_kf",
-    params_type=LsqParams,
-    section="fusion.lsq",
-    run=lsq_kf_stage,
-    help="the lsq fixes through a constant-velocity Kalman filter with IGG-III (causal); "
-    "method lsq_kf or lsq_kf_<set>",
-    check=_has_anchors,
-    uwb_only=True,
-)
-
-LSQ_RTS = PositionStage(
-    name="lsq_rts",
-    params_type=LsqParams,
-    section="fusion.lsq",
-    run=lsq_rts_stage,
-    help="the lsq_kf filter followed by the RTS smoother (paper 003 sec. 2.8); method "
-    "lsq_rts or lsq_rts_<set>",
-    check=_has_anchors,
-    uwb_only=True,
-)
-
-RANGE_KF = PositionStage(
-    name="range_kf",
-    params_type=LsqParams,
-    section="fusion.lsq",
-    run=range_kf_stage,
-    help="each range to an anchor straight into a constant-velocity EKF with IGG-III "
-    "(tightly coupled, no simultaneous ranges needed; causal); method range_kf",
-    check=_has_anchors,
-    uwb_only=True,
-)
-
-RANGE_RTS = PositionStage(
-    name="range_rts",
-    params_type=LsqParams,
-    section="fusion.lsq",
-    run=range_rts_stage,
-    help="the range_kf filter followed by the RTS smoother; method range_rts",
-    check=_has_anchors,
-    uwb_only=True,
 )

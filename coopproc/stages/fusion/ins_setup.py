@@ -114,9 +114,9 @@ def _fixes(
 
 def _range_track(session: Session, platform: str, ranges: pd.DataFrame) -> Trajectory | None:
     """The platform's range-by-range constant-velocity EKF + RTS track
-    (:mod:`coopproc.stages.fusion.range_kf`): a start without simultaneous ranges (issue
+    (:mod:`coopproc.stages.anchors.range_kf`): a start without simultaneous ranges (issue
     31: anchors ranged one at a time, about one range per anchor every 3 s)."""
-    from coopproc.stages.fusion.range_kf import range_kf_positions
+    from coopproc.stages.anchors.range_kf import range_kf_positions
 
     traj = range_kf_positions(session, ranges, LsqParams(), smooth=True).get(platform)
     return traj if traj is not None and len(traj) >= 2 else None

@@ -21,7 +21,7 @@ calibration states.
 Range update: r = |(e, n, up) - anchor| + b_r with the IGG-III robust factor (paper 002 eq.
 (18)) on the innovation standardized by sqrt(H C H^T + R) and by the MAD of the last
 ``window`` standardized innovations, floor 1 (eq. (19)-(20), as the cooperative fusion and
-:mod:`coopproc.stages.fusion.uwb_kf`); R -> R / gamma; Joseph form.
+:mod:`coopproc.stages.anchors.uwb_kf`); R -> R / gamma; Joseph form.
 
 The negative log-likelihood sum(log S + min(V^2 / S, k1^2)) of the raw innovations is
 returned for the maximum-likelihood choice of the initial heading, yaw-rate scale and

@@ -86,7 +86,7 @@ class LsqParams:
         },
     )
     # the constant-velocity Kalman filter and RTS smoother over the fixes (methods
-    # lsq_kf, lsq_rts; coopproc.stages.fusion.uwb_kf)
+    # lsq_kf, lsq_rts; coopproc.stages.anchors.uwb_kf)
     kf_accel_psd: float = field(
         default=0.05,
         metadata={
@@ -117,7 +117,7 @@ class LsqParams:
             "anchor): tuc polls 4 modules in 0.38 s, miluv1 6 anchors in 1.3 s"
         },
     )
-    # the geometry tests of the lsq* methods' fixes (coopproc.stages.fusion.anchor_lsq)
+    # the geometry tests of the lsq* methods' fixes (coopproc.stages.anchors.anchor_lsq)
     hdop_max: float = field(
         default=50.0,
         metadata={"help": "lsq*: a fix with a larger HDOP is dropped (hanyang_los: 29 at 50 m)"},

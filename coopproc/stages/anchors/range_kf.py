@@ -1,7 +1,7 @@
 """Tightly coupled UWB-only positioning: each range to an anchor updates a constant-velocity
 EKF (methods ``range_kf``, ``range_rts``; issue 31).
 
-``lsq_kf`` / ``lsq_rts`` (:mod:`coopproc.stages.fusion.uwb_kf`) filter least-squares
+``lsq_kf`` / ``lsq_rts`` (:mod:`coopproc.stages.anchors.uwb_kf`) filter least-squares
 fixes, so they need ``dims + 1`` anchors ranged within one epoch. Anchors polled one at a
 time (miluv1: six anchors in turn at 4.6 Hz, one range per anchor every 1.3 s) almost
 never give that: ``lsq`` fixed the drone at one epoch of its 207 s flight. Here the state
@@ -36,8 +36,8 @@ import pandas as pd
 
 from coopproc.estimation.robust import igg3_scalar, mad_sigma_nb
 from coopproc.model import FloatArray, Session, Trajectory
-from coopproc.stages.fusion.anchor_lsq import anchor_fixes
-from coopproc.stages.fusion.uwb_kf import MAD_WINDOW, V0_SIGMA_MPS, _backward, _transition
+from coopproc.stages.anchors.anchor_lsq import anchor_fixes
+from coopproc.stages.anchors.uwb_kf import MAD_WINDOW, V0_SIGMA_MPS, _backward, _transition
 from coopproc.stages.shared.data import anchor_positions, clean_ranges, range_sigma_default
 from coopproc.stages.shared.lsq import LsqParams
 

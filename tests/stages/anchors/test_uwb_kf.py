@@ -1,4 +1,4 @@
-"""The constant-velocity KF + RTS over LS fixes (coopproc.stages.fusion.uwb_kf)."""
+"""The constant-velocity KF + RTS over LS fixes (coopproc.stages.anchors.uwb_kf)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 
 from coopproc.estimation.kalman import kf_predict, kf_update, rts_step
-from coopproc.stages.fusion.uwb_kf import V0_SIGMA_MPS, cv_filter, cv_smooth
+from coopproc.stages.anchors.uwb_kf import V0_SIGMA_MPS, cv_filter, cv_smooth
 from coopproc.stages.shared.lsq import LsqFixes, LsqParams
 
 

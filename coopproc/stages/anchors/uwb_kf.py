@@ -206,7 +206,7 @@ def _trajectory(tid: str, fix: LsqFixes, x: FloatArray, c: FloatArray, source: s
 def uwb_kf_positions(
     fixes: Mapping[str, LsqFixes], params: LsqParams, *, smooth: bool
 ) -> Mapping[str, Trajectory]:
-    """Every platform's fixes (:func:`coopproc.stages.fusion.anchor_lsq.anchor_fixes`)
+    """Every platform's fixes (:func:`coopproc.stages.anchors.anchor_lsq.anchor_fixes`)
     filtered (``smooth=False``, causal) or filtered and smoothed, at the fix epochs;
     platform id -> Trajectory with velocity."""
     out: dict[str, Trajectory] = {}

@@ -18,7 +18,7 @@ of 0 m whatever its real height. Here, per platform and epoch:
    from the constant-velocity RTS over a first pass of fixes (a raw fix difference at
    10 Hz and HDOP 29 is metres per second off, and one mirror flip is 450 m/s). A tag at
    walking speed with ranges 25 ms apart is not smeared
-   (tests/stages/fusion/test_anchor_lsq.py).
+   (tests/stages/anchors/test_anchor_lsq.py).
 2. **Height and dimension**: ``planar = false`` in session.toml (or ``[fusion.lsq] dims
    = 3`` for all) gives 3-D fixes (four anchors at least). A planar platform (the
    default, ``dims = 2``) is solved at one height: session.toml ``height``, else its
@@ -66,8 +66,8 @@ import pandas as pd
 from coopproc.distributions import chi2_ppf
 from coopproc.model import FloatArray, Session
 from coopproc.names import LSQ_QUALITY_COLUMNS
+from coopproc.stages.anchors.uwb_kf import cv_smooth
 from coopproc.stages.base import PositionProduct
-from coopproc.stages.fusion.uwb_kf import cv_smooth
 from coopproc.stages.shared.data import anchor_positions, clean_ranges, range_sigma_default
 from coopproc.stages.shared.lsq import LsqFixes, LsqParams, _design, _gauss_newton
 
@@ -236,7 +236,7 @@ def _velocity(
     t: FloatArray, x: FloatArray, cov: FloatArray, ok: np.ndarray, params: LsqParams
 ) -> FloatArray:
     """The velocity at every epoch from the constant-velocity RTS over the accepted fixes
-    (:func:`coopproc.stages.fusion.uwb_kf.cv_smooth`), NaN farther than
+    (:func:`coopproc.stages.anchors.uwb_kf.cv_smooth`), NaN farther than
     ``rate_max_gap_s`` from one (a raw fix difference at 10 Hz and HDOP 29 is 5 m/s off)."""
     v = np.full(x.shape, np.nan)
     idx = np.flatnonzero(ok)

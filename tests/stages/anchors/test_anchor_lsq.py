@@ -1,4 +1,4 @@
-"""Geometry-aware anchor fixes (coopproc.stages.fusion.anchor_lsq) and the range-by-range
+"""Geometry-aware anchor fixes (coopproc.stages.anchors.anchor_lsq) and the range-by-range
 EKF (range_kf.py) on small simulated tags: the mirror of three anchors whose horizontal
 projections are collinear, staggered ranges, the height, no simultaneous ranges."""
 
@@ -11,8 +11,8 @@ import pandas as pd
 import pytest
 
 from coopproc.model import Platform, RangeTable, Session, SessionConfig, pair_name
-from coopproc.stages.fusion.anchor_lsq import anchor_fixes
-from coopproc.stages.fusion.range_kf import range_kf_positions
+from coopproc.stages.anchors.anchor_lsq import anchor_fixes
+from coopproc.stages.anchors.range_kf import range_kf_positions
 from coopproc.stages.shared.lsq import LsqParams, robust_lsq_positions
 
 #: hanyang_los's cluster: a3, a5, a9 project onto the line x = 2.5775 (a5 above a9)
