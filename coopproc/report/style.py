@@ -86,7 +86,7 @@ METHOD_STYLES: dict[str, LineStyle] = {
     "di": LineStyle("DI-Based", "#ff7f0e", "-."),
     "nav": LineStyle("Own nav", "#7f7f7f", ":"),
     "reference": LineStyle("Reference", "#000000", "-", 1.2),
-    # paper 003 Table 1's UWB/INS modes (coopproc/stages/fusion/ins_stage.py): a colour per
+    # paper 003 Table 1's UWB/INS modes (coopproc/stages/ins/ins_stage.py): a colour per
     # aiding, dashed forward, solid smoothed
     "ins": LineStyle("ins", "#9467bd", "--"),
     "ins_rts": LineStyle("ins_rts", "#5b2a86", "-"),

@@ -26,7 +26,7 @@ import pandas as pd
 from coopproc.model import STATES_COLUMNS, Session, Trajectory
 from coopproc.run.chain import PipelineParams
 from coopproc.stages.base import NavStates, PositionProduct
-from coopproc.stages.fusion.ins_stage import (
+from coopproc.stages.ins.ins_stage import (
     INS_MODES,
     InsParams,
     dead_reckoning,

@@ -185,7 +185,7 @@ def test_ins_starts_from_the_range_track_without_a_fix(handcart: Path) -> None:
     import dataclasses
 
     from coopproc.io.session import read_session
-    from coopproc.stages.fusion.ins_setup import ins_start
+    from coopproc.stages.ins.ins_setup import ins_start
 
     session = read_session(handcart.parent / "handcart")
     frame = session.ranges.frame

@@ -1,4 +1,4 @@
-"""The odometer scale estimated against an INS track (coopproc.stages.fusion.ins_setup)."""
+"""The odometer scale estimated against an INS track (coopproc.stages.ins.ins_setup)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from coopproc.stages.fusion.ins_setup import odometer_scale
+from coopproc.stages.ins.ins_setup import odometer_scale
 
 
 def _track(t: np.ndarray) -> SimpleNamespace:

@@ -1,4 +1,4 @@
-"""The INS in the run chain (coopproc.run.ins, coopproc.stages.fusion.ins_stage): which
+"""The INS in the run chain (coopproc.run.ins, coopproc.stages.ins.ins_stage): which
 sessions get the INS modes, the chain, states.csv, the attitude conventions, and the INS
 dead reckoning as navigation ([ins] navigation = "ins")."""
 
@@ -19,7 +19,7 @@ from coopproc.run.config import run_config_from_toml
 from coopproc.run.ins import ins_navigation, ins_pipeline, states_table
 from coopproc.sim import simulate, write_simulation
 from coopproc.stages.base import NavStates, PositionProduct
-from coopproc.stages.fusion.ins_stage import INS_MODES, InsParams, track_at
+from coopproc.stages.ins.ins_stage import INS_MODES, InsParams, track_at
 
 
 @pytest.fixture(scope="module")

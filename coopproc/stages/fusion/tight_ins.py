@@ -317,12 +317,12 @@ def track_factory(
 ) -> Callable[[str, GnssEpochs, FloatArray], CvTrack]:
     """``make_track`` of :func:`~coopproc.stages.fusion.tight_filter.run_tight`: an
     :class:`InsTrack` for a platform with IMU samples, started and aligned as the INS
-    methods do (:func:`coopproc.stages.fusion.ins_setup.ins_start` with the ``[ins]``
+    methods do (:func:`coopproc.stages.ins.ins_setup.ins_start` with the ``[ins]``
     defaults: the navigation file, else the first UWB fix), else a :class:`CvTrack`. One
     note per platform in ``notes``."""
     from coopproc.ins.models import imu_figures
-    from coopproc.stages.fusion.ins_setup import ins_start
-    from coopproc.stages.fusion.ins_stage import InsParams
+    from coopproc.stages.ins.ins_setup import ins_start
+    from coopproc.stages.ins.ins_stage import InsParams
 
     ip = InsParams()
 

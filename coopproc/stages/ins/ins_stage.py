@@ -27,7 +27,7 @@ import pandas as pd
 from coopproc.errors import StageError
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.stages.base import NavStates, PositionInput, PositionProduct, PositionStage
-from coopproc.stages.fusion.ins_setup import anchor_ranges, ins_start, odometer_scale
+from coopproc.stages.ins.ins_setup import anchor_ranges, ins_start, odometer_scale
 
 __all__ = [
     "INS_MODES",

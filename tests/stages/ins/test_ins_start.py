@@ -12,8 +12,8 @@ import pytest
 from coopproc.errors import StageError
 from coopproc.model import RangeTable
 from coopproc.sim.engine import simulate
-from coopproc.stages.fusion.ins_setup import ins_start
-from coopproc.stages.fusion.ins_stage import InsParams, _run_platform
+from coopproc.stages.ins.ins_setup import ins_start
+from coopproc.stages.ins.ins_stage import InsParams, _run_platform
 
 
 @pytest.fixture(scope="module")

@@ -1,5 +1,5 @@
 """From a session to the INS engine's inputs: aiding, start and alignment of one platform
-(the INS position methods, :mod:`coopproc.stages.fusion.ins_stage`; docs/methods-ins.md,
+(the INS position methods, :mod:`coopproc.stages.ins.ins_stage`; docs/methods-ins.md,
 "In the pipeline").
 
 - **Ranges**: the platform's UWB ranges to anchors (tightly coupled, with the UWB lever
