@@ -88,7 +88,7 @@ def tight(repeat: int) -> None:
 
     from coopproc.io.session import read_session
     from coopproc.sim import simulate, write_simulation
-    from coopproc.stages.fusion.tight_stage import GnssParams, solve
+    from coopproc.stages.gnss.tight_stage import GnssParams, solve
 
     with tempfile.TemporaryDirectory(prefix="coopproc-bench-") as tmp:
         path = Path(tmp) / "anchors"

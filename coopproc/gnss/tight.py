@@ -1,6 +1,6 @@
 """GPS measurement models of the tightly coupled filter (paper 002 eq. 9-11) and DOP.
 
-The filter itself (:mod:`coopproc.stages.fusion.tight_filter`) works in the session's
+The filter itself (:mod:`coopproc.stages.gnss.tight_filter`) works in the session's
 local ENU frame; this module gives it, per receiver epoch and at the filter's predicted
 position, everything the pseudorange and Doppler rows need:
 

@@ -1,7 +1,7 @@
 """Platforms with raw GPS observations in the stage chain (issue 13 items 4-5).
 
 When platforms have ``obs_<ID>.*`` files (``Session.gnss``), ``[gnss] methods`` (default
-``gnss`` and ``tight``; :mod:`coopproc.stages.fusion.tight_stage`) are added to
+``gnss`` and ``tight``; :mod:`coopproc.stages.gnss.tight_stage`) are added to
 ``[pipeline] positions`` unless the chain already names one of them or ``[gnss] methods
 = []``; the decision is a note. A session without observation files passes through
 unchanged (the same objects), so its outputs are those of a run without this module.
@@ -13,7 +13,7 @@ import dataclasses
 
 from coopproc.model import Session
 from coopproc.run.chain import PipelineParams
-from coopproc.stages.fusion.tight_stage import GNSS_METHODS, GnssParams, gnss_platforms
+from coopproc.stages.gnss.tight_stage import GNSS_METHODS, GnssParams, gnss_platforms
 
 __all__ = ["gnss_pipeline"]
 

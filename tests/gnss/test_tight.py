@@ -20,8 +20,8 @@ from coopproc.io.session import read_session
 from coopproc.model import Session
 from coopproc.sim import simulate, write_simulation
 from coopproc.sim.gnss_obs import default_nav_path
-from coopproc.stages.fusion.tight_filter import TrackOutput
-from coopproc.stages.fusion.tight_stage import GnssParams, GrossError, MaskWindow, solve
+from coopproc.stages.gnss.tight_filter import TrackOutput
+from coopproc.stages.gnss.tight_stage import GnssParams, GrossError, MaskWindow, solve
 
 sys.path.insert(0, str(Path(__file__).parent))
 from tight_kit import track_errors

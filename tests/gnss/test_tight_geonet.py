@@ -16,7 +16,7 @@ from coopproc.gnss.receiver import GnssReceiver
 from coopproc.gnss.rinex_nav import read_nav
 from coopproc.gnss.rinex_obs import read_obs
 from coopproc.gnss.tight import local_frame, prepare
-from coopproc.stages.fusion.tight_filter import RangeRows, TightOptions, run_tight
+from coopproc.stages.gnss.tight_filter import RangeRows, TightOptions, run_tight
 
 DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "gnss"
 pytestmark = pytest.mark.skipif(not DATA.is_dir(), reason="shared/data/gnss is not present")

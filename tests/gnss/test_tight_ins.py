@@ -25,9 +25,9 @@ from coopproc.io.session import read_session
 from coopproc.model import Session
 from coopproc.sim import simulate, write_simulation
 from coopproc.sim.gnss_obs import default_nav_path
-from coopproc.stages.fusion.tight_filter import TightOptions, TrackOutput
-from coopproc.stages.fusion.tight_ins import InsTrack, track_factory
-from coopproc.stages.fusion.tight_stage import GnssParams, GrossError, solve
+from coopproc.stages.gnss.tight_filter import TightOptions, TrackOutput
+from coopproc.stages.gnss.tight_ins import InsTrack, track_factory
+from coopproc.stages.gnss.tight_stage import GnssParams, GrossError, solve
 
 sys.path.insert(0, str(Path(__file__).parent))
 from tight_kit import track_errors

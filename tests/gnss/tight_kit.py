@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from coopproc.model import Session
-from coopproc.stages.fusion.tight_filter import TrackOutput
+from coopproc.stages.gnss.tight_filter import TrackOutput
 
 
 def track_errors(session: Session, out: TrackOutput) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -2,7 +2,7 @@
 in one time-ordered pass.
 
 State of each platform with GPS observations and no IMU (session ENU frame; with an
-IMU: paper 002's INS error states, :mod:`coopproc.stages.fusion.tight_ins`, through the
+IMU: paper 002's INS error states, :mod:`coopproc.stages.gnss.tight_ins`, through the
 same :class:`CvTrack` methods):
 ``[e, n, u, v_e, v_n, v_u, c dt_r, c dt_r']`` - position, velocity (constant-velocity
 model, white acceleration of PSD ``q_h`` horizontally, ``q_v`` vertically), receiver
@@ -104,7 +104,7 @@ class TrackOutput:
 
 class CvTrack:
     """One platform's constant-velocity filter (module docstring). The filter talks to a
-    track only through the methods below, so :class:`coopproc.stages.fusion.tight_ins.InsTrack`
+    track only through the methods below, so :class:`coopproc.stages.gnss.tight_ins.InsTrack`
     (paper 002's INS error states) can stand in for it."""
 
     #: index of the receiver clock bias in x (the drift follows it)

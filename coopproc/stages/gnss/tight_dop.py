@@ -17,7 +17,7 @@ import pandas as pd
 
 from coopproc.gnss.tight import GnssEpochs, LocalFrame, epoch_model, pdop
 from coopproc.model import FloatArray
-from coopproc.stages.fusion.tight_filter import RangeRows, TrackOutput
+from coopproc.stages.gnss.tight_filter import RangeRows, TrackOutput
 
 __all__ = ["DOP_COLUMNS", "dop_note", "dop_table"]
 

@@ -1,8 +1,8 @@
 """Paper 002's INS error states in the tightly coupled GPS/UWB filter (eq. 1-13).
 
 A platform with an IMU runs :class:`InsTrack` in place of the constant-velocity
-:class:`~coopproc.stages.fusion.tight_filter.CvTrack`: the same pseudorange, Doppler and
-UWB rows and the same IGG-III factors (:mod:`coopproc.stages.fusion.tight_filter`), on
+:class:`~coopproc.stages.gnss.tight_filter.CvTrack`: the same pseudorange, Doppler and
+UWB rows and the same IGG-III factors (:mod:`coopproc.stages.gnss.tight_filter`), on
 the state
 
 ``x = [dr (3), dv (3), psi (3), b_g (3), b_a (3), c dt_r, c dt_r']``
@@ -52,7 +52,7 @@ from coopproc.ins.propagation import apply_correction_nb, continuous_noise, phi_
 from coopproc.ins.quat import quat_to_dcm, quat_to_euler, skew
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.sensors import ImuData
-from coopproc.stages.fusion.tight_filter import CvTrack, TightOptions
+from coopproc.stages.gnss.tight_filter import CvTrack, TightOptions
 
 __all__ = ["COV_EVERY", "InsTrack", "track_factory"]
 
@@ -315,7 +315,7 @@ class InsTrack(CvTrack):
 def track_factory(
     session: Session, frame: LocalFrame, ranges: pd.DataFrame, notes: list[str]
 ) -> Callable[[str, GnssEpochs, FloatArray], CvTrack]:
-    """``make_track`` of :func:`~coopproc.stages.fusion.tight_filter.run_tight`: an
+    """``make_track`` of :func:`~coopproc.stages.gnss.tight_filter.run_tight`: an
     :class:`InsTrack` for a platform with IMU samples, started and aligned as the INS
     methods do (:func:`coopproc.stages.ins.ins_setup.ins_start` with the ``[ins]``
     defaults: the navigation file, else the first UWB fix), else a :class:`CvTrack`. One

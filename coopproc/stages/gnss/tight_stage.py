@@ -1,7 +1,7 @@
 """Position methods from raw GPS observations (issue 13 items 4-5; docs/methods-gnss.md):
 
 - ``tight``: the tightly coupled GPS/UWB robust Kalman filter of paper 002
-  (:mod:`coopproc.stages.fusion.tight_filter`): pseudorange, Doppler, UWB ranges to
+  (:mod:`coopproc.stages.gnss.tight_filter`): pseudorange, Doppler, UWB ranges to
   anchors and to the other platforms, IGG-III on every innovation;
 - ``tight_kf``: the same with the standard Kalman filter (paper 002 Tables 6-7's "KF");
 - ``gnss``: the same robust filter without UWB (GPS only: Tables 3-5's GPS rows);
@@ -9,7 +9,7 @@
 
 They run on the observed ranges only, for every platform with ``obs_<ID>.*``
 (``Session.gnss``); a platform that also has IMU samples runs paper 002's INS error
-states (:mod:`coopproc.stages.fusion.tight_ins`; ``[gnss] ins``), with a note. Paper
+states (:mod:`coopproc.stages.gnss.tight_ins`; ``[gnss] ins``), with a note. Paper
 002's experiments are ``[gnss]`` settings: satellites kept per epoch
 (``max_satellites``, windows ``[[gnss.mask]]``) and pseudorange gross errors
 (``[[gnss.gross]]``); UWB gross errors come from ``coopproc inject --gross``.
@@ -26,14 +26,14 @@ from coopproc.errors import StageError
 from coopproc.gnss.tight import GnssEpochs, local_frame, prepare
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.stages.base import NavStates, PositionInput, PositionProduct, PositionStage
-from coopproc.stages.fusion.tight_dop import dop_note, dop_table
-from coopproc.stages.fusion.tight_filter import (
+from coopproc.stages.gnss.tight_dop import dop_note, dop_table
+from coopproc.stages.gnss.tight_filter import (
     RangeRows,
     TightOptions,
     TrackOutput,
     run_tight,
 )
-from coopproc.stages.fusion.tight_ins import track_factory
+from coopproc.stages.gnss.tight_ins import track_factory
 from coopproc.stages.shared.data import anchor_positions, range_sigma_default
 
 __all__ = ["GNSS_METHODS", "GNSS_STAGES", "GnssParams", "GrossError", "MaskWindow"]
@@ -244,7 +244,7 @@ def solve(
     notes: list[str] | None = None,
 ) -> tuple[dict[str, TrackOutput], pd.DataFrame | None]:
     """The filter's outputs per platform (see the module docstring) and, ``with_dop``,
-    the DOP table of :func:`coopproc.stages.fusion.tight_dop.dop_table`; ``notes`` gets
+    the DOP table of :func:`coopproc.stages.gnss.tight_dop.dop_table`; ``notes`` gets
     one line per platform with an IMU (``params.ins``)."""
     ids = gnss_platforms(session)
     epochs = {p: prepare(session.gnss[p]) for p in ids}
