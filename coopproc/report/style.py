@@ -92,7 +92,7 @@ METHOD_STYLES: dict[str, LineStyle] = {
     "ins_rts": LineStyle("ins_rts", "#5b2a86", "-"),
     "ins_nhc": LineStyle("ins_nhc", "#d62728", "--"),
     "ins_nhc_rts": LineStyle("ins_nhc_rts", "#8b0000", "-", 1.1),
-    # the odometer + UWB filter (stages/fusion/odo_uwb.py): the same pattern in green (by
+    # the odometer + UWB filter (stages/odometry/odo_uwb.py): the same pattern in green (by
     # checksum odo_uwb had the colour of ins)
     "odo_uwb": LineStyle("odo_uwb", "#1a9e77", "--"),
     "odo_uwb_rts": LineStyle("odo_uwb_rts", "#0b5d46", "-"),

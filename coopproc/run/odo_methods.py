@@ -2,7 +2,7 @@
 
 When a platform has an odometer (``odo_<ID>.csv``) with a yaw rate (wheel speeds, a
 twist, or an IMU beside it) and ranges to fixed anchors, ``odo_uwb`` and ``odo_uwb_rts``
-(:mod:`coopproc.stages.fusion.odo_uwb`) are added to ``[pipeline] positions`` unless the
+(:mod:`coopproc.stages.odometry.odo_uwb`) are added to ``[pipeline] positions`` unless the
 chain already names one of them or ``[odo_uwb] auto = false``; the decision is a note.
 
 A session without odometer files passes through unchanged (the same objects), so its
@@ -15,7 +15,7 @@ import dataclasses
 
 from coopproc.model import Session
 from coopproc.run.chain import PipelineParams
-from coopproc.stages.fusion.odo_track import OdoUwbParams
+from coopproc.stages.odometry.odo_track import OdoUwbParams
 
 __all__ = ["ODO_METHODS", "odo_pipeline", "odo_platforms"]
 

@@ -11,9 +11,9 @@ from __future__ import annotations
 from coopproc.stages.anchors import entry as anchors_entry
 from coopproc.stages.base import PositionStage, RangeStage
 from coopproc.stages.fusion import entry as fusion_entry
-from coopproc.stages.fusion import odo_uwb
 from coopproc.stages.gnss.tight_stage import GNSS_STAGES
 from coopproc.stages.ins.ins_stage import INS_STAGES
+from coopproc.stages.odometry import odo_uwb
 from coopproc.stages.ranging import entry as ranging_entry
 from coopproc.stages.ranging import median
 

@@ -33,8 +33,8 @@ from coopproc.run.chain import PipelineParams
 from coopproc.run.odo_methods import odo_pipeline
 from coopproc.stages.anchors.anchor_lsq import anchor_fixes
 from coopproc.stages.anchors.uwb_kf import uwb_kf_positions
-from coopproc.stages.fusion.odo_track import OdoUwbParams, odo_tracks
-from coopproc.stages.fusion.odo_uwb import fit_track, odo_uwb_positions
+from coopproc.stages.odometry.odo_track import OdoUwbParams, odo_tracks
+from coopproc.stages.odometry.odo_uwb import fit_track, odo_uwb_positions
 from coopproc.stages.shared.lsq import LsqParams
 
 REAL_TUC = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "real" / "tuc"

@@ -1,7 +1,7 @@
 """Odometer + UWB filter input: its parameters and one platform's steps and ranges.
 
 For each platform with an odometer (``odo_<ID>.csv``) and ranges to fixed anchors, the
-steps of the filter (:mod:`coopproc.stages.fusion.odo_kernel`) are the odometer and range
+steps of the filter (:mod:`coopproc.stages.odometry.odo_kernel`) are the odometer and range
 times; each step holds the odometer sample at or before its start (zero-order hold
 forward). The yaw rate comes from the odometer (wheel speeds + wheelbase, or a twist),
 else from the platform's IMU (z gyro averaged over each odometer interval); a platform

@@ -3,7 +3,7 @@
 Methods ``odo_uwb`` (causal filter) and ``odo_uwb_rts`` (filter + Rauch-Tung-Striebel,
 paper 003 sec. 2.8). Prediction from the wheel speeds (forward speed and yaw rate, zero-
 order hold), tightly coupled range updates to fixed anchors with IGG-III (paper 002 eq.
-(18)-(20)); the equations are in :mod:`coopproc.stages.fusion.odo_kernel` and
+(18)-(20)); the equations are in :mod:`coopproc.stages.odometry.odo_kernel` and
 docs/methods-fusion.md. The yaw rate comes from the odometer (wheel speeds + wheelbase,
 or a twist), else from the platform's IMU (z gyro averaged over each odometer interval);
 a platform with neither is skipped with a note.
@@ -21,7 +21,7 @@ What the data decides (maximum likelihood of the range innovations, the kernel's
    bias remain states.
 
 The inputs (steps, ranges, initial fix, yaw-rate source) are made by
-:mod:`coopproc.stages.fusion.odo_track`. The noise search runs on at most the first
+:mod:`coopproc.stages.odometry.odo_track`. The noise search runs on at most the first
 ``NOISE_STEPS`` steps, so that an hour of data costs a few filter passes, not 50.
 """
 
@@ -35,8 +35,8 @@ import pandas as pd
 from coopproc.errors import StageError
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.stages.base import PositionInput, PositionProduct, PositionStage
-from coopproc.stages.fusion.odo_kernel import odo_backward, odo_forward
-from coopproc.stages.fusion.odo_track import OdoTrack, OdoUwbParams, head_of, odo_tracks
+from coopproc.stages.odometry.odo_kernel import odo_backward, odo_forward
+from coopproc.stages.odometry.odo_track import OdoTrack, OdoUwbParams, head_of, odo_tracks
 
 __all__ = ["ODO_UWB", "ODO_UWB_RTS", "OdoFit", "fit_note", "fit_track", "odo_uwb_positions"]
 

@@ -1,4 +1,4 @@
-"""The compiled loops of the odometer/UWB filter (:mod:`coopproc.stages.fusion.odo_uwb`).
+"""The compiled loops of the odometer/UWB filter (:mod:`coopproc.stages.odometry.odo_uwb`).
 
 State X = [east, north, psi, s_v, s_w, b_w, b_r] (m, m, rad heading from east counter-
 clockwise, odometer speed scale, yaw-rate scale, yaw-rate bias rad/s, a range bias m

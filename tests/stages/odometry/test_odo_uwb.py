@@ -1,4 +1,4 @@
-"""The odometer/UWB filter (coopproc.stages.fusion.odo_uwb, odo_kernel, odo_track).
+"""The odometer/UWB filter (coopproc.stages.odometry.odo_uwb, odo_kernel, odo_track).
 
 The simulated track: a robot drives a rounded 8 x 6 m loop at 0.5 m/s inside a 10 x 8 m
 square of four anchors (2 m high), odometer at 10 Hz, one range per 0.1 s to the anchors
@@ -22,9 +22,9 @@ import numpy as np
 import pytest
 
 from coopproc.estimation.kalman import kf_update, rts_step
-from coopproc.stages.fusion.odo_kernel import N_STATE, odo_backward, odo_forward
-from coopproc.stages.fusion.odo_track import OdoTrack, OdoUwbParams
-from coopproc.stages.fusion.odo_uwb import fit_note, fit_track
+from coopproc.stages.odometry.odo_kernel import N_STATE, odo_backward, odo_forward
+from coopproc.stages.odometry.odo_track import OdoTrack, OdoUwbParams
+from coopproc.stages.odometry.odo_uwb import fit_note, fit_track
 
 SIGMA_R = 0.1
 SIGMA_V = 0.02
