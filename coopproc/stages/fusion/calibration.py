@@ -18,7 +18,7 @@ are often optimistic (the dr-faults scenario: a 3 deg/min heading drift). So
    that solution: the RMS (bias included: a pair whose ranges are persistently long cannot
    be explained by any position, and must pull less) after dropping gross errors beyond 5
    MAD, combined with the declared sigma as a prior
-   (:func:`~coopproc.stages.ranging.calibration.posterior_sigma`), and never below the declared
+   (:func:`~coopproc.estimation.sigma_prior.posterior_sigma`), and never below the declared
    sigma (inflate only) nor below ``sigma_floor``;
 3. when one platform's pairs are all worse than the others' and its ranges' median
    residual differs from the others' by a bias that matters (a fraction of its ranging
@@ -51,6 +51,8 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
+from coopproc.estimation.robust import MAD_SCALE
+from coopproc.estimation.sigma_prior import posterior_sigma
 from coopproc.model import FloatArray, Session
 from coopproc.stages.fusion.calibration_bias import (
     PairCodes,
@@ -67,7 +69,6 @@ from coopproc.stages.fusion.calibration_subset import CALIBRATION_EPOCHS, calibr
 from coopproc.stages.fusion.dr_states import dr_followers
 from coopproc.stages.fusion.fuse import FusionOutput, FusionParams, fuse
 from coopproc.stages.fusion.inputs import FusionInputs, fusion_inputs
-from coopproc.stages.ranging.calibration import MAD_SCALE, posterior_sigma
 
 __all__ = ["FusionCalibration", "calibrated_fuse", "postfit_residuals"]
 

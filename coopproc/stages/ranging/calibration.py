@@ -17,7 +17,7 @@ differences) do not inflate it.
 The innovation spread of the filter itself (residuals r = L - D' of eq. (9)) is the other
 figure taken from the data: the detection threshold gamma_max of eq. (9) is gamma_sigma
 times the robust spread of those residuals, combined with the declared sigma as a prior
-(:func:`posterior_sigma`).
+(:func:`coopproc.estimation.sigma_prior.posterior_sigma`).
 """
 
 from __future__ import annotations
@@ -35,7 +35,6 @@ __all__ = [
     "PairNoise",
     "accumulated",
     "pair_noise",
-    "posterior_sigma",
     "robust_sigma",
     "steady_gain",
     "white_sigma",
@@ -46,8 +45,6 @@ __all__ = [
 MIN_SAMPLES = 20
 #: More values than this: the MAD is taken of an evenly thinned subset.
 MAX_SAMPLES = 20_000
-#: Weight of a declared sigma, in epochs, when it is combined with a data estimate.
-PRIOR_EPOCHS = 20.0
 
 
 @dataclass(frozen=True)
@@ -184,15 +181,3 @@ def steady_gain(process_var: float, range_var: float) -> float:
     q = max(process_var, 0.0)
     prior = 0.5 * (q + np.sqrt(q * q + 4.0 * q * range_var))
     return float(prior / (prior + range_var))
-
-
-def posterior_sigma(prior_m: float | None, estimate_m: float, samples: int) -> float:
-    """The declared sigma (a prior worth :data:`PRIOR_EPOCHS` epochs) combined with a data
-    estimate from ``samples`` epochs, on the variance: the data dominate long sessions.
-    Without a prior the estimate; without an estimate the prior."""
-    if not np.isfinite(estimate_m) or samples <= 0:
-        return float(prior_m) if prior_m is not None else float("nan")
-    if prior_m is None:
-        return float(estimate_m)
-    var = (PRIOR_EPOCHS * prior_m**2 + samples * estimate_m**2) / (PRIOR_EPOCHS + samples)
-    return float(np.sqrt(var))

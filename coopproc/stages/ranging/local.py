@@ -43,12 +43,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from coopproc.estimation.sigma_prior import posterior_sigma
 from coopproc.model import FloatArray
 from coopproc.stages.ranging.calibration import (
     MIN_SAMPLES,
     accumulated,
     pair_noise,
-    posterior_sigma,
     robust_sigma,
     steady_gain,
     white_sigma,
