@@ -1,4 +1,5 @@
-"""The layout rules of docs/architecture.md: what each package may import, no import
+"""The layout rules of docs/architecture.md: what each package may import, the method
+families' rooms under stages, no import
 cycle, module size."""
 
 from __future__ import annotations
@@ -169,3 +170,92 @@ def test_the_model_layer_is_below_the_stages() -> None:
     } <= users
     below = {e for m, edges in graph.items() if m.startswith("coopproc.estimation.") for e in edges}
     assert all(e.split(".")[1] in (*SHARED, "estimation") for e in below), sorted(below)
+
+
+#: the method families' rooms under coopproc/stages (docs/architecture.md, issue 34 part 2)
+ROOMS = ("ranging", "fusion", "anchors", "ins", "gnss", "odometry", "particle")
+#: below the rooms, inside stages: what more than one room takes; imports no room
+STAGES_BELOW = ("base", "shared")
+#: the only arrows from one room into another: a family that starts from another's method
+ROOM_STARTS = {
+    # an INS without simultaneous ranges aligns on the UWB-only range_rts track
+    ("ins", "anchors"): {"coopproc.stages.anchors.range_kf"},
+    # paper 002's INS error states in the tight filter start as the INS methods do
+    ("gnss", "ins"): {"coopproc.stages.ins.ins_setup", "coopproc.stages.ins.ins_stage"},
+}
+#: registry stage name (its method-name prefix) -> the room its entry lives in
+STAGE_ROOMS = {
+    "fusion": "fusion",
+    "lsq": "anchors",
+    "range": "anchors",
+    "ins": "ins",
+    "gnss": "gnss",
+    "tight": "gnss",
+    "odo": "odometry",
+    "ranging": "ranging",
+    "median": "ranging",
+}
+
+
+def _stages_part(module: str) -> str | None:
+    """The room or below-rooms module (``fusion``, ``shared``, ``base``, ...) of a
+    ``coopproc.stages.*`` module, None outside the stages."""
+    parts = module.split(".")
+    return parts[2] if len(parts) > 2 and parts[:2] == ["coopproc", "stages"] else None
+
+
+def room_violations(graph: dict[str, set[str]]) -> list[str]:
+    """The imports that break the rooms' rule: a room imports from no other room (but the
+    starts of :data:`ROOM_STARTS`), the modules below the rooms import no room; only
+    ``stages.registry`` (the entries) and the runner above may import any room."""
+    bad = []
+    for module, edges in sorted(graph.items()):
+        mine = _stages_part(module)
+        if mine is None or mine == "registry":
+            continue
+        for edge in sorted(edges):
+            theirs = _stages_part(edge)
+            if theirs is None or theirs == mine or theirs in STAGES_BELOW:
+                continue
+            if edge in ROOM_STARTS.get((mine, theirs), set()):
+                continue
+            bad.append(f"{module} -> {edge}")
+    return bad
+
+
+def test_each_room_holds_its_family_only() -> None:
+    graph = import_graph()
+    bad = room_violations(graph)
+    assert not bad, "imports across the method families' rooms: " + "; ".join(bad)
+    # the rule can fail: an odometer module taking the fusion's EKF, the shared LS
+    # taking an anchors module, and an undeclared start are caught
+    probe = {
+        "coopproc.stages.odometry.odo_uwb": {"coopproc.stages.fusion.ekf"},
+        "coopproc.stages.shared.lsq": {"coopproc.stages.anchors.uwb_kf"},
+        "coopproc.stages.gnss.tight_ins": {"coopproc.stages.anchors.range_kf"},
+        "coopproc.stages.ins.ins_setup": {"coopproc.stages.anchors.range_kf"},
+        "coopproc.stages.registry": {"coopproc.stages.fusion.entry"},
+    }
+    assert room_violations(probe) == [
+        "coopproc.stages.gnss.tight_ins -> coopproc.stages.anchors.range_kf",
+        "coopproc.stages.odometry.odo_uwb -> coopproc.stages.fusion.ekf",
+        "coopproc.stages.shared.lsq -> coopproc.stages.anchors.uwb_kf",
+    ]
+
+
+def test_the_stages_are_the_declared_rooms() -> None:
+    """Every package under stages is a declared room (or ``shared``), every room exists."""
+    packages = {p.parent.name for p in (ROOT / "stages").glob("*/__init__.py")}
+    assert packages == {*ROOMS, "shared"}
+    modules = {p.stem for p in (ROOT / "stages").glob("*.py")} - {"__init__"}
+    assert modules == {"base", "registry"}
+
+
+def test_each_registry_entry_lives_in_its_family_room() -> None:
+    from coopproc.stages.registry import POSITION_STAGES, RANGE_STAGES
+
+    stages = {**RANGE_STAGES, **POSITION_STAGES}
+    assert len(stages) >= 18  # fusion, 5 anchors, 2 odometry, 4 INS, 4 GNSS; ranging, median
+    for name, stage in stages.items():
+        room = STAGE_ROOMS[name.split("_")[0]]
+        assert _stages_part(stage.run.__module__) == room, (name, stage.run.__module__)
