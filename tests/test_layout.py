@@ -1,6 +1,5 @@
 """The layout rules of docs/architecture.md: what each package may import, the method
-families' rooms under stages, no import
-cycle, module size."""
+families' rooms under stages, no import cycle, module size."""
 
 from __future__ import annotations
 
