@@ -91,10 +91,14 @@ def dr_predict(
 def congruence(
     m: FloatArray, i0: int, e: int, je: float, jn: float, rue: float, run: float, dt_k: float
 ) -> None:
-    """M <- F M F^T for F = I + E of one follower (see the module doc), in place.
+    """M <- F M F^T for F = I + E of one follower (see the module doc), in place, for a
+    symmetric M (the filter's covariance): the result is symmetric bit for bit.
 
-    Rows first (F M: each position row gains E's entries times the theta and s rows, read
-    before the theta row gains dt times the omega row), then the same on the columns.
+    F changes the rows and columns A = (east, north, theta). Rows first, contiguously
+    (N = F M: each position row gains E's entries times the theta and s rows, read before
+    the theta row gains dt times the omega row); then, M being symmetric, the columns A
+    of every other row are those rows of N (copied, not recomputed); the A x A block takes
+    E's columns too, N[a, b] + sum_l E[b, l] N[a, l], averaged with its transpose.
     """
     n = m.shape[0]
     for j in range(n):
@@ -103,12 +107,43 @@ def congruence(
         m[i0, j] += je * m_t + rue * m_s
         m[i0 + 1, j] += jn * m_t + run * m_s
         m[e, j] += dt_k * m[e + 1, j]
-    for i in range(n):
-        m_t = m[i, e]
-        m_s = m[i, e + 2]
-        m[i, i0] += je * m_t + rue * m_s
-        m[i, i0 + 1] += jn * m_t + run * m_s
-        m[i, e] += dt_k * m[i, e + 1]
+    # the A x A block, row a of it from N's row a (east, north, theta)
+    b00, b01, b02 = _block_row(m, i0, i0, e, je, jn, rue, run, dt_k)
+    b10, b11, b12 = _block_row(m, i0 + 1, i0, e, je, jn, rue, run, dt_k)
+    b20, b21, b22 = _block_row(m, e, i0, e, je, jn, rue, run, dt_k)
+    for i in range(n):  # the columns A of the other rows: N's rows A
+        if i != i0 and i != i0 + 1 and i != e:
+            m[i, i0] = m[i0, i]
+            m[i, i0 + 1] = m[i0 + 1, i]
+            m[i, e] = m[e, i]
+    m[i0, i0] = b00
+    m[i0 + 1, i0 + 1] = b11
+    m[e, e] = b22
+    m[i0, i0 + 1] = m[i0 + 1, i0] = 0.5 * (b01 + b10)
+    m[i0, e] = m[e, i0] = 0.5 * (b02 + b20)
+    m[i0 + 1, e] = m[e, i0 + 1] = 0.5 * (b12 + b21)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _block_row(
+    m: FloatArray,
+    r: int,
+    i0: int,
+    e: int,
+    je: float,
+    jn: float,
+    rue: float,
+    run: float,
+    dt_k: float,
+) -> tuple[float, float, float]:
+    """Row r of N F^T at the columns (east, north, theta), N = F M the row-passed M."""
+    n_t = m[r, e]
+    n_s = m[r, e + 2]
+    return (
+        m[r, i0] + (je * n_t + rue * n_s),
+        m[r, i0 + 1] + (jn * n_t + run * n_s),
+        n_t + dt_k * m[r, e + 1],
+    )
 
 
 @numba.njit(cache=True, nogil=True)
@@ -124,11 +159,15 @@ def adjoint_step(
     dt_k: float,
 ) -> None:
     """The smoother's time step back through one follower's transition, in place:
-    lambda <- F^T lambda and Lambda <- F^T Lambda F (``lam_t`` is Lambda transposed; the
-    congruence by F^T maps it the same way).
+    lambda <- F^T lambda and Lambda <- F^T Lambda F, for a symmetric Lambda (the smoother
+    keeps it so, :mod:`~coopproc.stages.fusion.smoother`): the result is symmetric bit
+    for bit.
 
     (F^T lambda)_j = lambda_j + sum_i E[i, j] lambda_i: the omega entry takes dt times the
-    heading entry before that gains the position entries' share.
+    heading entry before that gains the position entries' share. F^T changes the rows and
+    columns B = (theta, omega, s): rows first, contiguously (N = F^T Lambda); the columns B
+    of every other row are N's rows B (Lambda symmetric); the B x B block takes E's rows
+    too, N[a, b] + sum_i E[i, b] N[a, i], averaged with its transpose.
     """
     lam[e + 1] += dt_k * lam[e]
     lam[e] += je * lam[i0] + jn * lam[i0 + 1]
@@ -139,8 +178,38 @@ def adjoint_step(
         lam_t[e + 1, j] += dt_k * m_e
         lam_t[e, j] = m_e + je * lam_t[i0, j] + jn * lam_t[i0 + 1, j]
         lam_t[e + 2, j] += rue * lam_t[i0, j] + run * lam_t[i0 + 1, j]
-    for i in range(n):  # columns: M F
-        m_e = lam_t[i, e]
-        lam_t[i, e + 1] += dt_k * m_e
-        lam_t[i, e] = m_e + je * lam_t[i, i0] + jn * lam_t[i, i0 + 1]
-        lam_t[i, e + 2] += rue * lam_t[i, i0] + run * lam_t[i, i0 + 1]
+    b00, b01, b02 = _adjoint_row(lam_t, e, i0, e, je, jn, rue, run, dt_k)
+    b10, b11, b12 = _adjoint_row(lam_t, e + 1, i0, e, je, jn, rue, run, dt_k)
+    b20, b21, b22 = _adjoint_row(lam_t, e + 2, i0, e, je, jn, rue, run, dt_k)
+    for i in range(n):  # the columns B of the other rows: N's rows B
+        if i < e or i > e + 2:
+            lam_t[i, e] = lam_t[e, i]
+            lam_t[i, e + 1] = lam_t[e + 1, i]
+            lam_t[i, e + 2] = lam_t[e + 2, i]
+    lam_t[e, e] = b00
+    lam_t[e + 1, e + 1] = b11
+    lam_t[e + 2, e + 2] = b22
+    lam_t[e, e + 1] = lam_t[e + 1, e] = 0.5 * (b01 + b10)
+    lam_t[e, e + 2] = lam_t[e + 2, e] = 0.5 * (b02 + b20)
+    lam_t[e + 1, e + 2] = lam_t[e + 2, e + 1] = 0.5 * (b12 + b21)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _adjoint_row(
+    m: FloatArray,
+    r: int,
+    i0: int,
+    e: int,
+    je: float,
+    jn: float,
+    rue: float,
+    run: float,
+    dt_k: float,
+) -> tuple[float, float, float]:
+    """Row r of N F at the columns (theta, omega, s), N = F^T M the row-passed M."""
+    m_e = m[r, e]
+    return (
+        m_e + je * m[r, i0] + jn * m[r, i0 + 1],
+        m[r, e + 1] + dt_k * m_e,
+        m[r, e + 2] + rue * m[r, i0] + run * m[r, i0 + 1],
+    )

@@ -149,30 +149,33 @@ def epoch_update(
         vj = v[j]
         for p in range(cnt):
             vj -= h_val[j, p] * (x[h_idx[j, p]] - x_prior[h_idx[j, p]])
+        # C h from C's rows (C is symmetric: the same values as its columns, read
+        # contiguously), summed over h's entries in their order
         for i in range(n):
-            acc = 0.0
-            for p in range(cnt):
-                acc += c[i, h_idx[j, p]] * h_val[j, p]
-            ph[i] = acc
+            ph[i] = 0.0
+        for p in range(cnt):
+            row = c[h_idx[j, p]]
+            hv = h_val[j, p]
+            for i in range(n):
+                ph[i] += row[i] * hv
         s_var = r_var[o] / gamma[o]  # R / gamma, eq. (16)
         for p in range(cnt):
             s_var += h_val[j, p] * ph[h_idx[j, p]]
         for i in range(n):
             x[i] += ph[i] / s_var * vj
+        # C -= (C h)(C h)^T / s, eq. (17): (ph_i ph_j) / s is the same number for (i, j)
+        # and (j, i), so C stays symmetric bit for bit and is never re-symmetrized
+        inv_s = 1.0 / s_var
         for i in range(n):
-            gi = ph[i] / s_var
+            pi = ph[i]
+            row = c[i]
             for jj in range(n):
-                c[i, jj] -= gi * ph[jj]
+                row[jj] -= (pi * ph[jj]) * inv_s
         if keep:
             for i in range(n):
                 gains[j, i] = ph[i] / s_var
             y[j] = vj
             s_out[j] = s_var
-    for i in range(n):
-        for jj in range(i + 1, n):
-            sym = 0.5 * (c[i, jj] + c[jj, i])
-            c[i, jj] = sym
-            c[jj, i] = sym
 
 
 @numba.njit(cache=True)

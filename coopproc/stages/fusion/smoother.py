@@ -26,9 +26,10 @@ epochs is re-run forward from the checkpoint ``ekf_forward`` kept, with the same
 forward pass's robust factors, so the covariances are bit for bit the forward ones. Memory:
 the checkpoints plus one block (about 2 sqrt(K) covariances; without the smoothed
 variances a block keeps only the recorded platforms' rows of C_k, all the states need).
-Lambda is kept transposed so that Lambda g, the O(n^2) part of each backward step, sums
-contiguous rows (vectorized) with the same additions per entry as the row dot products:
-the results are bit for bit those of the plain loops. The tests check the result
+Lambda is kept symmetric bit for bit (the few entries that two updates reach in two
+orders are averaged with their mirror), so Lambda g, the O(n^2) part of each backward
+step, sums contiguous rows (vectorized), and the transition's columns are copies of its
+rows (:func:`~coopproc.stages.fusion.dr_model.adjoint_step`). The tests check the result
 against the dense RTS recursion.
 
 The re-run of block b - 1 does not depend on the backward pass over block b, so on a
@@ -176,6 +177,12 @@ def _backward_block(
             for p in range(cnt):
                 for s_ in range(cnt):
                     lam_t[b_idx[j, s_], b_idx[j, p]] += b_val[j, p] * b_val[j, s_] * extra
+            for p in range(cnt):  # h's entries took both subtractions in two orders
+                for s_ in range(p + 1, cnt):
+                    r_, c_ = b_idx[j, p], b_idx[j, s_]
+                    sym = 0.5 * (lam_t[r_, c_] + lam_t[c_, r_])
+                    lam_t[r_, c_] = sym
+                    lam_t[c_, r_] = sym
         if k > 0:  # back through the transition into epoch k: F^T lambda, F^T Lambda F
             for p in range(n_plat):
                 e = dr_idx[p]
@@ -250,10 +257,8 @@ def mbf_backward(
     xs = np.empty((n_rec, dim))
     var = np.empty((n_rec if with_var else 0, dim))
     lam = np.zeros(n)
-    # Lambda stored transposed (lam_t[j, i] = Lambda[i, j]): Lambda g is then a sum of
-    # contiguous rows, vectorized, in the same order of additions per entry as the row
-    # dot products (Lambda is symmetric only up to rounding, so the transpose is kept
-    # exactly rather than assumed).
+    # Lambda, symmetric bit for bit (module doc), so its rows are its columns: Lambda g
+    # is a sum of contiguous rows, vectorized (the name from when the transpose was kept)
     lam_t = np.zeros((n, n))
     lam_g = np.zeros(n)
     col = np.zeros(n)
