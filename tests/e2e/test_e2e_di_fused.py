@@ -27,7 +27,7 @@ def _ratios(position_metrics: pd.DataFrame) -> pd.Series:
 def test_di_fused_on_a_15_minute_paper_experiment(tmp_path: Path) -> None:
     # seed 2 at 15 min: the observed fusion cross-validates its DR noise to 1/32 of the
     # figures; a DI fusion on the figures was 2.7 x / 2.9 x observed-fused (A / C); with
-    # the observed factor 1.08 x / 1.12 x
+    # the observed factor 1.09 x / 1.12 x
     run = simulate_and_run(tmp_path, "paper-experiment", 2, "--duration", "900")
     ratio = _ratios(run.position_metrics)
     assert set(ratio.index) == {"A", "B", "C"}
