@@ -42,7 +42,8 @@ def test_corrected_dr_di_on_real_miluv(tmp_path: Path) -> None:
     fixed_ratio = pd.Series({p: fixed[(p, "di")] / fixed[(p, "observed")] for p in pairs})
     assert fixed_ratio.median() < 0.9 * plain_ratio.median()
     assert (fixed_ratio < 1.0).all()
-    # DI-fused against observed-fused: 1.24 x -> 1.05 x (issue 29.3 asks <= 1.1 x)
-    assert plain_pm[("ifo001", "di")] > 1.15 * plain_pm[("ifo001", "observed")]
+    # DI-fused against observed-fused (issue 29.3 asks <= 1.1 x): 1.09 x by default since
+    # the DI fusion takes the observed DR noise factor (1.24 x before), 1.05 x corrected
+    assert plain_pm[("ifo001", "di")] <= 1.1 * plain_pm[("ifo001", "observed")]
     assert fixed_pm[("ifo001", "di")] <= 1.1 * fixed_pm[("ifo001", "observed")]
     assert fixed_pm[("ifo001", "observed")] == plain_pm[("ifo001", "observed")]

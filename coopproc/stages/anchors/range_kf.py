@@ -15,7 +15,7 @@ with the IGG-III factor (paper 002 eq. (18)-(20), ``kf_k0``, ``kf_k1``) on the i
 standardized by sqrt(H C H^T + R) and the MAD of the last ``MAD_WINDOW`` of them, as
 ``lsq_kf``. Dimension: 2 at a known height (session.toml ``height``, or the
 navigation's, or ``planar = true`` with the height of the fixes, :mod:`~coopproc.stages.
-fusion.anchor_lsq`), else 3 (the height is estimated as a state: miluv1's drone flies
+anchors.anchor_lsq`), else 3 (the height is estimated as a state: miluv1's drone flies
 0-3 m high, at the fixes' one estimated height its RMSE is 0.64 m, in 3-D 0.23 m). Start: the
 first accepted least-squares fix and its covariance when it comes within
 ``rate_max_gap_s`` of the first range (the filter starts there); else the anchors'

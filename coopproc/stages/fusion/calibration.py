@@ -253,6 +253,7 @@ def calibrated_fuse(
     forward: bool = True,
     forward_sigma: bool = True,
     dr_factor: float | None = None,
+    row_factor: FloatArray | None = None,
 ) -> tuple[FusionOutput, FusionCalibration]:
     """Fuse with per-pair sigmas and drift scales estimated from the data (module docstring).
 
@@ -268,7 +269,17 @@ def calibrated_fuse(
     smoothed only, :func:`fuse`); ``forward_sigma``: with their sigmas. ``dr_factor``:
     the followers' DR noise factor, chosen already (the observed ranges' cross-validation,
     for a processed range set); None: chosen here (:mod:`.calibration_dr`).
+    ``row_factor``: per row, a weight in (0, 1] carried from another fusion
+    (:mod:`~.carried_weights`): every fusion here takes the row's sigma over its square
+    root, after the per-pair sigmas; the pair figures are of the unweighted sigmas.
     """
+    default = session.config.uwb_sigma_m or params.range_sigma_m
+    given = pd.to_numeric(ranges["sigma"], errors="coerce").to_numpy(dtype=np.float64)
+    given = np.where(np.isfinite(given) & (given > 0), given, default)
+    inflate = None if row_factor is None else 1.0 / np.sqrt(row_factor)
+    unweighted = ranges
+    if inflate is not None:
+        ranges = ranges.assign(sigma=given * inflate)
     if not params.self_calibrate:
         plain = fuse(
             session, ranges, params, output=output, smoothed_sigma=smoothed_sigma,
@@ -300,9 +311,6 @@ def calibrated_fuse(
     pairs = pair_codes(ranges["from"], ranges["to"])
     resid = residuals_by_row(session, first, ranges)
     rms, bias, count = _pair_figures(resid, pairs)
-    given = pd.to_numeric(ranges["sigma"], errors="coerce").to_numpy(dtype=np.float64)
-    default = session.config.uwb_sigma_m or params.range_sigma_m
-    given = np.where(np.isfinite(given) & (given > 0), given, default)
     sigma_used: dict[str, float] = {}
     notes: list[str] = []
     new_sigma = given.copy()
@@ -319,10 +327,10 @@ def calibrated_fuse(
         if sigma_floor is not None and pair in sigma_floor:
             sigma_used[pair] = max(sigma_used[pair], sigma_floor[pair])
         new_sigma[sel] = sigma_used[pair]
-    calibrated = ranges.assign(sigma=new_sigma)
+    calibrated = ranges.assign(sigma=new_sigma if inflate is None else new_sigma * inflate)
     # 3. a platform whose ranges all disagree, by a bias that matters: its range bias,
     # then its drift afresh; the bias iteration on a thinned subset of a long session
-    platform_factor = biased_platform(sigma_used, resid, ranges, given)
+    platform_factor = biased_platform(sigma_used, resid, unweighted, given)
     if platform_factor:
         unscaled = {p: v for p, v in scale.items() if p not in platform_factor}
         unscaled |= {p: v for p, v in start.items() if p in platform_factor}

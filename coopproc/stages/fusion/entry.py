@@ -8,7 +8,11 @@ it also gives the cooperative solution the ranging stage needs. A processed set 
 the observed ranges (the range processing changed none: same
 :func:`~coopproc.stages.fusion.range_digest.range_rows_digest`) gets the observed fusion's
 solution instead of a second, identical fusion. Its IGG-III factor per range goes to
-range_weights.csv (:mod:`~coopproc.stages.fusion.range_weights`).
+range_weights.csv (:mod:`~coopproc.stages.fusion.range_weights`). Every
+processed set takes the observed fusion's DR noise factor (``dr_noise_cv``; a smoothed
+set, DI, unless ``dr_noise_cv_smoothed = false``); with ``[fusion] carry_weights`` a
+smoothed set (DI) also carries the observed fusion's judgement of each of its ranges
+(:mod:`~coopproc.stages.fusion.carried_weights`).
 
 The fusion needs every moving platform's navigation and never sees a tag; the UWB-only
 methods that position one are in :mod:`coopproc.stages.anchors.entry`.
@@ -20,6 +24,7 @@ import dataclasses
 
 from coopproc.stages.base import PositionInput, PositionProduct, PositionStage
 from coopproc.stages.fusion.calibration import FusionCalibration, calibrated_fuse
+from coopproc.stages.fusion.carried_weights import carried_factors
 from coopproc.stages.fusion.fuse import FusionParams
 from coopproc.stages.fusion.leave_out import leave_pair_out
 from coopproc.stages.fusion.range_digest import range_rows_digest
@@ -36,8 +41,11 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
     observed_cal = inp.observed.calibration if inp.observed is not None else None
     if isinstance(observed_cal, FusionCalibration):
         floor = observed_cal.pair_sigma_m
-        if params.dr_noise_cv:  # the observed ranges' factor; smoothed ranges: the figures
-            dr_factor = 1.0 if inp.smoothed else observed_cal.dr_noise_factor
+        if params.dr_noise_cv:  # the observed ranges' factor, smoothed ranges' too
+            # (docs/methods-fusion.md#dr-noise-cv: on the figures, paper-experiment seed 2
+            # at 15 min had DI-fused 2.9 x observed-fused, MiLUV 1.24 x)
+            keep = inp.smoothed and not params.dr_noise_cv_smoothed
+            dr_factor = 1.0 if keep else observed_cal.dr_noise_factor
     digest = range_rows_digest(
         inp.session, inp.ranges, range_sigma_default(inp.session, params.range_sigma_m)
     )
@@ -48,6 +56,17 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
         and not inp.want_cp
     ):
         return _same_as_observed(inp, inp.observed, observed_cal)
+    carried = None  # the observed fusion's decisions on a smoothed set (carried_weights.py)
+    if (
+        params.carry_weights
+        and params.robust
+        and inp.smoothed
+        and inp.observed is not None
+        and inp.observed.range_weights is not None
+    ):
+        carried = carried_factors(
+            inp.session, inp.ranges, inp.observed.range_weights, params.k0, params.k1
+        )
     with shared_nav():  # the calibration's fusions of this range set: the same epochs
         fused, cal = calibrated_fuse(
             inp.session,
@@ -61,6 +80,7 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
             forward=inp.want_cp and inp.output == "ranges" and params.state == "position",
             forward_sigma=False,  # the ranging stage reads the CP solution's positions
             dr_factor=dr_factor,
+            row_factor=carried,
         )
         cp = None
         if inp.want_cp:

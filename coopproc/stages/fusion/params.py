@@ -158,8 +158,15 @@ class FusionParams:
         metadata={
             "help": "state 'dr': scale the followers' DR noise figures by the factor whose "
             "fusions best predict the ranges of pairs left out of them (leave-pair-out "
-            "cross-validation of the observed ranges' fusion, only tightening; processed "
-            "range sets keep the figures; calibration_dr.py)"
+            "cross-validation of the observed ranges' fusion, only tightening; the RN "
+            "fusion takes its factor; calibration_dr.py)"
+        },
+    )
+    dr_noise_cv_smoothed: bool = field(
+        default=True,
+        metadata={
+            "help": "with dr_noise_cv: a smoothed range set's fusion (DI) takes the observed "
+            "fusion's DR noise factor too (false: the [fusion] figures; docs/methods-fusion.md)"
         },
     )
     robust_smoother_iterations: int = field(
@@ -169,6 +176,13 @@ class FusionParams:
             "smoothed solution and the filter and smoother rerun with them (robust_refit.py; "
             "0, and always with state 'position': the forward pass's factors, as papers "
             "002/003 write it)"
+        },
+    )
+    carry_weights: bool = field(
+        default=False,
+        metadata={
+            "help": "a smoothed range set's fusion (DI) weighs each range by the IGG-III "
+            "factor the observed fusion gives it against its own solution (carried_weights.py)"
         },
     )
     cp_folds: int = field(
