@@ -1,0 +1,70 @@
+"""RN-Based on the simulator's paper sessions, through the session files and their readers
+(issue 30.5): it detects the simulated NLOS events and estimates them within 20 %.
+
+The distance filter of RN does not use the cooperative solution, so the navigation stands
+in for it here (the DI method runs too, on it; these tests do not judge DI): a few seconds
+per session instead of a full ``coopproc run``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from coopproc.io.session import read_session
+from coopproc.sim import simulate, write_simulation
+from coopproc.stages.ranging.stage import RangingConfig, run_ranging
+
+
+def _rn_events(root: Path, scenario: str, seed: int) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(RN events, truth events) of a simulated session written to and read from files."""
+    write_simulation(simulate(scenario, seed=seed), root, force=True)
+    session = read_session(root)
+    out = run_ranging(session, session.nav, RangingConfig())
+    events = out.nlos_events[out.nlos_events["method"] == "rn"]
+    return events, pd.read_csv(root / "truth" / "nlos_events.csv")
+
+
+def _scores(events: pd.DataFrame, truth: pd.DataFrame) -> tuple[int, list[float], int]:
+    """(truth events detected, relative estimate errors of those, RN events matching no
+    truth event). A truth event's estimate is the epoch-weighted one of the RN events
+    overlapping it."""
+    found, errors, used = 0, [], set()
+    for _, t in truth.iterrows():
+        hit = events[
+            (events["pair"] == t["pair"])
+            & (events["start"] <= t["end"] + 0.5)
+            & (events["end"] >= t["start"] - 0.5)
+        ]
+        if hit.empty:
+            continue
+        found += 1
+        used.update(hit.index)
+        estimate = float(np.average(hit["estimate"], weights=hit["epochs"]))
+        errors.append(abs(estimate - t["realized_mean"]) / t["realized_mean"])
+    return found, errors, len(events) - len(used)
+
+
+@pytest.mark.parametrize(
+    ("scenario", "seeds"), [("paper-experiment", (1, 2, 3)), ("paper-table1", (0, 1))]
+)
+def test_rn_detects_and_estimates_within_20_percent(
+    tmp_path: Path, scenario: str, seeds: tuple[int, ...]
+) -> None:
+    found, errors, false, true = 0, [], 0, 0
+    for seed in seeds:
+        events, truth = _rn_events(tmp_path / f"s{seed}", scenario, seed)
+        f, e, x = _scores(events, truth)
+        found, false, true = found + f, false + x, true + len(truth)
+        errors.extend(e)
+    print(f"\n{scenario}: RN found {found}/{true}, false {false}, errors {np.round(errors, 3)}")
+    assert found >= 0.9 * true
+    assert false == 0
+    # the mean over the events: one single-epoch residual per run has a spread of the
+    # NLOS draw's 0.1 m and the range noise's 0.08 m (~25 % of a 0.5 m event), so single
+    # events exceed 20 % (paper 000 Table 1: RN 11 / 21 / 13 %); before the two runs'
+    # estimates were combined: 20.1 / 17.8 / 19.1 % on seeds 1-3, 20.0 % on paper-table1
+    assert np.mean(errors) <= 0.20
