@@ -1,5 +1,6 @@
 """RN-Based on the simulator's paper sessions, through the session files and their readers
-(issue 30.5): it detects the simulated NLOS events and estimates them within 20 %.
+(issue 30.5): it detects >= 90 % of the simulated NLOS events and estimates them within
+15 % on average.
 
 The distance filter of RN does not use the cooperative solution, so the navigation stands
 in for it here (the DI method runs too, on it; these tests do not judge DI): a few seconds
@@ -49,9 +50,14 @@ def _scores(events: pd.DataFrame, truth: pd.DataFrame) -> tuple[int, list[float]
 
 
 @pytest.mark.parametrize(
-    ("scenario", "seeds"), [("paper-experiment", (1, 2, 3)), ("paper-table1", (0, 1))]
+    ("scenario", "seeds"),
+    [
+        ("paper-experiment", (1, 2, 3, 4, 5)),
+        ("paper-table1", (0, 1, 2, 3)),
+        ("noisy-leader", (0, 1, 2, 3)),
+    ],
 )
-def test_rn_detects_and_estimates_within_20_percent(
+def test_rn_detects_and_estimates_within_15_percent(
     tmp_path: Path, scenario: str, seeds: tuple[int, ...]
 ) -> None:
     found, errors, false, true = 0, [], 0, 0
@@ -60,11 +66,31 @@ def test_rn_detects_and_estimates_within_20_percent(
         f, e, x = _scores(events, truth)
         found, false, true = found + f, false + x, true + len(truth)
         errors.extend(e)
-    print(f"\n{scenario}: RN found {found}/{true}, false {false}, errors {np.round(errors, 3)}")
+    print(f"\n{scenario}: RN found {found}/{true}, false {false}, mean error {np.mean(errors):.3f}")
     assert found >= 0.9 * true
     assert false == 0
-    # the mean over the events: one single-epoch residual per run has a spread of the
-    # NLOS draw's 0.1 m and the range noise's 0.08 m (~25 % of a 0.5 m event), so single
-    # events exceed 20 % (paper 000 Table 1: RN 11 / 21 / 13 %); before the two runs'
-    # estimates were combined: 20.1 / 17.8 / 19.1 % on seeds 1-3, 20.0 % on paper-table1
-    assert np.mean(errors) <= 0.20
+    # the mean over the events (the brief: within 20 %): one single-epoch residual per run
+    # has a spread of the NLOS draw's 0.1 m and the range noise's 0.08 m (~25 % of a 0.5 m
+    # event), so single events exceed 20 % (paper 000 Table 1: RN 11 / 21 / 13 %). Measured
+    # 0.129 / 0.140 / 0.136; with the forward run's estimate alone (before issue 30.5)
+    # 0.167 / 0.154 / 0.206, which this bound rejects
+    assert np.mean(errors) <= 0.15
+
+
+def test_rn_hold_ends_with_its_obstruction_at_10_hz(tmp_path: Path) -> None:
+    """paper-table1 seed 5: before RN left the epoch that breaks a pending end unused, a
+    noisy epoch restarted the hold with L - eps_hat, which agrees with itself, and both runs
+    held one event from the first obstruction (10-20 s) over 30 s of line of sight into
+    the second (50-60 s); RN's A-B RMSE was 26 % above the observed."""
+    root = tmp_path / "s5"
+    write_simulation(simulate("paper-table1", seed=5), root, force=True)
+    session = read_session(root)
+    out = run_ranging(session, session.nav, RangingConfig())
+    truth = pd.read_csv(root / "truth" / "nlos_events.csv")
+    ranges = out.ranges
+    flagged = ranges.loc[ranges["pair"].eq("A-B").to_numpy() & (out.rn_nlos[0] == 1), "time"]
+    inside = np.zeros(len(flagged), dtype=bool)
+    for _, t in truth.iterrows():
+        inside |= ((flagged >= t["start"]) & (flagged <= t["end"] + 1.0)).to_numpy()
+    assert len(flagged) >= 0.9 * truth["epochs"].sum()
+    assert np.count_nonzero(~inside) <= 10  # 1 s at 10 Hz
