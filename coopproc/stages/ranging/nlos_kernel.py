@@ -32,8 +32,7 @@ and at least ``end_min_epochs`` epochs; those epochs are not used (predict only)
 pending and are unflagged when the end is confirmed.
 
 RN method (``one_shot = True``, paper 000 ref. [2]): eps estimated once, at detection, from
-that epoch's residual, and held; no back-dating, no false-alarm rejection. The epoch that
-breaks a pending end is not used (L - eps_hat would pull D onto the held level: a lock-in).
+that epoch's residual, and held; no back-dating, no false-alarm rejection.
 
 Adaptive sigma (paper 000 ref. [37], Mohamed & Schwarz): when the UWB sigma is unknown,
 sigma'^2 = mean(r^2) over the last ``adaptive_n`` line-of-sight residuals (after the DI
@@ -389,11 +388,11 @@ def filter_kernel(
                     event[k] = n_events
                     est_out[k] = est
             else:
-                use = 0 if one_shot and pend_n > 0 else 2
                 pend_n = 0
                 flag[k] = 1
                 event[k] = n_events
                 est_out[k] = est
+                use = 2
         if mode != 0:
             in_event[k] = 1
         if use > 0:
