@@ -32,7 +32,8 @@ and at least ``end_min_epochs`` epochs; those epochs are not used (predict only)
 pending and are unflagged when the end is confirmed.
 
 RN method (``one_shot = True``, paper 000 ref. [2]): eps estimated once, at detection, from
-that epoch's residual, and held; no back-dating, no false-alarm rejection.
+that epoch's residual, and held; no back-dating, no false-alarm rejection. An epoch that
+breaks a pending end of >= end_min_epochs is not used (L - eps_hat would lock the hold on).
 
 Adaptive sigma (paper 000 ref. [37], Mohamed & Schwarz): when the UWB sigma is unknown,
 sigma'^2 = mean(r^2) over the last ``adaptive_n`` line-of-sight residuals (after the DI
@@ -388,11 +389,11 @@ def filter_kernel(
                     event[k] = n_events
                     est_out[k] = est
             else:
+                use = 0 if one_shot and pend_n >= end_min_epochs else 2
                 pend_n = 0
                 flag[k] = 1
                 event[k] = n_events
                 est_out[k] = est
-                use = 2
         if mode != 0:
             in_event[k] = 1
         if use > 0:

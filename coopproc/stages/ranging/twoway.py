@@ -15,9 +15,12 @@ false holds lie after its own detection, so the two do not agree on them; real e
 seen by both.
 
 The combined distance: the mean of the two runs where they agree on the epoch's state, the
-run that sees line of sight where they do not. The NLOS estimate (eq. (10)-(12)) and its
-running values (paper 000 fig. 10) are the forward run's, kept inside the combined events:
-the backward run only confirms where they are.
+run that sees line of sight where they do not. The DI-Based NLOS estimate (eq. (10)-(12))
+and its running values (paper 000 fig. 10) are the forward run's, kept inside the combined
+events: the backward run only confirms where they are. The RN-Based estimate is the mean of
+the two runs' one-shot estimates (:func:`_one_shot_estimates`): each run estimates once, at
+its own detection (the forward one at the onset, the backward one at the end), so two
+independent single-epoch residuals instead of one.
 """
 
 from __future__ import annotations
@@ -51,6 +54,54 @@ def _runs(flag: np.ndarray) -> list[tuple[int, int]]:
     """[start, end) index ranges of the consecutive True runs of ``flag``."""
     edges = np.diff(np.concatenate(([0], flag.astype(np.int8), [0])))
     return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True))
+
+
+def _detections(event: np.ndarray, last: bool) -> dict[int, int]:
+    """Event number -> the index of its first (``last``: final) epoch."""
+    ids = event if not last else event[::-1]
+    numbers, first = np.unique(ids, return_index=True)
+    n = event.shape[0]
+    return {
+        int(e): (n - 1 - int(i) if last else int(i))
+        for e, i in zip(numbers, first, strict=True)
+        if e >= 0
+    }
+
+
+def _one_shot_estimates(
+    time_s: FloatArray,
+    event: np.ndarray,
+    fwd: DistanceFilterOutput,
+    rev: DistanceFilterOutput,
+    near_s: float,
+) -> FloatArray:
+    """The RN-Based estimate of each combined event: the mean of the two runs' one-shot
+    estimates (each taken at its own detection, paper 000 sec. 4.3 on ref. [2]: "only
+    estimated NLOS once"), the forward run detecting at the onset and the backward one at
+    the end, so two independent single-epoch residuals. A run's estimate counts only when
+    its detection lies within ``near_s`` (the estimation window M) of the combined event
+    (else that run was holding an estimate from elsewhere: a false hold the other run did
+    not confirm); the forward one alone when neither does.
+    """
+    out = np.zeros(time_s.shape[0])
+    bwd_event = rev.event[::-1]
+    bwd_est = rev.nlos_estimate_m[::-1]
+    fwd_first = _detections(fwd.event, last=False)
+    bwd_last = _detections(bwd_event, last=True)
+    for lo, hi in _runs(event >= 0):
+        cuts = np.flatnonzero(np.diff(event[lo:hi]) != 0) + 1
+        for a, b in zip([0, *cuts.tolist()], [*cuts.tolist(), hi - lo], strict=True):
+            first, last = lo + a, lo + b - 1
+            parts = []
+            j = fwd_first.get(int(fwd.event[first]), -1)
+            if j >= 0 and time_s[first] - time_s[j] <= near_s:
+                parts.append(float(fwd.nlos_estimate_m[first]))
+            j = bwd_last.get(int(bwd_event[last]), -1)
+            if j >= 0 and time_s[j] - time_s[last] <= near_s:
+                parts.append(float(bwd_est[last]))
+            value = float(np.mean(parts)) if parts else float(fwd.nlos_estimate_m[first])
+            out[first : last + 1] = value
+    return out
 
 
 def filter_distance_two_way(
@@ -91,6 +142,8 @@ def filter_distance_two_way(
         for a, b in zip([0, *cuts.tolist()], [*cuts.tolist(), hi - lo], strict=True):
             event[lo + a : lo + b] = number
             number += 1
+    if params.one_shot:
+        estimate = _one_shot_estimates(time_s, event, fwd, rev, params.window_s)
     step = np.where(both, fwd.step_estimate_m, np.nan)
     combined = DistanceFilterOutput(
         distance_m=distance,
