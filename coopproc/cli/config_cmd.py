@@ -47,17 +47,25 @@ def _section_lines(name: str, obj: Any) -> list[str]:
     return out
 
 
-def _chain_lines(cfg: Any) -> list[str]:
+def _chain_lines(cfg: Any, session: Any = None) -> list[str]:
     from coopproc.run.chain import chain_lines, resolve
 
-    lines = ["# the chain this runs (step: inputs -> outputs):"]
-    lines += [f"#   {line}" for line in chain_lines(resolve(cfg.pipeline))]
+    if session is None:
+        lines = ["# the chain this runs (step: inputs -> outputs):"]
+        lines += [f"#   {line}" for line in chain_lines(resolve(cfg.pipeline))]
+        return [*lines, ""]
+    from coopproc.run.session_chain import chain_report, resolve_session
+
+    lines = [f"# the chain this runs on session {session.name} (step: inputs -> outputs):"]
+    lines += [f"#   {line}" for line in chain_report(resolve_session(cfg, session))]
     return [*lines, ""]
 
 
-def render_config(cfg: Any) -> str:
+def render_config(cfg: Any, session: Any = None) -> str:
     """The configuration as commented TOML that ``--config`` reads back, with the chain
-    that ``[pipeline]`` resolves to as comments after that section."""
+    that ``[pipeline]`` resolves to (on ``session``, when given: with what the session's
+    families add, each stage's required capabilities and the notes) as comments after
+    that section."""
     lines: list[str] = []
     for f in dataclasses.fields(cfg):
         value = getattr(cfg, f.name)
@@ -67,17 +75,32 @@ def render_config(cfg: Any) -> str:
             continue
         lines.extend(_section_lines(f.name, value))
         if f.name == "pipeline":
-            lines.extend(_chain_lines(cfg))
+            lines.extend(_chain_lines(cfg, session))
     return "\n".join(lines).rstrip() + "\n"
 
 
 @click.command("config")
 @config_option("A run configuration to merge over the defaults.")
-def config(config_path: Path | None) -> None:
+@click.option(
+    "--session",
+    "session_path",
+    type=click.Path(exists=True, path_type=Path),
+    help="Resolve the chain for this session (directory or .mcap): the methods its "
+    "tags, anchors, odometers, IMUs and GPS observations add, what each stage needs.",
+)
+def config(config_path: Path | None, session_path: Path | None) -> None:
     """Print the effective run configuration as TOML, each key with its help.
 
-    Save it, edit it, and pass it to `coopproc run --config FILE`.
+    Save it, edit it, and pass it to `coopproc run --config FILE`. With --session, the
+    chain shown is the one `coopproc run` would run on that session.
     """
     from coopproc.run.config import load_run_config
 
-    click.echo(render_config(load_run_config(config_path)), nl=False)
+    cfg = load_run_config(config_path)
+    session = None
+    if session_path is not None:
+        from coopproc.checks.coverage import prepare_run
+        from coopproc.io import read_session
+
+        session, _ = prepare_run(read_session(session_path))
+    click.echo(render_config(cfg, session), nl=False)

@@ -11,9 +11,9 @@ The default chain is paper 000's processing (figure 5):
 4. positions of every method against the reference, and the statistics of Tables 2 and 3.
 
 ``[pipeline]`` changes which range methods and position estimators run; this module runs
-whatever :func:`coopproc.run.chain.resolve` gives, in order, and builds the output tables
-from the stages' products. It reads no files and prints nothing; ``progress`` is called
-with each step's label so that the CLI can show where it is.
+whatever :func:`coopproc.run.session_chain.resolve_session` gives, in order, and builds
+the output tables from the stages' products. It reads no files and prints nothing;
+``progress`` is called with each step's label so that the CLI can show where it is.
 """
 
 from __future__ import annotations
@@ -40,21 +40,20 @@ from coopproc.model import (
 )
 from coopproc.report.bootstrap import DEFAULT_LEVEL
 from coopproc.report.metrics import distance_metrics, position_metrics
-from coopproc.run.chain import Step, resolve
+from coopproc.run.chain import Step
 from coopproc.run.concurrent_steps import group_label, group_steps, run_concurrently, workers
 from coopproc.run.config import RunConfig
 from coopproc.run.declared import DeclaredDrifts, check_drifts, declared_quality
 from coopproc.run.declared_sigma import check_declared_sigma, with_sigma
-from coopproc.run.gnss_methods import gnss_pipeline
 from coopproc.run.implausible import implausible_methods
-from coopproc.run.ins import states_table, with_ins
-from coopproc.run.odo_methods import odo_pipeline
+from coopproc.run.ins import states_table
 from coopproc.run.outages import run_with_outages
 from coopproc.run.pipeline_output import PipelineOutput
 from coopproc.run.positions_table import PositionSamples, positions_table
 from coopproc.run.range_sets import ranges_for, row_sigma
 from coopproc.run.scoring import score_tables
-from coopproc.run.tags import anchor_pipeline, tag_pipeline, tag_rows, widen, without_tags
+from coopproc.run.session_chain import resolve_session
+from coopproc.run.tags import tag_rows, widen
 from coopproc.stages.anchors.anchor_lsq import lsq_quality_of
 from coopproc.stages.base import PositionInput, PositionProduct, RangeInput, RangeProduct
 from coopproc.stages.fusion.dr_quality import dead_reckoning_quality
@@ -94,19 +93,19 @@ def run_pipeline(
         yield
         timings[label] = round(time.perf_counter() - start, 3)
 
-    # tags (no navigation): the DR-based stages run on the session without them (run.tags)
-    pipeline, tag_notes = tag_pipeline(config.pipeline, session)
-    pipeline, odo_notes = odo_pipeline(pipeline, session, config.params_for("odo_uwb"))
-    pipeline, anchor_notes = anchor_pipeline(pipeline, session)
-    odo_notes += anchor_notes
-    # IMU: Table 1's INS modes, [ins] navigation = "ins" (the INS as navigation; run.ins)
-    session, pipeline, more = with_ins(session, pipeline, config.params_for("ins"))
-    pipeline, more = gnss_pipeline(pipeline, session, config.params_for("gnss"), more)
-    tag_notes += odo_notes + more
+    # the session's families (tags, odometers, anchors, IMUs, GPS) and [pipeline], in one
+    # place (run.session_chain; what `coopproc config --session` shows)
+    chain = resolve_session(config, session)
+    session, dr_session, pipeline, steps = (
+        chain.session,
+        chain.dr_session,
+        chain.pipeline,
+        chain.steps,
+    )
+    tag_notes = list(chain.notes)
+    del chain  # it holds the sessions, which are let go of when spent (samples_spent)
     if sigma_checked is not None and sigma_checked.note is not None:
         tag_notes.insert(0, sigma_checked.note)
-    dr_session = without_tags(session)
-    steps = resolve(pipeline)
     for step in steps:
         check = POSITION_STAGES[step.stage].check if step.kind == "positions" else None
         if check is not None:

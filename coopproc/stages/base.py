@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from coopproc.model import FloatArray, Session, Trajectory
 
 __all__ = [
+    "CAPABILITIES",
     "RESERVED_NAMES",
     "LeftOutCP",
     "NavStates",
@@ -37,6 +38,7 @@ __all__ = [
     "RangeInput",
     "RangeProduct",
     "RangeStage",
+    "session_capabilities",
 ]
 
 #: Names no method may take: columns of ranges.csv that are not methods, and the
@@ -44,6 +46,32 @@ __all__ = [
 RESERVED_NAMES: frozenset[str] = frozenset(
     {"time", "pair", "observed", "reference", "nlos_flag", "nlos_estimate", "outlier", "nav"}
 )
+
+#: What a session can give a stage (a registry entry's ``requires``), with what each means.
+CAPABILITIES: Mapping[str, str] = {
+    "navigation": "a moving platform (leader or follower) with its own navigation (dead "
+    "reckoning or GNSS/INS)",
+    "anchors": "fixed anchors (role anchor) with known positions",
+    "tags": "platforms without navigation (role tag)",
+    "imu": "raw IMU samples (imu_<ID>.csv)",
+    "odometer": "an odometer (odo_<ID>.csv)",
+    "gnss": "raw GPS observations (obs_<ID>.*)",
+}
+
+
+def session_capabilities(session: Session) -> frozenset[str]:
+    """The :data:`CAPABILITIES` ``session`` has."""
+    roles = {p.role for p in session.platforms.values()}
+    navigating = any(session.platforms[p].role in ("leader", "follower") for p in session.nav)
+    have = {
+        "navigation": navigating,
+        "anchors": "anchor" in roles,
+        "tags": "tag" in roles,
+        "imu": bool(session.imu),
+        "odometer": bool(session.odometer),
+        "gnss": bool(session.gnss),
+    }
+    return frozenset(k for k, v in have.items() if v)
 
 
 @dataclass(frozen=True)
@@ -120,6 +148,9 @@ class RangeStage:
     help: str
     #: True: it needs the cooperative solution with the observed ranges (input ``cp``)
     needs_cp: bool = False
+    #: the :data:`CAPABILITIES` a session needs for it (the chain leaves it out, with a
+    #: note, of a session without them; ``coopproc config --session`` shows them)
+    requires: frozenset[str] = frozenset({"navigation"})
     #: the methods whose ranges are smoothed over time (errors correlated from epoch to
     #: epoch, and with the dead reckoning that smoothed them): their fusion keeps the
     #: [fusion] DR figures (calibration_dr.py)
@@ -217,6 +248,8 @@ class PositionStage:
     uwb_only: bool = False
     #: True: it runs on the observed ranges only, not on each processed range set
     observed_only: bool = False
+    #: the :data:`CAPABILITIES` a session needs for it (``check`` says why in detail)
+    requires: frozenset[str] = frozenset({"navigation"})
 
     def method(self, range_set: str) -> str:
         """The positions.csv method of this estimator on ``range_set``."""

@@ -101,6 +101,7 @@ LSQ = PositionStage(
     "method lsq (observed ranges) or lsq_<set>",
     check=_has_anchors,
     uwb_only=True,
+    requires=frozenset({"anchors"}),
 )
 
 LSQ_KF = PositionStage(
@@ -112,6 +113,7 @@ LSQ_KF = PositionStage(
     "method lsq_kf or lsq_kf_<set>",
     check=_has_anchors,
     uwb_only=True,
+    requires=frozenset({"anchors"}),
 )
 
 LSQ_RTS = PositionStage(
@@ -123,6 +125,7 @@ LSQ_RTS = PositionStage(
     "lsq_rts or lsq_rts_<set>",
     check=_has_anchors,
     uwb_only=True,
+    requires=frozenset({"anchors"}),
 )
 
 RANGE_KF = PositionStage(
@@ -134,6 +137,7 @@ RANGE_KF = PositionStage(
     "(tightly coupled, no simultaneous ranges needed; causal); method range_kf",
     check=_has_anchors,
     uwb_only=True,
+    requires=frozenset({"anchors"}),
 )
 
 RANGE_RTS = PositionStage(
@@ -144,4 +148,5 @@ RANGE_RTS = PositionStage(
     help="the range_kf filter followed by the RTS smoother; method range_rts",
     check=_has_anchors,
     uwb_only=True,
+    requires=frozenset({"anchors"}),
 )

@@ -299,6 +299,7 @@ def _stage(name: str, uwb: bool, robust: bool, what: str) -> PositionStage:
         help=what,
         check=_check,
         uwb_only=True,
+        requires=frozenset({"gnss"}),
         observed_only=True,
     )
 

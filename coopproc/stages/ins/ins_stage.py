@@ -395,6 +395,7 @@ INS_STAGES: tuple[PositionStage, ...] = tuple(
         help=_HELP[mode] + "; observed ranges only",
         check=_check,
         uwb_only=True,
+        requires=frozenset({"imu", "anchors"}),
         observed_only=True,
     )
     for mode in INS_MODES

@@ -319,6 +319,7 @@ ODO_UWB = PositionStage(
     "platform with an odometer (causal), on the observed ranges; method odo_uwb",
     check=_check,
     uwb_only=True,
+    requires=frozenset({"odometer", "anchors"}),
     observed_only=True,
 )
 
@@ -330,5 +331,6 @@ ODO_UWB_RTS = PositionStage(
     help="the odo_uwb filter followed by the RTS smoother (paper 003 sec. 2.8); method odo_uwb_rts",
     check=_check,
     uwb_only=True,
+    requires=frozenset({"odometer", "anchors"}),
     observed_only=True,
 )
