@@ -24,11 +24,12 @@ from coopproc.stages.fusion.ekf import (
     epoch_buffers,
     epoch_innovations,
     epoch_update,
+    max_epoch_obs,
     nav_at,
     time_update,
 )
 
-__all__ = ["BlockBuffers", "block_extent", "rerun_block"]
+__all__ = ["BlockBuffers", "block_extent", "refit_checkpoints", "rerun_block"]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -208,3 +209,75 @@ def rerun_block(
             for j in range(n_dr):
                 copy1(b_dr_rows[(dr_next - dr_base) * n_dr + j], c[n_pos + j])
             dr_next += 1
+
+
+@numba.njit(cache=True, nogil=True)
+def refit_checkpoints(
+    b0: int,
+    cp_x: FloatArray,
+    cp_c: FloatArray,
+    epochs: FloatArray,
+    nav_t: FloatArray,
+    nav_v: FloatArray,
+    nav_ptr: IntArray,
+    q_coef: FloatArray,
+    q_squared: bool,
+    dt: FloatArray,
+    obs_ptr: IntArray,
+    obs_kind: IntArray,
+    obs_a: IntArray,
+    obs_b: IntArray,
+    obs_anchor: IntArray,
+    anchor_tab: FloatArray,
+    obs_dz2: FloatArray,
+    z: FloatArray,
+    r_var: FloatArray,
+    gamma: FloatArray,
+    dim: int,
+    block: int,
+    dr_idx: IntArray,
+    dr_q: FloatArray,
+) -> None:
+    """The robust refit's forward pass (:mod:`~coopproc.stages.fusion.robust_refit`) from
+    checkpoint ``b0`` on: the checkpoints after it, in place, with the refit's factors.
+
+    The refit changes the factors of some observations only; before the first of them
+    (in block ``b0``) the filter is the pass before's, bit for bit, and so are its
+    checkpoints up to ``b0``: only the later ones are filtered again (the forward pass's
+    own code, as :func:`rerun_block`). ``b0`` past the last block: nothing changed.
+    """
+    n_epochs = dt.shape[0]
+    n_blocks = cp_x.shape[0]
+    if b0 >= n_blocks:
+        return
+    first = b0 * block
+    x = cp_x[b0].copy()
+    c = cp_c[b0].copy()
+    n = x.shape[0]
+    n_plat = nav_ptr.shape[0] - 1
+    h_idx, h_val, h_cnt, v, d, ph, x_prior = epoch_buffers(max_epoch_obs(obs_ptr), dim, n)
+    unused = np.zeros((1, 1))
+    unused_v = np.zeros(1)
+    cursor = np.full(n_plat, -1, dtype=np.int64)
+    nav_prev = np.zeros((n_plat, dim))
+    nav_now = np.zeros((n_plat, dim))
+    f_out = np.zeros((n_plat, 4))
+    nav_at(nav_t, nav_v, nav_ptr, epochs[max(first - 1, 0)], cursor, nav_prev)
+    for k in range(first, n_epochs):
+        if k % block == 0 and k > first:
+            copy1(cp_x[k // block], x)
+            copy2(cp_c[k // block], c)
+        if k > 0:
+            nav_at(nav_t, nav_v, nav_ptr, epochs[k], cursor, nav_now)
+            time_update(x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt, dr_idx, dr_q, f_out)
+            copy2(nav_prev, nav_now)
+        lo = obs_ptr[k]
+        m = obs_ptr[k + 1] - lo
+        epoch_innovations(
+            x, c, lo, m, obs_kind, obs_a, obs_b, obs_anchor, anchor_tab, obs_dz2, z,
+            r_var, dim, h_idx, h_val, h_cnt, v, d,
+        )  # fmt: skip
+        epoch_update(
+            x, c, lo, m, h_idx, h_val, h_cnt, v, gamma, r_var, x_prior, ph,
+            bool(np.bool_(False)), unused, unused_v, unused_v,
+        )  # fmt: skip

@@ -315,3 +315,32 @@ def test_staggered_pair_times_merge_into_one_epoch(base) -> None:
         assert e_merged == pytest.approx(e_each, abs=0.02)
         # ranges after the epoch time are modelled at their own time (DR motion carried)
         assert np.abs(merged.smoothed[pid].enu_m - each.smoothed[pid].enu_m[first]).max() < 0.05
+
+
+def test_the_refit_filters_again_only_after_its_first_changed_factor(
+    base, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The refit's forward pass starts at the block of its first changed factor: the
+    positions are bit for bit those of a refit that filters every epoch again."""
+    import coopproc.stages.fusion.fuse as fuse_mod
+
+    session, _, _ = base
+    bad = session.ranges.frame.copy()
+    bad.loc[bad.index[len(bad) // 2], "range"] += 2.0  # a factor the refit changes
+    seen: list[int] = []
+    first_block = fuse_mod._first_changed_block
+
+    def record(*args: object) -> int:
+        b0 = first_block(*args)  # type: ignore[arg-type]
+        seen.append(b0)
+        return b0
+
+    monkeypatch.setattr(fuse_mod, "_first_changed_block", record)
+    fast = fuse(session, bad, FusionParams())
+    assert seen and seen[0] > 0  # the refit really started later than epoch 0
+    monkeypatch.setattr(fuse_mod, "_first_changed_block", lambda *a: 0)
+    full = fuse(session, bad, FusionParams())
+    for pid in fast.smoothed:
+        assert np.array_equal(fast.smoothed[pid].enu_m, full.smoothed[pid].enu_m)
+    assert fast.decisions is not None and full.decisions is not None
+    assert np.array_equal(fast.decisions.gamma, full.decisions.gamma)
