@@ -58,7 +58,7 @@ from coopproc.stages.registry import POSITION_STAGES
 
 #: the forward filter and the smoother (modified Bryson-Frazier form, which re-runs each
 #: block of the forward filter from its checkpoint: its time includes that re-run)
-KERNELS = ("ekf_forward", "mbf_backward")
+KERNELS = ("ekf_forward", "refit_checkpoints", "mbf_backward")
 
 
 @contextmanager
