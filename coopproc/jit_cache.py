@@ -43,6 +43,8 @@ RUN_KERNELS: tuple[tuple[str, str, float], ...] = (
     ("coopproc.stages.fusion.ekf_update", "epoch_buffers", 0.0),
     ("coopproc.stages.fusion.smoother_rerun", "block_extent", 1.2),
     ("coopproc.stages.fusion.smoother_rerun", "rerun_block", 3.5),
+    # measured on its own after rerun_block (their shared filter_epoch compiled), 2026-12-02
+    ("coopproc.stages.fusion.smoother_rerun", "refit_checkpoints", 1.4),
     ("coopproc.stages.fusion.smoother", "_backward_block", 3.9),
     ("coopproc.stages.ranging.di", "_smooth_kernel", 1.0),
     ("coopproc.stages.ranging.nlos_kernel", "filter_kernel", 6.3),

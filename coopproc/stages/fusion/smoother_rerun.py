@@ -29,7 +29,7 @@ from coopproc.stages.fusion.ekf import (
     time_update,
 )
 
-__all__ = ["BlockBuffers", "block_extent", "refit_checkpoints", "rerun_block"]
+__all__ = ["BlockBuffers", "block_extent", "filter_epoch", "refit_checkpoints", "rerun_block"]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -107,6 +107,68 @@ class BlockBuffers:
 
 
 @numba.njit(cache=True, nogil=True)
+def filter_epoch(
+    k: int,
+    x: FloatArray,
+    c: FloatArray,
+    cursor: IntArray,
+    nav_prev: FloatArray,
+    nav_now: FloatArray,
+    f_out: FloatArray,
+    epochs: FloatArray,
+    nav_t: FloatArray,
+    nav_v: FloatArray,
+    nav_ptr: IntArray,
+    q_coef: FloatArray,
+    q_squared: bool,
+    dt: FloatArray,
+    obs_ptr: IntArray,
+    obs_kind: IntArray,
+    obs_a: IntArray,
+    obs_b: IntArray,
+    obs_anchor: IntArray,
+    anchor_tab: FloatArray,
+    obs_dz2: FloatArray,
+    z: FloatArray,
+    r_var: FloatArray,
+    gamma: FloatArray,
+    dim: int,
+    dr_idx: IntArray,
+    dr_q: FloatArray,
+    h_idx: IntArray,
+    h_val: FloatArray,
+    h_cnt: IntArray,
+    v: FloatArray,
+    d: FloatArray,
+    ph: FloatArray,
+    x_prior: FloatArray,
+    keep: bool,
+    gains: FloatArray,
+    y: FloatArray,
+    s_out: FloatArray,
+) -> int:
+    """Epoch k of the forward filter with given robust factors, in place: the time update
+    (E's entries to ``f_out``), the innovations and the batch update (``keep``: each
+    scalar update's gain, innovation and variance to ``gains``, ``y``, ``s_out``, as
+    :func:`~coopproc.stages.fusion.ekf_update.epoch_update`); returns the epoch's
+    observation count. ``ekf_forward``'s epoch without its robust step."""
+    if k > 0:
+        nav_at(nav_t, nav_v, nav_ptr, epochs[k], cursor, nav_now)
+        time_update(x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt, dr_idx, dr_q, f_out)
+        copy2(nav_prev, nav_now)
+    lo = obs_ptr[k]
+    m = obs_ptr[k + 1] - lo
+    epoch_innovations(
+        x, c, lo, m, obs_kind, obs_a, obs_b, obs_anchor, anchor_tab, obs_dz2, z,
+        r_var, dim, h_idx, h_val, h_cnt, v, d,
+    )  # fmt: skip
+    epoch_update(
+        x, c, lo, m, h_idx, h_val, h_cnt, v, gamma, r_var, x_prior, ph, keep, gains, y, s_out
+    )
+    return m
+
+
+@numba.njit(cache=True, nogil=True)
 def rerun_block(
     b: int,
     cp_x: FloatArray,
@@ -175,23 +237,13 @@ def rerun_block(
     # the navigation at the epoch before the block (the cursor searches back)
     nav_at(nav_t, nav_v, nav_ptr, epochs[max(first - 1, 0)], cursor, nav_prev)
     for k in range(first, last):
-        if k > 0:
-            nav_at(nav_t, nav_v, nav_ptr, epochs[k], cursor, nav_now)
-            time_update(
-                x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt, dr_idx, dr_q,
-                b_f[k - first],
-            )  # fmt: skip
-            copy2(nav_prev, nav_now)
-        lo = obs_ptr[k]
-        m = obs_ptr[k + 1] - lo
-        epoch_innovations(
-            x, c, lo, m, obs_kind, obs_a, obs_b, obs_anchor, anchor_tab, obs_dz2, z,
-            r_var, dim, h_idx, h_val, h_cnt, v, d,
-        )  # fmt: skip
-        at = lo - base
-        epoch_update(
-            x, c, lo, m, h_idx, h_val, h_cnt, v, gamma, r_var, x_prior, ph,
-            bool(np.bool_(True)), b_gain[at : at + m], b_y[at : at + m], b_s[at : at + m],
+        at = obs_ptr[k] - base
+        to = obs_ptr[k + 1] - base
+        m = filter_epoch(
+            k, x, c, cursor, nav_prev, nav_now, b_f[k - first], epochs, nav_t, nav_v,
+            nav_ptr, q_coef, q_squared, dt, obs_ptr, obs_kind, obs_a, obs_b, obs_anchor,
+            anchor_tab, obs_dz2, z, r_var, gamma, dim, dr_idx, dr_q, h_idx, h_val, h_cnt,
+            v, d, ph, x_prior, bool(np.bool_(True)), b_gain[at:to], b_y[at:to], b_s[at:to],
         )  # fmt: skip
         for j in range(m):
             b_cnt[at + j] = h_cnt[j]
@@ -267,17 +319,9 @@ def refit_checkpoints(
         if k % block == 0 and k > first:
             copy1(cp_x[k // block], x)
             copy2(cp_c[k // block], c)
-        if k > 0:
-            nav_at(nav_t, nav_v, nav_ptr, epochs[k], cursor, nav_now)
-            time_update(x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt, dr_idx, dr_q, f_out)
-            copy2(nav_prev, nav_now)
-        lo = obs_ptr[k]
-        m = obs_ptr[k + 1] - lo
-        epoch_innovations(
-            x, c, lo, m, obs_kind, obs_a, obs_b, obs_anchor, anchor_tab, obs_dz2, z,
-            r_var, dim, h_idx, h_val, h_cnt, v, d,
-        )  # fmt: skip
-        epoch_update(
-            x, c, lo, m, h_idx, h_val, h_cnt, v, gamma, r_var, x_prior, ph,
-            bool(np.bool_(False)), unused, unused_v, unused_v,
+        filter_epoch(
+            k, x, c, cursor, nav_prev, nav_now, f_out, epochs, nav_t, nav_v, nav_ptr,
+            q_coef, q_squared, dt, obs_ptr, obs_kind, obs_a, obs_b, obs_anchor, anchor_tab,
+            obs_dz2, z, r_var, gamma, dim, dr_idx, dr_q, h_idx, h_val, h_cnt, v, d, ph,
+            x_prior, bool(np.bool_(False)), unused, unused_v, unused_v,
         )  # fmt: skip
