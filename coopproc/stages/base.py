@@ -148,8 +148,8 @@ class RangeStage:
     help: str
     #: True: it needs the cooperative solution with the observed ranges (input ``cp``)
     needs_cp: bool = False
-    #: the :data:`CAPABILITIES` a session needs for it (the chain leaves it out, with a
-    #: note, of a session without them; ``coopproc config --session`` shows them)
+    #: the :data:`CAPABILITIES` a session needs for it (``coopproc config --session``
+    #: marks a missing one; shown, not enforced: the family rules and checks refuse)
     requires: frozenset[str] = frozenset({"navigation"})
     #: the methods whose ranges are smoothed over time (errors correlated from epoch to
     #: epoch, and with the dead reckoning that smoothed them): their fusion keeps the
