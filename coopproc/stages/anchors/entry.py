@@ -15,7 +15,8 @@ They are UWB-only (``uwb_only``): they position a ``tag`` (no navigation of its 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from typing import Any
 
 from coopproc.errors import StageError
 from coopproc.model import Session, Trajectory
@@ -92,61 +93,49 @@ def _has_anchors(session: Session) -> None:
         )
 
 
-LSQ = PositionStage(
-    name="lsq",
-    params_type=LsqParams,
-    section="fusion.lsq",
-    run=lsq_stage,
-    help="robust least squares from fixed anchors, epoch by epoch (paper 003 sec. 2.2); "
+def _anchor_stage(
+    name: str, run: Callable[[PositionInput, Any], PositionProduct], help: str
+) -> PositionStage:
+    """A UWB-only estimator from fixed anchors: ``[fusion.lsq]`` parameters, refused by a
+    session without anchors, positions tags too."""
+    return PositionStage(
+        name=name,
+        params_type=LsqParams,
+        section="fusion.lsq",
+        run=run,
+        help=help,
+        check=_has_anchors,
+        uwb_only=True,
+        requires=frozenset({"anchors"}),
+    )
+
+
+LSQ = _anchor_stage(
+    "lsq",
+    lsq_stage,
+    "robust least squares from fixed anchors, epoch by epoch (paper 003 sec. 2.2); "
     "method lsq (observed ranges) or lsq_<set>",
-    check=_has_anchors,
-    uwb_only=True,
-    requires=frozenset({"anchors"}),
 )
-
-LSQ_KF = PositionStage(
-    name="lsq_kf",
-    params_type=LsqParams,
-    section="fusion.lsq",
-    run=lsq_kf_stage,
-    help="the lsq fixes through a constant-velocity Kalman filter with IGG-III (causal); "
+LSQ_KF = _anchor_stage(
+    "lsq_kf",
+    lsq_kf_stage,
+    "the lsq fixes through a constant-velocity Kalman filter with IGG-III (causal); "
     "method lsq_kf or lsq_kf_<set>",
-    check=_has_anchors,
-    uwb_only=True,
-    requires=frozenset({"anchors"}),
 )
-
-LSQ_RTS = PositionStage(
-    name="lsq_rts",
-    params_type=LsqParams,
-    section="fusion.lsq",
-    run=lsq_rts_stage,
-    help="the lsq_kf filter followed by the RTS smoother (paper 003 sec. 2.8); method "
+LSQ_RTS = _anchor_stage(
+    "lsq_rts",
+    lsq_rts_stage,
+    "the lsq_kf filter followed by the RTS smoother (paper 003 sec. 2.8); method "
     "lsq_rts or lsq_rts_<set>",
-    check=_has_anchors,
-    uwb_only=True,
-    requires=frozenset({"anchors"}),
 )
-
-RANGE_KF = PositionStage(
-    name="range_kf",
-    params_type=LsqParams,
-    section="fusion.lsq",
-    run=range_kf_stage,
-    help="each range to an anchor straight into a constant-velocity EKF with IGG-III "
+RANGE_KF = _anchor_stage(
+    "range_kf",
+    range_kf_stage,
+    "each range to an anchor straight into a constant-velocity EKF with IGG-III "
     "(tightly coupled, no simultaneous ranges needed; causal); method range_kf",
-    check=_has_anchors,
-    uwb_only=True,
-    requires=frozenset({"anchors"}),
 )
-
-RANGE_RTS = PositionStage(
-    name="range_rts",
-    params_type=LsqParams,
-    section="fusion.lsq",
-    run=range_rts_stage,
-    help="the range_kf filter followed by the RTS smoother; method range_rts",
-    check=_has_anchors,
-    uwb_only=True,
-    requires=frozenset({"anchors"}),
+RANGE_RTS = _anchor_stage(
+    "range_rts",
+    range_rts_stage,
+    "the range_kf filter followed by the RTS smoother; method range_rts",
 )
