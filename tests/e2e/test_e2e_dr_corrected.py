@@ -1,5 +1,5 @@
 """``[ranging.di] dr_states = true``: the DR DI from the navigation corrected by the causal
-fusion's heading and scale states (ranging/dr_corrected.py), on the real MiLUV session,
+fusion's heading and scale states (shared/dr_corrected.py), on the real MiLUV session,
 whose drone's dead reckoning the fusion finds up to 12.7 deg off."""
 
 from __future__ import annotations

@@ -22,14 +22,16 @@ from __future__ import annotations
 
 import dataclasses
 
+from coopproc.model import Session
 from coopproc.stages.base import PositionInput, PositionProduct, PositionStage
 from coopproc.stages.fusion.calibration import FusionCalibration, calibrated_fuse
 from coopproc.stages.fusion.carried_weights import carried_factors
-from coopproc.stages.fusion.fuse import FusionParams
+from coopproc.stages.fusion.fuse import FusionOutput, FusionParams
 from coopproc.stages.fusion.leave_out import leave_pair_out
 from coopproc.stages.fusion.range_digest import range_rows_digest
 from coopproc.stages.fusion.range_weights import range_weights_frame
 from coopproc.stages.shared.data import range_sigma_default, shared_nav
+from coopproc.stages.shared.dr_corrected import corrected_session
 
 __all__ = ["FUSION", "fusion_stage"]
 
@@ -77,27 +79,20 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
             sigma_floor=floor,
             smoothed_sigma=False,  # positions.csv and the ranging stage take positions only
             # the forward solution is the CP solution's increments only (memory, issue 11)
-            forward=inp.want_cp and inp.output == "ranges" and params.state == "position",
+            forward=inp.want_cp and inp.output == "ranges" and _cp_is_main(params),
             forward_sigma=False,  # the ranging stage reads the CP solution's positions
             dr_factor=dr_factor,
             row_factor=carried,
         )
         cp = None
+        cp_session = inp.session
         if inp.want_cp:
-            # the ranging stage's cooperative solution is paper 000's fusion (position
-            # state), the DI method's own input: with the DR states' forward solution DI
-            # flags 22 % of TIERS tb3-tb4's clean epochs (0-5 % with it; docs/methods-fusion.md)
-            at_ranges, cp_cal = fused, cal
-            if inp.output != "ranges" or params.state != "position":
-                at_ranges, cp_cal = calibrated_fuse(
-                    inp.session, inp.ranges, dataclasses.replace(params, state="position"),
-                    output="ranges", smoothed_sigma=False,
-                )  # fmt: skip
+            at_ranges, cp_cal, cp_session = _cp_solution(inp, params, fused, cal)
             cp = (at_ranges.forward, at_ranges.smoothed)
     left_out = None
     if inp.want_cp:  # each pair's CP DI without its own ranges (leave_out.py, issue 30)
         left_out = leave_pair_out(
-            inp.session, inp.ranges, params, cp_cal.pair_sigma_m, cp_cal.drift_scale,
+            cp_session, inp.ranges, params, cp_cal.pair_sigma_m, cp_cal.drift_scale,
             cp_cal.platform_bias_m,
         )  # fmt: skip
     cal = dataclasses.replace(cal, range_digest=digest)
@@ -111,6 +106,44 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
         dr_states_forward=fused.dr_states_forward,
         range_weights=range_weights_frame(inp.ranges, fused),
     )
+
+
+def _cp_params(params: FusionParams) -> FusionParams:
+    """The parameters of the fusion that gives the ranging stage's cooperative solution:
+    the position state unless ``cp_state = "dr"``."""
+    state = "dr" if params.cp_state == "dr" else "position"
+    return dataclasses.replace(params, state=state, cp_state="position")
+
+
+def _cp_is_main(params: FusionParams) -> bool:
+    """True when the range set's own fusion is the CP solution's (the same state; the
+    corrected solution fuses other navigation)."""
+    return params.cp_state != "corrected" and (params.cp_state == "dr") == (params.state == "dr")
+
+
+def _cp_solution(
+    inp: PositionInput, params: FusionParams, fused: FusionOutput, cal: FusionCalibration
+) -> tuple[FusionOutput, FusionCalibration, Session]:
+    """The ranging stage's cooperative solution (``[fusion] cp_state``), its calibration and
+    the session it was fused from.
+
+    ``position`` (default): paper 000's fusion (position state) of the navigation as
+    recorded, the DI method's own input: with the DR states' forward solution (``dr``)
+    DI flags 22 % of TIERS tb3-tb4's clean epochs (0-5 % with it; docs/methods-fusion.md).
+    ``corrected``: the same fusion of the followers' navigation corrected by the range
+    set's causal DR states (heading and scale, :mod:`~coopproc.stages.shared.dr_corrected`):
+    on long recordings the followers' heading error makes the position-state fusion
+    diverge (docs/methods-ranging.md#cp-state).
+    """
+    if inp.output == "ranges" and _cp_is_main(params):
+        return fused, cal, inp.session
+    session = inp.session
+    if params.cp_state == "corrected":
+        session = corrected_session(inp.session, fused.dr_states_forward)
+    at_ranges, cp_cal = calibrated_fuse(
+        session, inp.ranges, _cp_params(params), output="ranges", smoothed_sigma=False
+    )
+    return at_ranges, cp_cal, session
 
 
 def _same_as_observed(

@@ -110,7 +110,9 @@ def leave_pair_out(
     given = ranges.assign(sigma=np.where(np.isfinite(sigma), sigma, ranges.get("sigma", np.nan)))
     if platform_bias_m:
         given = corrected(given, platform_bias_m)
-    plain = dataclasses.replace(params, state="position", smoother=False, self_calibrate=False)
+    plain = dataclasses.replace(
+        params, state="position", cp_state="position", smoother=False, self_calibrate=False
+    )
     trajectories: dict[str, dict[str, Trajectory]] = {}
     kept: dict[str, str] = {}
     time = ranges["time"].to_numpy(dtype=np.float64)

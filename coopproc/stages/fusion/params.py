@@ -198,6 +198,16 @@ class FusionParams:
         default=1.0,
         metadata={"help": "state 'dr': the DR states are reported (dr_states.csv) this often (s)"},
     )
+    cp_state: str = field(
+        default="position",
+        metadata={
+            "help": "the ranging stage's cooperative solution (its CP DI): 'position' (paper "
+            "000's position-state fusion of the navigation as recorded), 'corrected' (the "
+            "same fusion of the followers' navigation corrected by the causal DR states, "
+            "state 'dr' only), 'dr' (the DR-state fusion's forward solution); "
+            "docs/methods-ranging.md#cp-state"
+        },
+    )
     lsq: LsqParams = field(
         default_factory=LsqParams,
         metadata={"help": "robust LSQ from anchors ([fusion.lsq])"},
@@ -215,6 +225,12 @@ class FusionParams:
                 raise ValueError(f"{name} = {getattr(self, name)}, expected > 0")
         if self.state not in ("dr", "position"):
             raise ValueError(f"state = {self.state!r}, expected 'dr' or 'position'")
+        if self.cp_state not in ("position", "corrected", "dr"):
+            raise ValueError(
+                f"cp_state = {self.cp_state!r}, expected 'position', 'corrected' or 'dr'"
+            )
+        if self.cp_state != "position" and self.state != "dr":
+            raise ValueError(f"cp_state = {self.cp_state!r} needs state = 'dr' (its DR states)")
         for name in (
             "dr_position_sigma_mps", "dr_distance_noise_m", "dr_heading_noise_deg",
             "heading_sigma_deg", "heading_rate_sigma_dph",

@@ -69,7 +69,7 @@ class DISmoothingParams:
         default=False,
         metadata={
             "help": "true: DR DI from the followers' navigation corrected by the causal "
-            "fusion's DR states (heading and scale; ranging/dr_corrected.py); false: the "
+            "fusion's DR states (heading and scale; shared/dr_corrected.py); false: the "
             "navigation as recorded (paper 000)"
         },
     )

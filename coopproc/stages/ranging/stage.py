@@ -55,7 +55,6 @@ from coopproc.stages.ranging.di import (
     di_variance,
     smooth_di,
 )
-from coopproc.stages.ranging.dr_corrected import corrected_navigation
 from coopproc.stages.ranging.local import LocalCalibration, calibrate_windows
 from coopproc.stages.ranging.nlos import (
     DistanceFilterOutput,
@@ -67,6 +66,7 @@ from coopproc.stages.ranging.output_columns import OutputColumns, compensated
 from coopproc.stages.ranging.pair import PairInputs, kernel_params, prepare_pair
 from coopproc.stages.ranging.tracks import PlatformTracks
 from coopproc.stages.ranging.twoway import filter_distance_two_way
+from coopproc.stages.shared.dr_corrected import corrected_navigation
 
 __all__ = [
     "PairCalibration",

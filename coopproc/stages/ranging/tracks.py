@@ -61,7 +61,7 @@ class PlatformTracks:
     def positions(self, platform: str, time_s: FloatArray, corrected: bool = False) -> FloatArray:
         """``platform``'s navigation positions at ``time_s`` (an anchor: its position);
         ``corrected``: its navigation corrected by the fusion's DR states where it has them
-        (:mod:`~coopproc.stages.ranging.dr_corrected`), the DR DI's input."""
+        (:mod:`~coopproc.stages.shared.dr_corrected`), the DR DI's input."""
         if self._fixed(platform) or platform not in self._session.nav:
             return platform_positions(
                 self._session, self._session.nav, platform, time_s, "navigation", True

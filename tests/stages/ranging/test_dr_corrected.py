@@ -1,4 +1,4 @@
-"""The DR DI's navigation corrected by the fusion's DR states (ranging/dr_corrected.py)."""
+"""The DR DI's navigation corrected by the fusion's DR states (shared/dr_corrected.py)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 
 from coopproc.model import Trajectory
-from coopproc.stages.ranging.dr_corrected import corrected_navigation
+from coopproc.stages.shared.dr_corrected import corrected_navigation
 
 
 def _truth_and_dr(theta_deg: float, scale_error: float) -> tuple[Trajectory, Trajectory]:

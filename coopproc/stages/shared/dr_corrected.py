@@ -1,4 +1,5 @@
-"""Dead-reckoning displacements corrected by the fusion's DR states, for the DR DI.
+"""Dead-reckoning displacements corrected by the fusion's DR states, for the DR DI and the
+cooperative solution of ``[fusion] cp_state = "corrected"``.
 
 The DR DI of paper 000 (eq. (1), :func:`~coopproc.stages.ranging.di.anchored_increments`)
 takes each platform's own navigation displacement between range epochs. A follower's
@@ -20,6 +21,11 @@ position does not matter: the DR DI is anchored at the cooperative positions). T
 states are slow (random walks of deg/sqrt(h) and ppm), so the pair's own ranges move
 them little over an NLOS event; they come from dr_states.csv's table (its convention:
 heading error theta in deg, scale error -s / (1 + s)).
+
+With ``[fusion] cp_state = "corrected"`` the ranging stage's cooperative solution is paper
+000's position-state fusion of the navigation corrected here (:func:`corrected_session`,
+by the causal filter's states): there the accumulated track matters, and a follower's
+position no longer walks away with its heading error over a long recording.
 """
 
 from __future__ import annotations
@@ -29,9 +35,9 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 
-from coopproc.model import Trajectory
+from coopproc.model import Session, Trajectory
 
-__all__ = ["corrected_navigation"]
+__all__ = ["corrected_navigation", "corrected_session"]
 
 
 def corrected_navigation(traj: Trajectory, states: pd.DataFrame) -> Trajectory:
@@ -57,3 +63,17 @@ def corrected_navigation(traj: Trajectory, states: pd.DataFrame) -> Trajectory:
     enu[1:, 0] = enu[0, 0] + np.cumsum(de)
     enu[1:, 1] = enu[0, 1] + np.cumsum(dn)
     return replace(traj, enu_m=enu)
+
+
+def corrected_session(session: Session, states: pd.DataFrame | None) -> Session:
+    """``session`` with each platform's navigation that ``states`` (dr_states.csv's table:
+    the followers') has rows for corrected by :func:`corrected_navigation`; the others,
+    and every other part of the session, as they are. The fusion's ``cp_state =
+    "corrected"`` solution fuses it (docs/methods-ranging.md#cp-state)."""
+    if states is None or len(states) == 0:
+        return session
+    nav = dict(session.nav)
+    for platform, rows in states.groupby("platform", sort=True):
+        if str(platform) in nav:
+            nav[str(platform)] = corrected_navigation(nav[str(platform)], rows)
+    return replace(session, nav=nav)
