@@ -13,6 +13,7 @@ import math
 from typing import Any
 
 from coopproc.run.pipeline_output import PipelineOutput
+from coopproc.stages.base import CalibrationWindows, RangeCalibration
 from coopproc.stages.fusion.calibration_bias import bias_words
 from coopproc.stages.fusion.dr_quality import (
     DRIFT_WINDOW_S,
@@ -35,7 +36,7 @@ def _num(value: float, digits: int = 4) -> float | None:
     return round(float(value), digits) if math.isfinite(value) else None
 
 
-def _windows(local: Any) -> list[dict[str, Any]]:
+def _windows(local: CalibrationWindows | None) -> list[dict[str, Any]]:
     """The per-window calibration of a pair and method (ranging/local.py) for run.json."""
     if local is None:
         return []
@@ -64,10 +65,10 @@ def calibration_facts(output: PipelineOutput) -> dict[str, Any]:
             "di_growth_m2ps": _num(cal.growth_m2ps, 6),
             "gain": _num(cal.gain, 3),
             "passthrough": cal.passthrough,
-            "ranges_only_fraction": _num(getattr(cal, "ranges_only_fraction", 0.0), 4),
+            "ranges_only_fraction": _num(cal.ranges_only_fraction, 4),
             "source": cal.source,
-            "cp_source": getattr(cal, "cp_source", "all ranges"),
-            "windows": _windows(getattr(cal, "local", None)),
+            "cp_source": cal.cp_source,
+            "windows": _windows(cal.local),
         }
     fusion: dict[str, Any] = {}
     for method, fcal in sorted(output.fusion_calibration.items()):
@@ -147,21 +148,21 @@ def calibration_lines(output: PipelineOutput) -> list[str]:
     lines = ["self-calibration (declared values in brackets):"]
     observed = output.fusion_calibration.get("observed")
     # per pair, the DI filter's figures (else the first range method's that has any)
-    by_pair: dict[str, Any] = {}
+    by_pair: dict[str, RangeCalibration] = {}
     for (pair, method), cal in sorted(output.ranging_calibration.items()):
         if method == "di" or pair not in by_pair:
             by_pair[pair] = cal
     fused_pairs = observed.pair_sigma_m if observed is not None else {}
     for pair in sorted(set(by_pair) | set(fused_pairs)):
         parts = []
-        cal = by_pair.get(pair)
-        if cal is not None:
+        if pair in by_pair:
+            cal = by_pair[pair]
             declared = _declared_sigma(cal.declared_sigma_m, output)
             text = (
                 f"UWB white noise {cal.white_sigma_m:.3f} m{declared}, innovation "
                 f"{cal.detect_sigma_m:.3f} m, DI growth {cal.growth_m2ps:.4f} m^2/s ({cal.source})"
             )
-            fraction = getattr(cal, "ranges_only_fraction", 0.0)
+            fraction = cal.ranges_only_fraction
             if fraction > 0.0:
                 text += (
                     f"; DI too poor to smooth in {100.0 * fraction:.0f} % of the time "

@@ -18,6 +18,7 @@ import pandas as pd
 from coopproc.model import Result
 from coopproc.run.chain import Step
 from coopproc.run.declared_sigma import DeclaredSigma
+from coopproc.stages.base import PositionCalibration, RangeCalibration
 from coopproc.stages.fusion.dr_quality import DeadReckoningQuality
 
 __all__ = ["PipelineOutput"]
@@ -33,9 +34,9 @@ class PipelineOutput:
     timings_s: Mapping[str, float]
     sigma: Mapping[str, tuple[float, str]]
     #: the range processors' self-calibration, (pair, method) -> figures
-    ranging_calibration: Mapping[tuple[str, str], Any]
+    ranging_calibration: Mapping[tuple[str, str], RangeCalibration]
     #: each position method's self-calibration (the fusions'), by method
-    fusion_calibration: Mapping[str, Any]
+    fusion_calibration: Mapping[str, PositionCalibration]
     #: each moving platform's dead reckoning against the observed cooperative solution
     dr_quality: Mapping[str, DeadReckoningQuality]
     notes: tuple[str, ...]

@@ -55,11 +55,7 @@ def _with_modes(scores: pd.DataFrame, products: Sequence[RangeProduct]) -> pd.Da
     filter of the method ran, ``di`` (smoothing with the DI in every calibration window),
     ``ranges`` (ranges-only in every window) or ``mixed``, and the share of its epochs in
     ranges-only windows; empty for the rows of methods without windows (fusion:*)."""
-    share = {
-        k: getattr(c, "ranges_only_fraction", np.nan)
-        for p in products
-        for k, c in p.calibration.items()
-    }
+    share = {k: c.ranges_only_fraction for p in products for k, c in p.calibration.items()}
     frac = np.array(
         [
             share.get((pair, m), np.nan)

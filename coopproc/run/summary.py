@@ -71,8 +71,8 @@ DEGRADED_FRACTION = 0.10
 def _degraded(output: PipelineOutput, method: str) -> dict[str, float]:
     """pair -> share of its epochs in ranges-only windows, where above DEGRADED_FRACTION."""
     out = {}
-    for (pair, m), cal in sorted(getattr(output, "ranging_calibration", {}).items()):
-        fraction = float(getattr(cal, "ranges_only_fraction", 0.0))
+    for (pair, m), cal in sorted(output.ranging_calibration.items()):
+        fraction = float(cal.ranges_only_fraction)
         if m == method and fraction > DEGRADED_FRACTION:
             out[pair] = fraction
     return out

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any, Literal, Protocol
 
 import numpy as np
 import pandas as pd
@@ -30,11 +30,14 @@ from coopproc.model import FloatArray, Session, Trajectory
 __all__ = [
     "CAPABILITIES",
     "RESERVED_NAMES",
+    "CalibrationWindows",
     "LeftOutCP",
     "NavStates",
+    "PositionCalibration",
     "PositionInput",
     "PositionProduct",
     "PositionStage",
+    "RangeCalibration",
     "RangeInput",
     "RangeProduct",
     "RangeStage",
@@ -72,6 +75,72 @@ def session_capabilities(session: Session) -> frozenset[str]:
         "gnss": bool(session.gnss),
     }
     return frozenset(k for k, v in have.items() if v)
+
+
+class CalibrationWindows(Protocol):
+    """A range method's self-calibration per window (run.json's ``windows``): one value
+    per calibration window, in time order."""
+
+    @property
+    def starts_s(self) -> FloatArray: ...  # window start times (session time base)
+    @property
+    def white_m(self) -> FloatArray: ...  # UWB white noise, m
+    @property
+    def detect_m(self) -> FloatArray: ...  # 1-sigma of the detection threshold, m
+    @property
+    def growth_m2ps(self) -> FloatArray: ...  # DI growth (process noise), m^2/s
+    @property
+    def gain(self) -> FloatArray: ...  # steady-state gain of the range update
+    @property
+    def ranges_only(self) -> NDArray[np.bool_]: ...  # True: the window leans on the ranges
+    @property
+    def estimated(self) -> NDArray[np.bool_]: ...  # True: from the window's own data
+
+
+class RangeCalibration(Protocol):
+    """What a range method's filter used for one pair and where it came from: what
+    run.json's ``calibration.ranging`` block, the terminal's self-calibration lines and
+    nlos_scores.csv's ``mode`` read (:class:`RangeProduct.calibration`; the DI-Based and
+    RN-Based methods' :class:`coopproc.stages.ranging.stage.PairCalibration`)."""
+
+    @property
+    def declared_sigma_m(self) -> float: ...  # session.toml [uwb] sigma (NaN: none)
+    @property
+    def white_sigma_m(self) -> float: ...  # range noise of the filter's update
+    @property
+    def detect_sigma_m(self) -> float: ...  # 1-sigma behind the detection threshold
+    @property
+    def growth_m2ps(self) -> float: ...  # DI process noise, m^2/s (0: none)
+    @property
+    def source(self) -> str: ...  # "data", "session.toml", "adaptive" or "default"
+    @property
+    def gain(self) -> float: ...  # steady-state gain of the range update (NaN: none)
+    @property
+    def passthrough(self) -> bool: ...  # every window ranges-only
+    @property
+    def ranges_only_fraction(self) -> float: ...  # share of epochs in ranges-only windows
+    @property
+    def local(self) -> CalibrationWindows | None: ...  # per window (None: not calibrated)
+    @property
+    def cp_source(self) -> str: ...  # where the CP DI came from ("all ranges", a fold)
+
+
+class PositionCalibration(Protocol):
+    """What a position estimator's self-calibration estimated, per range set: what
+    run.json's ``calibration.fusion`` block and the terminal read
+    (:class:`PositionProduct.calibration`; the fusion's
+    :class:`coopproc.stages.fusion.calibration.FusionCalibration`)."""
+
+    @property
+    def pair_sigma_m(self) -> Mapping[str, float]: ...  # ranging 1-sigma used per pair
+    @property
+    def pair_bias_m(self) -> Mapping[str, float]: ...  # median post-fit residual per pair
+    @property
+    def platform_nis(self) -> Mapping[str, float]: ...  # median NIS / 0.455 per platform
+    @property
+    def drift_scale(self) -> Mapping[str, float]: ...  # factor on a platform's drift sigma
+    @property
+    def notes(self) -> tuple[str, ...]: ...
 
 
 @dataclass(frozen=True)
@@ -126,7 +195,7 @@ class RangeProduct:
     #: pair -> (UWB sigma used, where it came from), for run.json
     sigma: Mapping[str, tuple[float, str]] = field(default_factory=dict)
     #: (pair, method) -> self-calibration facts (coopproc.stages.ranging.stage.PairCalibration)
-    calibration: Mapping[tuple[str, str], Any] = field(default_factory=dict)
+    calibration: Mapping[tuple[str, str], RangeCalibration] = field(default_factory=dict)
     #: 1 at the rows whose range the processor rejected as a gross outlier, or None
     outlier: NDArray[np.int64] | None = None
 
@@ -206,7 +275,7 @@ class PositionProduct:
     #: and the estimator gives it
     cp_left_out: LeftOutCP | None = None
     #: self-calibration facts for run.json (coopproc.stages.fusion.calibration), or None
-    calibration: Any = None
+    calibration: PositionCalibration | None = None
     notes: tuple[str, ...] = ()
     #: platform -> velocity and attitude, for estimators that have them (states.csv)
     states: Mapping[str, NavStates] = field(default_factory=dict)

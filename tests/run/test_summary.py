@@ -38,6 +38,7 @@ def _output(
         methods={"ranges": ("observed", "di"), "positions": ("observed", "di")},
         nlos_methods=("di",),
         fusion_outlier_scores=outlier_scores,
+        ranging_calibration={},
     )
 
 
