@@ -23,6 +23,7 @@ from coopproc.stages.fusion.dr_quality import (
     DeadReckoningQuality,
 )
 from coopproc.stages.fusion.dr_states import dr_summary
+from coopproc.stages.registry import nlos_primary
 
 __all__ = ["calibration_facts", "calibration_lines"]
 
@@ -147,10 +148,11 @@ def calibration_lines(output: PipelineOutput) -> list[str]:
     """A few lines per pair and platform for the terminal."""
     lines = ["self-calibration (declared values in brackets):"]
     observed = output.fusion_calibration.get("observed")
-    # per pair, the DI filter's figures (else the first range method's that has any)
+    # per pair, the primary (DI) filter's figures (else the first range method's that has any)
     by_pair: dict[str, RangeCalibration] = {}
+    primary = nlos_primary()
     for (pair, method), cal in sorted(output.ranging_calibration.items()):
-        if method == "di" or pair not in by_pair:
+        if method in primary or pair not in by_pair:
             by_pair[pair] = cal
     fused_pairs = observed.pair_sigma_m if observed is not None else {}
     for pair in sorted(set(by_pair) | set(fused_pairs)):

@@ -60,7 +60,7 @@ from coopproc.stages.fusion.dr_quality import dead_reckoning_quality
 from coopproc.stages.fusion.dr_states import dr_states_of
 from coopproc.stages.fusion.range_weights import range_weights_of
 from coopproc.stages.ranging.table import observed_table
-from coopproc.stages.registry import POSITION_STAGES, RANGE_STAGES, range_stage_of
+from coopproc.stages.registry import POSITION_STAGES, RANGE_STAGES, nlos_source, range_stage_of
 
 __all__ = ["run_pipeline"]
 
@@ -354,11 +354,12 @@ def _range_table(
     """ranges.csv: ``time, pair, observed, <methods>, reference, nlos_flag, nlos_estimate,
     outlier``.
 
-    The NLOS columns come from the DI method (DATA.md), or, without it, from the first
-    method of the chain that detects NLOS; 0 where none does.
+    The NLOS columns come from the method a range processor declares primary (the DI
+    method, DATA.md; :func:`~coopproc.stages.registry.nlos_source`), or, without it, from
+    the first method of the chain that detects NLOS; 0 where none does.
     """
     nlos = {m: fe for p in products for m, fe in p.nlos.items()}
-    source = "di" if "di" in nlos else next((m for m in columns if m in nlos), None)
+    source = nlos_source(m for m in columns if m in nlos)
     if source is None:
         flag, estimate = np.zeros(len(base), dtype=np.int64), np.zeros(len(base))
     else:

@@ -15,8 +15,10 @@ import pandas as pd
 from coopproc.report.change import change_of
 from coopproc.report.consistency import consistency_lines
 from coopproc.report.outlier_scores import FUSION_PREFIX
+from coopproc.run.chain import PipelineParams
 from coopproc.run.implausible import implausible_line
 from coopproc.run.pipeline_output import PipelineOutput
+from coopproc.stages.registry import method_label, nlos_primary, nlos_source
 
 __all__ = ["RunSummary", "fusion_outliers", "summarize"]
 
@@ -82,28 +84,23 @@ def _degraded(output: PipelineOutput, method: str) -> dict[str, float]:
 #: is reported as worse than its navigation.
 WORSE_MIN_M = 0.02
 
-#: Short names of the known methods in the summary lines; others print as they are.
-_SHORT = {"observed": "observed", "rn": "RN", "di": "DI"}
-#: Long names of the NLOS-detecting methods in the header line.
-_LONG = {"rn": "RN-Based", "di": "DI-Based"}
-
 
 def _primary(methods: tuple[str, ...]) -> str | None:
-    """The method the headline compares with observed: DI if the run has it, else the
-    last processed one."""
+    """The method the headline compares with observed: the one a range processor declares
+    primary (DI) if the run has it, else the last processed one."""
     processed = [m for m in methods if m != "observed"]
-    if "di" in processed:
-        return "di"
-    return processed[-1] if processed else None
+    last = processed[-1] if processed else None
+    return next((m for m in nlos_primary() if m in processed), last)
 
 
 def summarize(output: PipelineOutput) -> RunSummary:
     """Headline numbers: NLOS events per pair, RMSE and mean position error vs observed."""
     result = output.result
-    methods = output.methods or {"ranges": ("observed", "rn", "di"), "positions": ()}
+    default = ("observed", *PipelineParams().ranges)  # an output without its methods
+    methods = output.methods or {"ranges": default, "positions": ()}
     range_methods = tuple(methods["ranges"])
     processed = [m for m in range_methods if m != "observed"]
-    detector = "di" if "di" in output.nlos_methods else next(iter(output.nlos_methods), None)
+    detector = nlos_source(output.nlos_methods)
     events = result.nlos_events
     det_events = events[events["method"] == detector]
     lines = []
@@ -116,7 +113,7 @@ def summarize(output: PipelineOutput) -> RunSummary:
         )
     else:
         with_events = len({str(p) for p in det_events["pair"].unique()} & {str(p) for p in pairs})
-        name = _LONG.get(detector, detector)
+        name = method_label(detector, long=True)
         lines.append(_events_header(name, len(det_events), with_events, len(pairs)))
         degraded = _degraded(output, detector)
         if degraded:
@@ -135,7 +132,7 @@ def summarize(output: PipelineOutput) -> RunSummary:
         if math.isfinite(obs):
             shown = [m for m in processed if math.isfinite(rmse[m])]
             parts = [f"range RMSE observed {obs:.3f} m"] + [
-                f"{_SHORT.get(m, m)} {rmse[m]:.3f} m ({_change(rmse[m], obs)})" for m in shown
+                f"{method_label(m)} {rmse[m]:.3f} m ({_change(rmse[m], obs)})" for m in shown
             ]
             if processed and not shown:  # e.g. a tag's pair: no dead reckoning at one end
                 parts.append("not processed (no dead reckoning at one end)")
@@ -173,7 +170,8 @@ def summarize(output: PipelineOutput) -> RunSummary:
         if second is not None:
             value = _lookup(pm, "platform", platform, second, "mean")
             facts["platforms"][platform][f"mean_{second}"] = value
-            label = f"fused {_SHORT[second]}" if second in _SHORT else second
+            named = second == "observed" or method_label(second) != second
+            label = f"fused {method_label(second)}" if named else second
             text += f", {label} {value:.3f} m ({_change(value, base)})"
         # platforms without a reference have no error statistics: no line
         if math.isfinite(base) or ("observed" not in methods["positions"] and math.isfinite(value)):
@@ -243,7 +241,7 @@ def _outlier_line(outliers: dict[str, dict[str, Any]]) -> str:
     (range_weights.csv)``: the first method in words, the others in the same order."""
     parts = []
     for k, (method, f) in enumerate(outliers.items()):
-        name = _SHORT.get(method, method)
+        name = method_label(method)
         scored = "scored" in f and f["scored"] > 0
         if k == 0:
             text = (

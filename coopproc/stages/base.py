@@ -224,6 +224,13 @@ class RangeStage:
     #: epoch, and with the dead reckoning that smoothed them): their fusion keeps the
     #: [fusion] DR figures (calibration_dr.py)
     smoothed: tuple[str, ...] = ()
+    #: method -> (short, long) name in the terminal summary (``DI``, ``DI-Based``); a
+    #: method without one prints as it is named
+    labels: Mapping[str, tuple[str, str]] = field(default_factory=dict)
+    #: the methods whose NLOS decisions fill ranges.csv's ``nlos_flag`` / ``nlos_estimate``
+    #: and head the summary, in preference (DATA.md: the DI method's); a chain without any
+    #: takes the first method that detects NLOS
+    nlos_primary: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)

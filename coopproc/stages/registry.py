@@ -8,6 +8,8 @@ method is one module with a :class:`coopproc.stages.base.RangeStage` or
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 from coopproc.stages.anchors import entry as anchors_entry
 from coopproc.stages.base import PositionStage, RangeStage
 from coopproc.stages.fusion import entry as fusion_entry
@@ -52,3 +54,25 @@ def range_stage_of(method: str) -> RangeStage | None:
         if method in stage.methods:
             return stage
     return None
+
+
+def method_label(method: str, long: bool = False) -> str:
+    """``method``'s short (``DI``) or long (``DI-Based``) name as its range processor
+    declares it (:attr:`RangeStage.labels`); the name itself when none does."""
+    stage = range_stage_of(method)
+    names = stage.labels.get(method) if stage is not None else None
+    return method if names is None else names[1 if long else 0]
+
+
+def nlos_source(methods: Iterable[str]) -> str | None:
+    """Of ``methods`` (chain order) that detect NLOS, the one whose decisions fill
+    ranges.csv's NLOS columns and head the summary: the first a range processor declares
+    primary (:attr:`RangeStage.nlos_primary`), else the first; None for none."""
+    methods = tuple(methods)
+    return next((m for m in nlos_primary() if m in methods), next(iter(methods), None))
+
+
+def nlos_primary() -> tuple[str, ...]:
+    """Every method a range processor declares primary (:attr:`RangeStage.nlos_primary`),
+    in registry order."""
+    return tuple(m for stage in RANGE_STAGES.values() for m in stage.nlos_primary)

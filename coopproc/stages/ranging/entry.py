@@ -63,4 +63,6 @@ STAGE = RangeStage(
     "(rn = RN-Based reference method, di = DI-Based)",
     needs_cp=True,
     smoothed=("di",),  # DI smoothing; RN is the observed ranges less its estimates
+    labels={"rn": ("RN", "RN-Based"), "di": ("DI", "DI-Based")},
+    nlos_primary=("di",),  # the method of paper 000 (RN is its reference method)
 )

@@ -1,0 +1,31 @@
+"""The method names the runner and the summary take from the registry (issue 34 part 4):
+each range processor's labels and its primary NLOS method, no fixed names in run/."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from coopproc.stages.registry import method_label, nlos_primary, nlos_source
+
+
+def test_the_primary_nlos_method_is_declared_not_named() -> None:
+    assert nlos_primary() == ("di",)  # the ranging stage's declaration (DATA.md)
+    assert nlos_source(["rn", "di"]) == "di"  # whatever the chain's order
+    assert nlos_source(["rn"]) == "rn"  # no primary method: the first that detects NLOS
+    assert nlos_source(["median", "rn"]) == "median"
+    assert nlos_source([]) is None
+
+
+def test_labels_come_from_the_range_processor() -> None:
+    assert method_label("di") == "DI" and method_label("di", long=True) == "DI-Based"
+    assert method_label("rn", long=True) == "RN-Based"
+    assert method_label("median") == "median"  # declares none: its own name
+    assert method_label("observed") == "observed"
+
+
+def test_the_runner_and_summary_hold_no_method_names() -> None:
+    """The modules that chose by name before read the registry now."""
+    root = Path(__file__).resolve().parents[2] / "coopproc" / "run"
+    for name in ("summary.py", "pipeline.py"):
+        text = (root / name).read_text(encoding="utf-8")
+        assert '"di"' not in text and '"rn"' not in text, name
