@@ -8,7 +8,10 @@ A run's processing chain is configurable: it may drop methods (no ``rn``; fusion
   ``{"ranges": ["observed", "rn", "di"], "positions": ["observed", "rn", "di"]}``:
   ``ranges`` are the method columns of ``ranges.csv`` (``observed`` included), in chain
   order; ``positions`` the ``method`` values of ``positions.csv`` other than ``nav`` and
-  ``reference``. An optional ``"nlos"`` list names the methods that detect NLOS.
+  ``reference``. An optional ``"nlos"`` list names the methods that detect NLOS, an
+  optional ``"primary"`` (one name, or none) the processed range method the headline and
+  paper 000's figures compare with the observed ranges (the one its range processor
+  declares primary, ``di``; else the last processed one).
 - Without that key (older run directories, in-memory tables), from the data: range
   methods are the numeric columns of ``ranges`` other than ``time, pair, reference,
   nlos_flag, nlos_estimate``; position methods the distinct ``method`` values other than
@@ -54,8 +57,9 @@ NOT_POSITION_METHODS = frozenset({"nav", "reference"})
 #: method detects NLOS when it has events in ``nlos_events``.
 NLOS_DETECTORS: tuple[str, ...] = ("rn", "di")
 #: Keys of run.json ``"methods"``; each a list of method names.
-METHOD_KEYS: tuple[str, ...] = ("ranges", "positions", "nlos")
-#: The primary processed range method when the run has it (fig. 9-11 of paper 000).
+METHOD_KEYS: tuple[str, ...] = ("ranges", "positions", "nlos", "primary")
+#: The primary processed range method of a run directory that does not list one (written
+#: before run.json had ``methods.primary``), when it has it (fig. 9-11 of paper 000).
 _PRIMARY = "di"
 
 
@@ -132,8 +136,12 @@ def processed_methods(run: RunTables) -> tuple[str, ...]:
 
 
 def primary_method(run: RunTables) -> str | None:
-    """``di`` if the run has it, else its last processed range method, else None."""
+    """run.json ``methods.primary`` if listed (and the run has it); else ``di`` if the run
+    has it, else its last processed range method, else None."""
     processed = processed_methods(run)
+    listed = listed_methods(run.info, "primary")
+    if listed is not None:
+        return next((m for m in listed if m in processed), None)
     if _PRIMARY in processed:
         return _PRIMARY
     return processed[-1] if processed else None

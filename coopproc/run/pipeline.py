@@ -60,7 +60,13 @@ from coopproc.stages.fusion.dr_quality import dead_reckoning_quality
 from coopproc.stages.fusion.dr_states import dr_states_of
 from coopproc.stages.fusion.range_weights import range_weights_of
 from coopproc.stages.ranging.table import observed_table
-from coopproc.stages.registry import POSITION_STAGES, RANGE_STAGES, nlos_source, range_stage_of
+from coopproc.stages.registry import (
+    POSITION_STAGES,
+    RANGE_STAGES,
+    nlos_source,
+    primary_method,
+    range_stage_of,
+)
 
 __all__ = ["run_pipeline"]
 
@@ -249,6 +255,7 @@ def run_pipeline(
             "ranges": ("observed", *columns),
             "positions": tuple(products),
             "nlos": nlos_methods,
+            "primary": tuple(m for m in [primary_method(columns)] if m is not None),
         },
         nlos_methods=nlos_methods,
         fusion_outlier_scores=outliers,

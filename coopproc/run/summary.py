@@ -18,7 +18,7 @@ from coopproc.report.outlier_scores import FUSION_PREFIX
 from coopproc.run.chain import PipelineParams
 from coopproc.run.implausible import implausible_line
 from coopproc.run.pipeline_output import PipelineOutput
-from coopproc.stages.registry import method_label, nlos_primary, nlos_source
+from coopproc.stages.registry import method_label, nlos_source, primary_method
 
 __all__ = ["RunSummary", "fusion_outliers", "summarize"]
 
@@ -88,9 +88,7 @@ WORSE_MIN_M = 0.02
 def _primary(methods: tuple[str, ...]) -> str | None:
     """The method the headline compares with observed: the one a range processor declares
     primary (DI) if the run has it, else the last processed one."""
-    processed = [m for m in methods if m != "observed"]
-    last = processed[-1] if processed else None
-    return next((m for m in nlos_primary() if m in processed), last)
+    return primary_method(m for m in methods if m != "observed")
 
 
 def summarize(output: PipelineOutput) -> RunSummary:

@@ -76,3 +76,12 @@ def nlos_primary() -> tuple[str, ...]:
     """Every method a range processor declares primary (:attr:`RangeStage.nlos_primary`),
     in registry order."""
     return tuple(m for stage in RANGE_STAGES.values() for m in stage.nlos_primary)
+
+
+def primary_method(processed: Iterable[str]) -> str | None:
+    """Of the processed range methods (chain order), the one the headline and paper 000's
+    figures compare with the observed ranges: the first a range processor declares
+    primary, else the last; None for none (run.json ``methods.primary``)."""
+    processed = tuple(processed)
+    last = processed[-1] if processed else None
+    return next((m for m in nlos_primary() if m in processed), last)

@@ -55,7 +55,12 @@ def test_fusion_only(default_run: Path, tmp_path: Path) -> None:
     pd.testing.assert_frame_equal(mine, theirs)
     assert sorted(_csv(out, "metrics.csv")["method"].unique()) == ["observed"]
     info = json.loads((out / "run.json").read_text())
-    assert info["methods"] == {"ranges": ["observed"], "positions": ["observed"], "nlos": []}
+    assert info["methods"] == {
+        "ranges": ["observed"],
+        "positions": ["observed"],
+        "nlos": [],
+        "primary": [],
+    }
     assert [s["step"] for s in info["pipeline"]] == ["fusion (observed)"]
     assert info["config"]["pipeline"] == {
         "ranges": [],

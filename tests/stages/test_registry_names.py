@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from coopproc.stages.registry import method_label, nlos_primary, nlos_source
+from coopproc.stages.registry import method_label, nlos_primary, nlos_source, primary_method
 
 
 def test_the_primary_nlos_method_is_declared_not_named() -> None:
@@ -29,3 +29,30 @@ def test_the_runner_and_summary_hold_no_method_names() -> None:
     for name in ("summary.py", "pipeline.py"):
         text = (root / name).read_text(encoding="utf-8")
         assert '"di"' not in text and '"rn"' not in text, name
+
+
+def test_the_primary_method_is_the_declared_one_else_the_last() -> None:
+    assert primary_method(["rn", "di"]) == "di"
+    assert primary_method(["di", "median"]) == "di"
+    assert primary_method(["rn", "median"]) == "median"
+    assert primary_method([]) is None
+
+
+def test_a_reporter_takes_the_primary_method_the_run_lists() -> None:
+    """report/methods.py reads run.json ``methods.primary``; a run directory without it
+    (written before) keeps the old rule, ``di`` if present."""
+    import pandas as pd
+
+    from coopproc.report.methods import primary_method as reported
+    from coopproc.report.run_tables import RunTables
+
+    empty = pd.DataFrame()
+    ranges = pd.DataFrame(columns=["time", "pair", "observed", "di", "median", "reference"])
+
+    def run(info: dict[str, object]) -> RunTables:
+        return RunTables(ranges, empty, empty, empty, empty, empty, empty, info=info)
+
+    listed = {"ranges": ["observed", "di", "median"], "positions": ["observed"]}
+    assert reported(run({"methods": listed})) == "di"  # older run: the old rule
+    assert reported(run({"methods": {**listed, "primary": ["median"]}})) == "median"
+    assert reported(run({"methods": {**listed, "primary": []}})) is None
