@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
 import pytest
 
 from coopproc.io.session_toml import parse_session_toml, session_toml_table
@@ -113,3 +114,40 @@ def test_figures_the_data_cannot_give_say_what_is_missing() -> None:
         "(fewer than 12 windows of 10 s with 1 m of travel or more)"
     )
     assert "n/a" not in short + still
+
+
+def test_the_check_holds_at_every_length(declared) -> None:
+    """The estimate is the recording's first hour's (CHECK_SPAN_S): a navigation that
+    drifts far beyond its declared figure only after the first hour (a heading error
+    accumulated over a day) leaves the figure as declared, and the first hour's answer is
+    the same whether the recording stops there or goes on."""
+    from coopproc.run.declared import CHECK_SPAN_S, first_span
+
+    session, fused = declared
+    t0 = float(fused["A"].time_s[0])
+    cut = first_span(fused, 60.0)
+    assert all(float(t.time_s[-1]) <= t0 + 60.0 for t in cut.values())
+    assert len(cut["A"]) < len(fused["A"]) and cut["A"].enu_m.shape[0] == len(cut["A"])
+    assert first_span(fused, CHECK_SPAN_S)["A"] is fused["A"]  # 120 s: checked whole
+    # A declares 5 m/s; its first 60 s alone still contradict that
+    sixty = check_drifts(session, session, cut, FusionParams())[0]
+    assert set(sixty.contradicted) == {"A"}
+    # a "fused" solution that, after the first hour, runs away from A's navigation at
+    # 1 m/s: were the whole recording checked, A's 5 m/s would no longer be contradicted
+    dt = float(np.median(np.diff(fused["A"].time_s)))
+    late = np.arange(1, int(2 * CHECK_SPAN_S / dt)) * dt + float(fused["A"].time_s[-1])
+    longer = {}
+    for p, traj in fused.items():
+        t = np.concatenate([traj.time_s, late])
+        enu = np.concatenate([traj.enu_m, np.repeat(traj.enu_m[-1:], late.shape[0], axis=0)])
+        longer[p] = Trajectory(p, t, enu)
+    nav = dict(session.nav)
+    for p in nav:
+        tn = np.concatenate([nav[p].time_s, late])
+        en = np.concatenate([nav[p].enu_m, np.repeat(nav[p].enu_m[-1:], late.shape[0], axis=0)])
+        away = np.clip(tn - t0 - CHECK_SPAN_S, 0.0, None) * 1.0  # 1 m/s after the first hour
+        en[:, 0] += away * (p == "A")
+        nav[p] = Trajectory(p, tn, en)
+    long_session = dataclasses.replace(session, nav=nav)
+    whole = check_drifts(long_session, long_session, longer, FusionParams())[0]
+    assert set(whole.contradicted) == {"A"}  # judged on the first hour: as before
