@@ -237,7 +237,7 @@ def fuse(
             before = gamma
             gamma, resid_m, std_s = smoothed_gammas(
                 obs, rec_ptr, rec_plat, xs_s, len(moving), dim, gamma, params.k0,
-                params.k1, params.mad_floor,
+                params.k1, params.mad_floor, epochs,
             )  # fmt: skip
             # the last refit's decisions (a range without a smoothed residual keeps the
             # forward pass's factor, and its innovation)
