@@ -4,6 +4,7 @@ whose drone's dead reckoning the fusion finds up to 12.7 deg off."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import pandas as pd
@@ -11,6 +12,9 @@ import pytest
 from click.testing import CliRunner
 
 from coopproc.cli import main
+from coopproc.io import read_session
+from coopproc.stages.shared.dr_corrected import judged_by_others
+from tests.e2e.conftest import E2ERun
 
 REAL = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "real"
 
@@ -47,3 +51,19 @@ def test_corrected_dr_di_on_real_miluv(tmp_path: Path) -> None:
     assert plain_pm[("ifo001", "di")] <= 1.1 * plain_pm[("ifo001", "observed")]
     assert fixed_pm[("ifo001", "di")] <= 1.1 * fixed_pm[("ifo001", "observed")]
     assert fixed_pm[("ifo001", "observed")] == plain_pm[("ifo001", "observed")]
+
+
+def test_a_follower_with_one_partner_is_not_corrected_by_its_pair(
+    e2e_runs: Callable[[str, int], E2ERun], tmp_path: Path
+) -> None:
+    """paper-table1: one follower, one pair. Its DR states are fitted to that pair's
+    ranges alone (heading rate -145 deg/h against a 2.2 deg/h gyro bias), so the DR DI
+    keeps its recorded navigation: with the correction DI's RMSE went 0.022 -> 0.061 m."""
+    plain = e2e_runs("paper-table1", 0)
+    assert judged_by_others(read_session(plain.session)) == frozenset()
+    config = tmp_path / "on.toml"
+    config.write_text("[ranging.di]\ndr_states = true\n", encoding="utf-8")
+    fixed, _ = _run(plain.session, tmp_path / "fixed", config)
+    pair = "A-B"
+    assert fixed[(pair, "di")] == pytest.approx(plain.metric(pair, "di", "rmse"), rel=1e-9)
+    assert fixed[(pair, "di")] < 0.2 * fixed[(pair, "observed")]

@@ -66,7 +66,7 @@ from coopproc.stages.ranging.output_columns import OutputColumns, compensated
 from coopproc.stages.ranging.pair import PairInputs, kernel_params, prepare_pair
 from coopproc.stages.ranging.tracks import PlatformTracks
 from coopproc.stages.ranging.twoway import filter_distance_two_way
-from coopproc.stages.shared.dr_corrected import corrected_navigation
+from coopproc.stages.shared.dr_corrected import corrected_session, judged_by_others
 
 __all__ = [
     "PairCalibration",
@@ -287,9 +287,15 @@ def run_ranging(
     # at a day, issue 11), each by the same arithmetic, so the same arrays
     corrected = {}
     if dr_states is not None and config.di.dr_states:
-        for platform, rows in dr_states.groupby("platform", sort=True):
-            if platform in session.nav:
-                corrected[str(platform)] = corrected_navigation(session.nav[str(platform)], rows)
+        # the followers whose states other pairs' ranges fit too (dr_corrected.py)
+        fitted = judged_by_others(session)
+        states = dr_states[dr_states["platform"].isin(fitted)]
+        fixed = corrected_session(session, states)
+        corrected = {
+            p: fixed.nav[p]
+            for p in sorted(states["platform"].unique().astype(str))
+            if p in fixed.nav
+        }
     tracks = PlatformTracks(session, config, session.ranges.pairs, corrected)
 
     def prepared(pair: str) -> PairInputs:
