@@ -54,9 +54,11 @@ def test_corrected_cp_keeps_the_di_smoothing_over_two_hours(tmp_path: Path) -> N
          "--duration", "7200", "--platforms", "4"],
     )  # fmt: skip
     assert sim.exit_code == 0, sim.output
-    config = tmp_path / "corrected.toml"
-    config.write_text('[fusion]\ncp_state = "corrected"\n', encoding="utf-8")
-    plain = _run(session, tmp_path / "plain", None)
+    config = tmp_path / "corrected.toml"  # the default's CP, DR DI as recorded
+    config.write_text('[fusion]\ncp_state = "corrected"\n[ranging.di]\ndr_states = false\n')
+    paper = tmp_path / "position.toml"  # paper 000's CP, the default before 2026-12-03
+    paper.write_text('[fusion]\ncp_state = "position"\n[ranging.di]\ndr_states = false\n')
+    plain = _run(session, tmp_path / "plain", paper)
     fixed = _run(session, tmp_path / "fixed", config)
     # measured 2026-12-03: position 3 pairs with ranges-only windows, DI 4 of 4 events,
     # 1 false, DI RMSE 0.0393 m; corrected 0 pairs, 4 of 4, 0 false, 0.0299 m (observed

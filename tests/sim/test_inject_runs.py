@@ -31,10 +31,12 @@ def _cli(*args: str) -> str:
     return res.output
 
 
-def _inject_and_run(session: Path, tmp: Path, events: list[tuple[str, ...]], seed: int) -> Path:
+def _inject_and_run(
+    session: Path, tmp: Path, events: list[tuple[str, ...]], seed: int, *run_args: str
+) -> Path:
     nlos = [a for ev in events for a in ("--nlos", *ev)]
     _cli("inject", str(session), "-o", str(tmp / "new"), *nlos, "--seed", str(seed))
-    _cli("run", str(tmp / "new"), "-o", str(tmp / "out"), "--no-figures", "-q")
+    _cli("run", str(tmp / "new"), "-o", str(tmp / "out"), "--no-figures", "-q", *run_args)
     return tmp / "out"
 
 
@@ -105,7 +107,14 @@ def test_injected_nlos_on_the_real_tiers_session(tmp_path: Path) -> None:
         ("tb6-tb7", "+25", "+37", "1.0", "0.1"),
         ("tb5-tb7", "+45", "+57", "1.5", "0.1"),
     ]
-    out = _inject_and_run(TIERS, tmp_path, events, seed=0)
+    # Table 1's bound is for paper 000's DR DI, the navigation as recorded. With the
+    # default's DR DI corrected by the DR states the errors were -0.023 / 0.053 / 0.019 m
+    # (as recorded -0.022 / 0.000 / 0.027 m): the DR DI's own error over the event moves
+    # the estimate, and the real error of tb6-tb7's DR DI over its event is 0.2-0.5 m
+    # against the motion capture, either way
+    paper = tmp_path / "paper.toml"
+    paper.write_text("[ranging.di]\ndr_states = false\n", encoding="utf-8")
+    out = _inject_and_run(TIERS, tmp_path, events, 0, "--config", str(paper))
     injected = pd.read_csv(tmp_path / "new" / "injected.csv")
     # the windows are line of sight in the recording (truth/nlos.csv: |range error| > 0.3 m)
     spans = pd.read_csv(TIERS / "truth" / "nlos.csv")

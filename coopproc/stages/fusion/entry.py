@@ -31,7 +31,7 @@ from coopproc.stages.fusion.leave_out import leave_pair_out
 from coopproc.stages.fusion.range_digest import range_rows_digest
 from coopproc.stages.fusion.range_weights import range_weights_frame
 from coopproc.stages.shared.data import range_sigma_default, shared_nav
-from coopproc.stages.shared.dr_corrected import corrected_session
+from coopproc.stages.shared.dr_corrected import corrected_session, judged_by_others
 
 __all__ = ["FUSION", "fusion_stage"]
 
@@ -111,14 +111,15 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
 def _cp_params(params: FusionParams) -> FusionParams:
     """The parameters of the fusion that gives the ranging stage's cooperative solution:
     the position state unless ``cp_state = "dr"``."""
-    state = "dr" if params.cp_state == "dr" else "position"
+    state = "dr" if params.cp_mode == "dr" else "position"
     return dataclasses.replace(params, state=state, cp_state="position")
 
 
 def _cp_is_main(params: FusionParams) -> bool:
     """True when the range set's own fusion is the CP solution's (the same state; the
     corrected solution fuses other navigation)."""
-    return params.cp_state != "corrected" and (params.cp_state == "dr") == (params.state == "dr")
+    mode = params.cp_mode
+    return mode != "corrected" and (mode == "dr") == (params.state == "dr")
 
 
 def _cp_solution(
@@ -127,19 +128,25 @@ def _cp_solution(
     """The ranging stage's cooperative solution (``[fusion] cp_state``), its calibration and
     the session it was fused from.
 
-    ``position`` (default): paper 000's fusion (position state) of the navigation as
-    recorded, the DI method's own input: with the DR states' forward solution (``dr``)
-    DI flags 22 % of TIERS tb3-tb4's clean epochs (0-5 % with it; docs/methods-fusion.md).
-    ``corrected``: the same fusion of the followers' navigation corrected by the range
-    set's causal DR states (heading and scale, :mod:`~coopproc.stages.shared.dr_corrected`):
-    on long recordings the followers' heading error makes the position-state fusion
-    diverge (docs/methods-ranging.md#cp-state).
+    ``corrected`` (the default, ``auto``, with DR states): paper 000's fusion (position
+    state) of the followers' navigation corrected by the range set's causal DR states
+    (heading and scale, :mod:`~coopproc.stages.shared.dr_corrected`): on long recordings
+    the followers' heading error makes the position-state fusion of the navigation as
+    recorded diverge, and on `large` at 1 h its errors reach DI-fused through the DI
+    (docs/methods-ranging.md#cp-state). ``position`` (``auto`` with the position state):
+    that fusion of the navigation as recorded, paper 000's own input. With the DR states'
+    forward solution itself (``dr``) DI flags 22 % of TIERS tb3-tb4's clean epochs (0-5 %
+    with the position-state fusion; docs/methods-fusion.md).
     """
     if inp.output == "ranges" and _cp_is_main(params):
         return fused, cal, inp.session
     session = inp.session
-    if params.cp_state == "corrected":
-        session = corrected_session(inp.session, fused.dr_states_forward)
+    states = fused.dr_states_forward
+    if params.cp_mode == "corrected" and states is not None:
+        # a follower with one partner keeps its own navigation: its states are fitted to
+        # that pair's ranges alone (dr_corrected.judged_by_others)
+        states = states[states["platform"].isin(judged_by_others(inp.session))]
+        session = corrected_session(inp.session, states)
     at_ranges, cp_cal = calibrated_fuse(
         session, inp.ranges, _cp_params(params), output="ranges", smoothed_sigma=False
     )

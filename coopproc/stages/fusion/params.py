@@ -199,19 +199,27 @@ class FusionParams:
         metadata={"help": "state 'dr': the DR states are reported (dr_states.csv) this often (s)"},
     )
     cp_state: str = field(
-        default="position",
+        default="auto",
         metadata={
             "help": "the ranging stage's cooperative solution (its CP DI): 'position' (paper "
             "000's position-state fusion of the navigation as recorded), 'corrected' (the "
             "same fusion of the followers' navigation corrected by the causal DR states, "
-            "state 'dr' only), 'dr' (the DR-state fusion's forward solution); "
-            "docs/methods-ranging.md#cp-state"
+            "state 'dr' only), 'dr' (the DR-state fusion's forward solution), 'auto' "
+            "('corrected' with state 'dr', else 'position'); docs/methods-ranging.md#cp-state"
         },
     )
     lsq: LsqParams = field(
         default_factory=LsqParams,
         metadata={"help": "robust LSQ from anchors ([fusion.lsq])"},
     )
+
+    @property
+    def cp_mode(self) -> str:
+        """``cp_state`` with ``auto`` resolved: ``corrected`` when the fusion has DR states,
+        ``position`` (paper 000's own fusion) when it has the position state only."""
+        if self.cp_state != "auto":
+            return self.cp_state
+        return "corrected" if self.state == "dr" else "position"
 
     def __post_init__(self) -> None:
         if not 2.5 <= self.k0 <= 3.5:
@@ -225,11 +233,11 @@ class FusionParams:
                 raise ValueError(f"{name} = {getattr(self, name)}, expected > 0")
         if self.state not in ("dr", "position"):
             raise ValueError(f"state = {self.state!r}, expected 'dr' or 'position'")
-        if self.cp_state not in ("position", "corrected", "dr"):
+        if self.cp_state not in ("auto", "position", "corrected", "dr"):
             raise ValueError(
-                f"cp_state = {self.cp_state!r}, expected 'position', 'corrected' or 'dr'"
+                f"cp_state = {self.cp_state!r}, expected 'auto', 'position', 'corrected' or 'dr'"
             )
-        if self.cp_state != "position" and self.state != "dr":
+        if self.cp_state not in ("auto", "position") and self.state != "dr":
             raise ValueError(f"cp_state = {self.cp_state!r} needs state = 'dr' (its DR states)")
         for name in (
             "dr_position_sigma_mps", "dr_distance_noise_m", "dr_heading_noise_deg",

@@ -66,11 +66,11 @@ class DISmoothingParams:
         },
     )
     dr_states: bool = field(
-        default=False,
+        default=True,
         metadata={
             "help": "true: DR DI from the followers' navigation corrected by the causal "
-            "fusion's DR states (heading and scale; shared/dr_corrected.py); false: the "
-            "navigation as recorded (paper 000)"
+            "fusion's DR states (heading and scale; shared/dr_corrected.py; a follower with "
+            "one partner keeps its own); false: the navigation as recorded (paper 000)"
         },
     )
     gate_sigma: float = field(

@@ -22,7 +22,11 @@ def test_cp_state_is_checked() -> None:
         FusionParams(cp_state="kalman")
     with pytest.raises(ValueError, match="needs state = 'dr'"):
         FusionParams(cp_state="corrected", state="position")
-    assert FusionParams().cp_state == "position"  # paper 000's solution by default
+    # by default the corrected navigation with DR states, paper 000's own with the
+    # position state (docs/methods-ranging.md#cp-state)
+    assert FusionParams().cp_mode == "corrected"
+    assert FusionParams(state="position").cp_mode == "position"
+    assert FusionParams(cp_state="position").cp_mode == "position"
 
 
 def _turned(traj: Trajectory, rate_deg_per_s: float) -> Trajectory:
