@@ -151,9 +151,14 @@ def _platform_shifts(
     ]  # fmt: skip
     for plat, partner, sign, at in ends:
         key = plat * (int(bins.max()) + 1) + bins[at]
-        for k in np.unique(key[rejected[at] & ~np.isin(plat, fixed)]):
-            here = key == k  # a platform's span with a rejected range
-            sel, part = at[here], partner[here]
+        cand = np.unique(key[rejected[at] & ~np.isin(plat, fixed)])
+        # only the candidate spans' rows, grouped by span (a day has millions of ranges
+        # and a few thousand rejected)
+        keep = np.flatnonzero(np.isin(key, cand))
+        order = keep[np.argsort(key[keep], kind="stable")]
+        starts = np.flatnonzero(np.r_[True, np.diff(key[order]) != 0])
+        for group in np.split(order, starts[1:]) if order.size else []:
+            sel, part = at[group], partner[group]  # a platform's span with a rejected range
             if np.unique(part).shape[0] < 3 or np.unique(part[rejected[sel]]).shape[0] < 2:
                 continue  # a shift fits two partners' residuals whatever they are
             jac = sign * unit[sel]  # d rho / d (this end's position)
