@@ -36,6 +36,8 @@ paper 002 and 003 write it).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -102,10 +104,11 @@ def smoothed_gammas(
     gamma[use] = igg3_factor(standardized[use], k0, k1)
     if epoch_time is not None:
         unit = diff / rho[:, None]
-        readmit, post = _platform_shifts(
-            epoch_time[epoch], a, b, obs["anchor"].astype(np.int64), kind, use, unit,
-            resid_m, np.sqrt(obs["var"]) * sigma, gamma, k0,
+        residuals = _Residuals(
+            epoch_time[epoch], a, b, obs["anchor"].astype(np.int64), kind, use, unit, resid_m,
+            np.sqrt(obs["var"]) * sigma,
         )  # fmt: skip
+        readmit, post = _platform_shifts(residuals, gamma, k0)
         gamma[readmit] = 1.0
         # their decision is taken from the residual with the end shifted
         resid_m[readmit] = post
@@ -118,36 +121,44 @@ def smoothed_gammas(
 SHIFT_WINDOW_S = 5.0
 
 
+@dataclass(frozen=True)
+class _Residuals:
+    """Every observation's residual against the smoothed solution, with what the
+    platform rule needs: time (s), ends, anchor code, kind, whether it was judged, the
+    unit vector from ``b`` (or the anchor) to ``a``, the residual (m) and its
+    standardizing sigma (m: the observation's sigma times the MAD unit sigma)."""
+
+    time_s: FloatArray
+    a: NDArray[np.int64]
+    b: NDArray[np.int64]
+    anchor: NDArray[np.int64]
+    kind: NDArray[np.int64]
+    use: NDArray[np.bool_]
+    unit: FloatArray
+    resid: FloatArray
+    scale: FloatArray
+
+
 def _platform_shifts(
-    time_s: FloatArray,
-    a: NDArray[np.int64],
-    b: NDArray[np.int64],
-    anchor: NDArray[np.int64],
-    kind: NDArray[np.int64],
-    use: NDArray[np.bool_],
-    unit: FloatArray,
-    resid: FloatArray,
-    scale: FloatArray,
-    gamma: FloatArray,
-    k0: float,
+    r: _Residuals, gamma: FloatArray, k0: float
 ) -> tuple[NDArray[np.int64], FloatArray]:
     """The rejected ranges that a shift of one of their ends explains (module doc), and
     their residuals (m) with that shift."""
-    rejected = use & (gamma < 1.0)
+    rejected = r.use & (gamma < 1.0)
     out: list[np.ndarray] = []
     post_m: list[np.ndarray] = []
     none = (np.zeros(0, dtype=np.int64), np.zeros(0))
     if np.count_nonzero(rejected) < 2:
         return none
-    rows = np.flatnonzero(use)
-    bins = np.floor(time_s / SHIFT_WINDOW_S).astype(np.int64)
+    rows = np.flatnonzero(r.use)
+    bins = np.floor(r.time_s / SHIFT_WINDOW_S).astype(np.int64)
     bins -= bins.min()
-    fixed = np.unique(a[kind == OBS_POSITION])  # leaders: their own fixes place them
+    fixed = np.unique(r.a[r.kind == OBS_POSITION])  # leaders: their own fixes place them
     # each range once per moving end: (platform, partner code, sign of d rho / d x)
     ends = [
-        (a[rows], np.where(kind[rows] == OBS_RANGE, b[rows], -1 - anchor[rows]), 1.0, rows),
-        (b[rows[kind[rows] == OBS_RANGE]], a[rows[kind[rows] == OBS_RANGE]], -1.0,
-         rows[kind[rows] == OBS_RANGE]),
+        (r.a[rows], np.where(r.kind[rows] == OBS_RANGE, r.b[rows], -1 - r.anchor[rows]), 1.0, rows),
+        (r.b[rows[r.kind[rows] == OBS_RANGE]], r.a[rows[r.kind[rows] == OBS_RANGE]], -1.0,
+         rows[r.kind[rows] == OBS_RANGE]),
     ]  # fmt: skip
     for plat, partner, sign, at in ends:
         key = plat * (int(bins.max()) + 1) + bins[at]
@@ -161,10 +172,10 @@ def _platform_shifts(
             sel, part = at[group], partner[group]  # a platform's span with a rejected range
             if np.unique(part).shape[0] < 3 or np.unique(part[rejected[sel]]).shape[0] < 2:
                 continue  # a shift fits two partners' residuals whatever they are
-            jac = sign * unit[sel]  # d rho / d (this end's position)
-            w = 1.0 / scale[sel]
-            delta = np.linalg.lstsq(jac * w[:, None], resid[sel] * w, rcond=None)[0]
-            post = resid[sel] - jac @ delta
+            jac = sign * r.unit[sel]  # d rho / d (this end's position)
+            w = 1.0 / r.scale[sel]
+            delta = np.linalg.lstsq(jac * w[:, None], r.resid[sel] * w, rcond=None)[0]
+            post = r.resid[sel] - jac @ delta
             if np.all(np.abs(post * w) < k0):
                 out.append(sel[rejected[sel]])
                 post_m.append(post[rejected[sel]])
