@@ -31,7 +31,7 @@ from coopproc.stages.fusion.leave_out import leave_pair_out
 from coopproc.stages.fusion.range_digest import range_rows_digest
 from coopproc.stages.fusion.range_weights import range_weights_frame
 from coopproc.stages.shared.data import range_sigma_default, shared_nav
-from coopproc.stages.shared.dr_corrected import corrected_session, judged_by_others
+from coopproc.stages.shared.dr_corrected import corrected_by_others
 
 __all__ = ["FUSION", "fusion_stage"]
 
@@ -141,12 +141,10 @@ def _cp_solution(
     if inp.output == "ranges" and _cp_is_main(params):
         return fused, cal, inp.session
     session = inp.session
-    states = fused.dr_states_forward
-    if params.cp_mode == "corrected" and states is not None:
+    if params.cp_mode == "corrected" and fused.dr_states_forward is not None:
         # a follower with one partner keeps its own navigation: its states are fitted to
         # that pair's ranges alone (dr_corrected.judged_by_others)
-        states = states[states["platform"].isin(judged_by_others(inp.session))]
-        session = corrected_session(inp.session, states)
+        session = corrected_by_others(inp.session, fused.dr_states_forward)
     at_ranges, cp_cal = calibrated_fuse(
         session, inp.ranges, _cp_params(params), output="ranges", smoothed_sigma=False
     )

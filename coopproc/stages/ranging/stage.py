@@ -66,7 +66,7 @@ from coopproc.stages.ranging.output_columns import OutputColumns, compensated
 from coopproc.stages.ranging.pair import PairInputs, kernel_params, prepare_pair
 from coopproc.stages.ranging.tracks import PlatformTracks
 from coopproc.stages.ranging.twoway import filter_distance_two_way
-from coopproc.stages.shared.dr_corrected import corrected_session, judged_by_others
+from coopproc.stages.shared.dr_corrected import corrected_by_others
 
 __all__ = [
     "PairCalibration",
@@ -288,14 +288,8 @@ def run_ranging(
     corrected = {}
     if dr_states is not None and config.di.dr_states:
         # the followers whose states other pairs' ranges fit too (dr_corrected.py)
-        fitted = judged_by_others(session)
-        states = dr_states[dr_states["platform"].isin(fitted)]
-        fixed = corrected_session(session, states)
-        corrected = {
-            p: fixed.nav[p]
-            for p in sorted(states["platform"].unique().astype(str))
-            if p in fixed.nav
-        }
+        fixed = corrected_by_others(session, dr_states)
+        corrected = {p: t for p, t in fixed.nav.items() if t is not session.nav[p]}
     tracks = PlatformTracks(session, config, session.ranges.pairs, corrected)
 
     def prepared(pair: str) -> PairInputs:

@@ -38,7 +38,7 @@ import pandas as pd
 from coopproc.model import Session, Trajectory
 from coopproc.names import pair_members
 
-__all__ = ["corrected_navigation", "corrected_session", "judged_by_others"]
+__all__ = ["corrected_by_others", "corrected_navigation", "corrected_session", "judged_by_others"]
 
 
 def corrected_navigation(traj: Trajectory, states: pd.DataFrame) -> Trajectory:
@@ -94,3 +94,10 @@ def judged_by_others(session: Session) -> frozenset[str]:
         partners.setdefault(a, set()).add(b)
         partners.setdefault(b, set()).add(a)
     return frozenset(p for p, others in partners.items() if len(others) >= 2)
+
+
+def corrected_by_others(session: Session, states: pd.DataFrame) -> Session:
+    """:func:`corrected_session` by the states of the platforms that
+    :func:`judged_by_others` names only: what the DR DI and the ``corrected`` CP solution
+    take."""
+    return corrected_session(session, states[states["platform"].isin(judged_by_others(session))])
