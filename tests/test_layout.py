@@ -4,6 +4,7 @@ families' rooms under stages, no import cycle, module size."""
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -258,3 +259,57 @@ def test_each_registry_entry_lives_in_its_family_room() -> None:
     for name, stage in stages.items():
         room = STAGE_ROOMS[name.split("_")[0]]
         assert _stages_part(stage.run.__module__) == room, (name, stage.run.__module__)
+
+
+#: the range model (coopproc/estimation/range_model.py) written again: a floored sum of
+#: squares under a root, a root of component squares, the length of a difference
+RANGE_FORMULAS = (
+    re.compile(r"sqrt\(\s*(?:np\.)?max(?:imum)?\(\s*sq\b"),
+    re.compile(r"sqrt\((\w+(?:\[[^]]*\])?) \* \1 \+ (\w+(?:\[[^]]*\])?) \* \2"),
+    re.compile(r"(?:hypot|linalg\.norm)\((?=[^#]*\w\s-\s)"),
+)
+#: where such a formula measures something else than a predicted range: (module, code)
+NOT_RANGES = {
+    ("stages/fusion/ekf.py", "travel = np.sqrt(ue * ue + un * un)"),  # a step's length
+    ("stages/particle/aco.py", "np.sqrt(max(ex * ex + ey * ey, min2))"),  # particle spacing
+    ("stages/anchors/anchor_lsq.py", "np.linalg.norm(np.nan_to_num(xm - x)"),  # two fixes
+    ("stages/anchors/anchor_lsq.py", "np.linalg.norm(xm - ref, axis=1)"),  # fix to reference
+    ("stages/anchors/anchor_lsq.py", "np.linalg.norm(x - anchors[:, :dim].mean"),  # to centroid
+    ("stages/gnss/tight_ins.py", "np.linalg.norm(pts - pts[0]"),  # spread of start points
+    ("stages/particle/locate.py", "np.hypot(tr.east_m - ref_en"),  # error against reference
+    ("checks/framecheck.py", "np.linalg.norm(moved[:, :2] - obs.p[:, :2]"),  # the correction
+    ("run/stochastic.py", "np.linalg.norm(mean - centre"),  # gyro rates
+    ("run/stochastic.py", "np.linalg.norm(b - a, axis=1)"),  # a displacement
+    ("run/positions_table.py", "np.hypot(enu[:, 0] - truth[:, 0]"),  # error against truth
+}
+#: the packages whose estimators predict ranges (the simulator and GNSS pseudoranges aside)
+RANGE_USERS = ("stages", "ins", "checks", "run")
+
+
+def test_the_range_model_has_one_definition() -> None:
+    """Every predicted UWB range is estimation.range_model's (issue 34 part 1)."""
+    found = []
+    for path in _modules():
+        rel = path.relative_to(ROOT).as_posix()
+        if rel.split("/")[0] not in RANGE_USERS:
+            continue
+        for no, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            code = line.split("#")[0]
+            if any(p.search(code) for p in RANGE_FORMULAS) and not any(
+                m == rel and frag in code for m, frag in NOT_RANGES
+            ):
+                found.append(f"{rel}:{no}: {code.strip()}")
+    assert not found, "range formulas outside estimation/range_model.py:\n" + "\n".join(found)
+
+
+def test_the_range_formula_finder_finds_them() -> None:
+    for code in (
+        "rho = np.sqrt(max(sq, 1e-12))",
+        "d = np.sqrt(dx * dx + dy * dy) - z[j]",
+        "dist = np.linalg.norm(pos1_m - pos2_m, axis=1)",
+        "d_hat = np.hypot(cloud.east - ax, cloud.north - ay)",
+    ):
+        assert any(p.search(code) for p in RANGE_FORMULAS), code
+    assert not any(
+        p.search("step = np.linalg.norm(np.diff(p, axis=0), axis=1)") for p in RANGE_FORMULAS
+    )

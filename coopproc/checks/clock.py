@@ -57,6 +57,7 @@ from coopproc.checks.clock_ref import reference_offset
 from coopproc.checks.clock_refine import BLOCKS_S, refine
 from coopproc.checks.clock_words import BOUND_S, clock_facts, clock_lines, likely_cause, name_of
 from coopproc.clocks import ClockReport, TimeOffset
+from coopproc.estimation.range_model import slant_ranges
 from coopproc.model import FloatArray, RangeTable, Session, Trajectory, pair_members
 
 __all__ = [
@@ -225,7 +226,7 @@ def _misfit(
             ends.append(
                 v.interpolate(p.time_s + offsets.get(pid, 0.0)) if isinstance(v, Trajectory) else v
             )
-        r = p.range_m - np.linalg.norm(ends[0] - ends[1], axis=1)
+        r = p.range_m - slant_ranges(ends[0] - ends[1])
         r = r[np.isfinite(r)]
         if r.size < 4:
             continue

@@ -43,6 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from coopproc.estimation.range_model import slant_ranges
 from coopproc.model import FloatArray, Trajectory
 
 __all__ = [
@@ -220,7 +221,7 @@ def common_lag(
         for pid in (pair.a, pair.b):
             if pid not in cache:
                 cache[pid] = _nav_grid(positions, pid, grid)
-        d = np.linalg.norm(cache[pair.a] - cache[pair.b], axis=1)
+        d = slant_ranges(cache[pair.a] - cache[pair.b])
         xs.append(_rate(_on_grid(pair.time_s, pair.range_m, grid, _gap_of(pair.time_s)), h))
         ys.append(_rate(d, h))
     return _best(*lag_correlation(xs, ys, h), h, len(xs))
@@ -259,7 +260,7 @@ def platform_lag(
         else:
             pq = _nav_grid(positions, other, grid)
         x = _rate(_on_grid(pair.time_s, pair.range_m, grid, _gap_of(pair.time_s)), h)
-        y = _rate(np.linalg.norm(shifted - pq[None, :, :], axis=2), h)
+        y = _rate(slant_ranges(shifted - pq[None, :, :]), h)
         mx, my = np.isfinite(x), np.isfinite(y)
         both = mx[None, :] & my
         xv, yv = np.where(mx, x, 0.0)[None, :], np.where(my, y, 0.0)

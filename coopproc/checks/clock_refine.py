@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from coopproc.checks.clock_fit import PairData, velocity
+from coopproc.estimation.range_model import slant_ranges_units
 from coopproc.model import FloatArray, Trajectory
 
 __all__ = ["BLOCKS_S", "HUBER_K", "Fit", "Motion", "demean", "ess_factor", "refine"]
@@ -116,9 +117,7 @@ def refine(
                     pos[r], vel[r] = motion[pid].at(t[r] + tau[pid])
                 elif not isinstance(src, Trajectory):  # an anchor
                     pos[r] = src
-        diff = pa - pb
-        d = np.linalg.norm(diff, axis=1)
-        u = diff / np.maximum(d, 1e-9)[:, None]
+        d, u = slant_ranges_units(pa - pb)
         jac = np.zeros((t.shape[0], len(free)))
         for pid, j in index.items():
             ra, rb = rows[pid]

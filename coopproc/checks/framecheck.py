@@ -36,6 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
+from coopproc.estimation.range_model import slant_ranges, slant_ranges_units
 from coopproc.model import FloatArray, Session
 
 __all__ = [
@@ -217,20 +218,19 @@ def _moved(x: FloatArray, p: FloatArray, centre: FloatArray) -> FloatArray:
 
 def _residuals(x: FloatArray, obs: _Obs, centre: FloatArray) -> FloatArray:
     moved = _moved(x, obs.p, centre)
-    return np.asarray(obs.range_m - np.linalg.norm(moved - obs.q, axis=1), dtype=np.float64)
+    return np.asarray(obs.range_m - slant_ranges(moved - obs.q), dtype=np.float64)
 
 
 def _jacobian(x: FloatArray, obs: _Obs, centre: FloatArray) -> FloatArray:
     """d residual / d (rotation, shift east, shift north), (n, 3)."""
     c, s = np.cos(x[0]), np.sin(x[0])
     d = obs.p[:, :2] - centre
-    diff = _moved(x, obs.p, centre) - obs.q
-    rho = np.maximum(np.linalg.norm(diff, axis=1), 1e-9)
+    _, unit = slant_ranges_units(_moved(x, obs.p, centre) - obs.q)
     turn = np.column_stack([-s * d[:, 0] - c * d[:, 1], c * d[:, 0] - s * d[:, 1]])
-    jac = np.empty((d.shape[0], 3))
-    jac[:, 0] = -np.sum(diff[:, :2] * turn, axis=1) / rho
-    jac[:, 1] = -diff[:, 0] / rho
-    jac[:, 2] = -diff[:, 1] / rho
+    jac = np.empty((d.shape[0], 3))  # the range model's unit vector through the move
+    jac[:, 0] = -np.sum(unit[:, :2] * turn, axis=1)
+    jac[:, 1] = -unit[:, 0]
+    jac[:, 2] = -unit[:, 1]
     return jac
 
 
@@ -270,7 +270,8 @@ def _grid_starts(obs: _Obs, centre: FloatArray) -> list[FloatArray]:
         rotated = centre + np.column_stack([c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1]])
         east = rotated[None, :, 0] + shifts[:, None, 0] - sub.q[None, :, 0]
         north = rotated[None, :, 1] + shifts[:, None, 1] - sub.q[None, :, 1]
-        cost = np.mean(np.abs(sub.range_m - np.sqrt(east * east + north * north + dz2)), axis=1)
+        rho = slant_ranges(np.stack([east, north], axis=-1), dz2)
+        cost = np.mean(np.abs(sub.range_m - rho), axis=1)
         best = int(np.argmin(cost))
         coarse.append((float(cost[best]), np.array([theta, *shifts[best]])))
     coarse.sort(key=lambda item: item[0])

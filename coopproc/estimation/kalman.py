@@ -9,11 +9,13 @@ H design matrix, R observation covariance, V innovation, G gain, gamma robust fa
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
+from coopproc.estimation.linalg import cholesky_solve_nb
 from coopproc.model import FloatArray
 
-__all__ = ["kf_predict", "kf_update", "rts_step"]
+__all__ = ["kf_predict", "kf_update", "rts_backward_nb", "rts_step"]
 
 
 def kf_predict(
@@ -79,3 +81,24 @@ def rts_step(
     x_s = x_f + a @ (x_s_next - x_p_next)
     c_s = c_f + a @ (c_s_next - c_p_next) @ a.T
     return x_s, 0.5 * (c_s + c_s.T)
+
+
+@numba.njit(cache=True)
+def rts_backward_nb(
+    xf: FloatArray, cf: FloatArray, xp: FloatArray, cp: FloatArray, fs: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """:func:`rts_step` over a whole forward pass, compiled: filtered X, C (K, n), (K, n, n),
+    predicted X, C and the transitions ``fs[k + 1]`` from k to k + 1; returns the smoothed
+    X and C. The smoother of the anchors' and the odometer's linear filters; the INS
+    error state (closed loop) and the cooperative fusion (checkpointed MBF) have their
+    own forms of it (:mod:`coopproc.ins.smoother`, :mod:`coopproc.stages.fusion.smoother`).
+    """
+    k_n = xf.shape[0]
+    xs = xf.copy()
+    cs = cf.copy()
+    for k in range(k_n - 2, -1, -1):
+        a = cholesky_solve_nb(cp[k + 1], fs[k + 1] @ cf[k]).T  # C_k F^T (C^-_{k+1})^-1
+        xs[k] = xf[k] + a @ (xs[k + 1] - xp[k + 1])
+        ck = cf[k] + a @ (cs[k + 1] - cp[k + 1]) @ a.T
+        cs[k] = 0.5 * (ck + ck.T)
+    return xs, cs

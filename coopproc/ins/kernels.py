@@ -15,6 +15,7 @@ from collections.abc import Callable
 import numba
 import numpy as np
 
+from coopproc.estimation.range_model import lever_arm_row, range_unit
 from coopproc.estimation.robust import GAMMA_REJECT, igg3_scalar
 from coopproc.ins.earth import ecef_to_enu_matrix, llh_to_ecef
 from coopproc.ins.errorstate import N_BASE, ErrorStateEkf
@@ -120,13 +121,10 @@ def _event(
         for j in range(3):
             dd[i] += c_en[i, j] * (r_ins[j] - r_pt[j])
     if kind == 0:
-        rho = np.sqrt(dd[0] * dd[0] + dd[1] * dd[1] + dd[2] * dd[2])
-        u = dd / max(rho, 1e-9)
-        # u^T [cl x] = (u x cl)^T
+        u = np.zeros(3)
+        rho = range_unit(dd, 0.0, u)
         h[0], h[1], h[2] = u[0], u[1], u[2]
-        h[6] = u[1] * cl[2] - u[2] * cl[1]
-        h[7] = u[2] * cl[0] - u[0] * cl[2]
-        h[8] = u[0] * cl[1] - u[1] * cl[0]
+        lever_arm_row(u, cl, h[6:9])  # u^T [cl x] = (u x cl)^T
         vu = u[0] * nav[3] + u[1] * nav[4] + u[2] * nav[5]
         _update(p, x, h, rho - d[3] + vu * dte, d[4] * d[4], robust, stats, 0)
         h[:] = 0.0

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from coopproc.estimation.range_model import lever_arm_row, range_unit
 from coopproc.ins.earth import ecef_to_enu_matrix, llh_to_ecef
 from coopproc.ins.errorstate import ATT, BG, N_BASE, POS, VEL, Measurement
 from coopproc.ins.quat import quat_to_dcm, skew
@@ -59,11 +60,11 @@ def range_update(
     from the anchor to the antenna."""
     ant, c_en, cl = antenna_ecef(nav, lever_b)
     d = c_en @ (ant - llh_to_ecef(anchor_llh[0], anchor_llh[1], anchor_llh[2]))
-    rho = float(np.linalg.norm(d))
-    u = d / max(rho, 1e-9)
+    u = np.zeros(3)
+    rho = float(range_unit(d, 0.0, u))
     h = np.zeros((1, N_BASE))
     h[0, POS] = u
-    h[0, ATT] = u @ skew(cl)
+    lever_arm_row(u, cl, h[0, ATT])  # u^T [cl x]
     return Measurement(np.array([rho - range_m]), h, np.array([sigma_m**2]))
 
 

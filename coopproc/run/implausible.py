@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from coopproc.estimation.range_model import slant_ranges
 from coopproc.io.plausible import bounds_of
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.stages.base import PositionProduct
@@ -139,4 +140,4 @@ def _misfit(traj: Trajectory, rows: tuple[FloatArray, FloatArray, FloatArray] | 
     if not inside.any():
         return float("nan")
     p = np.stack([np.interp(t[inside], traj.time_s, traj.enu_m[:, i]) for i in range(3)], 1)
-    return float(np.nanmedian(np.abs(r[inside] - np.linalg.norm(p - xyz[inside], axis=1))))
+    return float(np.nanmedian(np.abs(r[inside] - slant_ranges(p - xyz[inside]))))

@@ -34,6 +34,7 @@ import numba
 import numpy as np
 import pandas as pd
 
+from coopproc.estimation.range_model import range_unit
 from coopproc.estimation.robust import igg3_scalar, mad_sigma_nb
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.stages.anchors.anchor_lsq import anchor_fixes
@@ -88,14 +89,10 @@ def _forward(
         c = f @ c @ f.T + qm
         xp[k], cp[k] = x, c
         h = np.zeros(n)
-        sq = 0.0
         for i in range(d):
             h[i] = x[i] - anchor[k, i]
-            sq += h[i] * h[i]
-        if d == 2:
-            sq += (up[k] - anchor[k, 2]) ** 2
-        rho = np.sqrt(max(sq, 1e-12))
-        h /= rho
+        dz2 = (up[k] - anchor[k, 2]) ** 2 if d == 2 else 0.0
+        rho = range_unit(h[:d], dz2, h[:d])
         v = rng[k] - rho
         ch = c @ h
         s = h @ ch + var[k]

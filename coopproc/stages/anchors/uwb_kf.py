@@ -27,7 +27,9 @@ from collections.abc import Mapping
 import numba
 import numpy as np
 
+from coopproc.estimation.kalman import rts_backward_nb
 from coopproc.estimation.linalg import cholesky_solve_nb
+from coopproc.estimation.process_models import cv_transition
 from coopproc.estimation.robust import igg3_scalar, mad_sigma_nb
 from coopproc.model import FloatArray, Trajectory
 from coopproc.stages.shared.lsq import LsqFixes, LsqParams
@@ -42,16 +44,7 @@ V0_SIGMA_MPS = 2.0
 
 @numba.njit(cache=True)
 def _transition(dt: float, d: int, q: float) -> tuple[FloatArray, FloatArray]:
-    n = 2 * d
-    f = np.eye(n)
-    qm = np.zeros((n, n))
-    for i in range(d):
-        f[i, d + i] = dt
-        qm[i, i] = q * dt**3 / 3.0
-        qm[i, d + i] = q * dt**2 / 2.0
-        qm[d + i, i] = q * dt**2 / 2.0
-        qm[d + i, d + i] = q * dt
-    return f, qm
+    return cv_transition(dt, np.full(d, q))  # the same PSD on every axis
 
 
 @numba.njit(cache=True)
@@ -135,16 +128,11 @@ def _forward(
 def _backward(
     t: FloatArray, xf: FloatArray, cf: FloatArray, xp: FloatArray, cp: FloatArray, d: int
 ) -> tuple[FloatArray, FloatArray]:
-    k_n = t.shape[0]
-    xs = xf.copy()
-    cs = cf.copy()
-    for k in range(k_n - 2, -1, -1):
-        f, _ = _transition(t[k + 1] - t[k], d, 0.0)
-        a = cholesky_solve_nb(cp[k + 1], f @ cf[k]).T  # C_k F^T (C^-_{k+1})^-1
-        xs[k] = xf[k] + a @ (xs[k + 1] - xp[k + 1])
-        ck = cf[k] + a @ (cs[k + 1] - cp[k + 1]) @ a.T
-        cs[k] = 0.5 * (ck + ck.T)
-    return xs, cs
+    """RTS (paper 003 sec. 2.8) with the constant-velocity transitions between ``t``."""
+    fs = np.zeros((t.shape[0], 2 * d, 2 * d))
+    for k in range(1, t.shape[0]):
+        fs[k] = _transition(t[k] - t[k - 1], d, 0.0)[0]
+    return rts_backward_nb(xf, cf, xp, cp, fs)
 
 
 def _observations(fix: LsqFixes, use_velocity: bool) -> tuple[FloatArray, FloatArray, np.ndarray]:

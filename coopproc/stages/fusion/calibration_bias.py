@@ -31,6 +31,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from coopproc.estimation.range_model import slant_ranges
 from coopproc.model import FloatArray, Session, pair_members, pair_name
 from coopproc.stages.fusion.fuse import FusionOutput, FusionParams, fuse
 from coopproc.stages.shared.data import anchor_positions
@@ -99,7 +100,7 @@ def residuals_by_row(session: Session, fused: FusionOutput, ranges: pd.DataFrame
             if end == "from":
                 start[rows] = x
             else:
-                resid[rows] = value[rows] - np.linalg.norm(start[rows] - x, axis=1)
+                resid[rows] = value[rows] - slant_ranges(start[rows] - x)
     return resid
 
 

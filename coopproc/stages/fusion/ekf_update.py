@@ -18,6 +18,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from coopproc.estimation.range_model import range_unit
 from coopproc.model import FloatArray
 
 __all__ = [
@@ -54,20 +55,15 @@ def _observe(
         idx[0] = a * dim + b
         val[0] = 1.0
         return x[a * dim + b], 1
-    sq = dz2
     for ax in range(dim):
         if kind == OBS_RANGE:
-            diff = x[a * dim + ax] - x[b * dim + ax] - anchor[ax]
+            val[ax] = x[a * dim + ax] - x[b * dim + ax] - anchor[ax]
         else:
-            diff = x[a * dim + ax] - anchor[ax]
-        val[ax] = diff
-        sq += diff * diff
-    rho = np.sqrt(max(sq, 1e-12))
+            val[ax] = x[a * dim + ax] - anchor[ax]
+    rho = range_unit(val[:dim], dz2, val[:dim])  # d rho / d x_a = (x_a - x_b) / rho
     count = 0
     for ax in range(dim):
-        unit = val[ax] / rho  # d rho / d x_a = (x_a - x_b) / rho
         idx[count] = a * dim + ax
-        val[count] = unit
         count += 1
     if kind == OBS_RANGE:
         for ax in range(dim):

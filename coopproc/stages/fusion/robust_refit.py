@@ -41,6 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from coopproc.estimation.range_model import slant_ranges
 from coopproc.estimation.robust import MAD_SCALE, igg3_factor
 from coopproc.model import FloatArray
 from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_POSITION, OBS_RANGE
@@ -91,7 +92,7 @@ def smoothed_gammas(
     offset = obs["anchor_table"][obs["anchor"].astype(np.int64), :dim]
     xa = xs[at_a]
     diff = np.where((kind == OBS_RANGE)[:, None], xa - xs[at_b] - offset, xa - offset)
-    rho = np.sqrt(np.maximum(np.sum(diff * diff, axis=1) + obs["dz2"], 1e-12))
+    rho = slant_ranges(diff, obs["dz2"])
     resid_m = obs["z"] - rho
     resid = resid_m / np.sqrt(obs["var"])
     gamma = gamma_forward.copy()

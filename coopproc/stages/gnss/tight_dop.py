@@ -15,6 +15,7 @@ from collections.abc import Callable, Mapping
 import numpy as np
 import pandas as pd
 
+from coopproc.estimation.range_model import slant_ranges_units
 from coopproc.gnss.tight import GnssEpochs, LocalFrame, epoch_model, pdop
 from coopproc.model import FloatArray
 from coopproc.stages.gnss.tight_filter import RangeRows, TrackOutput
@@ -68,10 +69,9 @@ def dop_table(
                 )
                 if there is None:
                     continue
-                d = there - pos
-                dist = float(np.linalg.norm(d))
-                if dist > 1e-3:
-                    units[other] = d / dist
+                dist, unit = slant_ranges_units(there - pos)
+                if float(dist) > 1e-3:
+                    units[other] = unit
             u = np.array(list(units.values())).reshape(-1, 3)
             rows.append((t, pid, int(los.shape[0]), len(units), pdop(los), pdop(los, u)))
     return pd.DataFrame(rows, columns=list(DOP_COLUMNS))

@@ -44,14 +44,35 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from coopproc.estimation.kalman import kf_update
+from coopproc.estimation.process_models import cv_transition
+from coopproc.estimation.range_model import slant_ranges_units
 from coopproc.estimation.robust import igg3_factor
 from coopproc.gnss.ephemeris import SPEED_OF_LIGHT
 from coopproc.gnss.tight import GnssEpochs, LocalFrame, epoch_model
 from coopproc.model import FloatArray
 
-__all__ = ["CvTrack", "RangeRows", "TightOptions", "TrackOutput", "run_tight"]
+__all__ = [
+    "CvTrack",
+    "RangeRows",
+    "TightOptions",
+    "TrackOutput",
+    "clock_transition",
+    "run_tight",
+]
 
 _H0, _H2 = 2e-19, 2e-20  # TCXO Allan-variance coefficients (Brown & Hwang Table 9.1)
+
+
+def clock_transition(dt: float) -> tuple[FloatArray, FloatArray]:
+    """F and Q of the receiver clock [bias; drift] (m, m/s) over ``dt``: the constant-
+    velocity model of the drift's noise c^2 2 pi^2 h_-2 plus the bias's white noise
+    c^2 h_0 / 2 (Brown & Hwang sec. 9.3, the TCXO of :data:`_H0`, :data:`_H2`)."""
+    sb, sd = SPEED_OF_LIGHT**2 * _H0 / 2.0, SPEED_OF_LIGHT**2 * 2.0 * np.pi**2 * _H2
+    f, q = cv_transition(dt, np.array([sd]))
+    q[0, 0] = sb * dt + q[0, 0]
+    return f, q
+
+
 #: fewest rows of a GPS epoch for the residual test (fewer: the innovation test)
 _EPOCH_MIN = 5
 #: robust re-weighting iterations of a GPS epoch at most
@@ -175,17 +196,9 @@ class CvTrack:
         if dt <= 0.0:
             return
         f = np.eye(8)
-        f[0, 3] = f[1, 4] = f[2, 5] = dt
-        f[6, 7] = dt
         q = np.zeros((8, 8))
-        for i, qa in ((0, opt.q_h), (1, opt.q_h), (2, opt.q_v)):
-            q[i, i] = qa * dt**3 / 3.0
-            q[i, i + 3] = q[i + 3, i] = qa * dt**2 / 2.0
-            q[i + 3, i + 3] = qa * dt
-        sb, sd = SPEED_OF_LIGHT**2 * _H0 / 2.0, SPEED_OF_LIGHT**2 * 2.0 * np.pi**2 * _H2
-        q[6, 6] = sb * dt + sd * dt**3 / 3.0
-        q[6, 7] = q[7, 6] = sd * dt**2 / 2.0
-        q[7, 7] = sd * dt
+        f[:6, :6], q[:6, :6] = cv_transition(dt, np.array([opt.q_h, opt.q_h, opt.q_v]))
+        f[6:, 6:], q[6:, 6:] = clock_transition(dt)
         self.x = f @ self.x
         c = f @ self.c @ f.T + q
         self.c = 0.5 * (c + c.T)
@@ -292,11 +305,10 @@ def _range_update(
     sigma: float,
     opt: TightOptions,
 ) -> None:
-    d = track.uwb_pos() - other
-    dist = float(np.linalg.norm(d))
+    rho, u = slant_ranges_units(track.uwb_pos() - other)
+    dist = float(rho)
     if dist < 1e-3:
         return
-    u = d / dist
     r = np.array([sigma**2 + float(u @ other_cov @ u)])
     _update(track, np.array([rng - dist]), track.h_range(u), r, opt)
     track.feedback()

@@ -40,7 +40,7 @@ import numpy as np
 import pandas as pd
 
 from coopproc.errors import StageError
-from coopproc.gnss.ephemeris import SPEED_OF_LIGHT
+from coopproc.estimation.process_models import cv_transition
 from coopproc.gnss.tight import GnssEpochs, LocalFrame
 from coopproc.ins.aiding import rad_llh
 from coopproc.ins.align import Alignment
@@ -52,14 +52,13 @@ from coopproc.ins.propagation import apply_correction_nb, continuous_noise, phi_
 from coopproc.ins.quat import quat_to_dcm, quat_to_euler, skew
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.sensors import ImuData
-from coopproc.stages.gnss.tight_filter import CvTrack, TightOptions
+from coopproc.stages.gnss.tight_filter import CvTrack, TightOptions, clock_transition
 
 __all__ = ["COV_EVERY", "InsTrack", "track_factory"]
 
 #: covariance propagation every that many IMU samples (and at every update)
 COV_EVERY = 10
 _N = 15
-_H0, _H2 = 2e-19, 2e-20  # the CV filter's TCXO clock
 
 
 @numba.njit(cache=True)
@@ -211,18 +210,13 @@ class InsTrack(CvTrack):
         extra = t - max(self.t, float(self.imu_t[-1]))
         if extra > 0.0:  # past the last IMU sample: constant velocity, the CV filter's noise
             phi_x = np.eye(_N)
-            phi_x[0:3, 3:6] = extra * np.eye(3)
-            qa = np.array([opt.q_h, opt.q_h, opt.q_v])
             q_x = np.zeros((_N, _N))
-            q_x[0:3, 0:3] = np.diag(qa * extra**3 / 3.0)
-            q_x[0:3, 3:6] = q_x[3:6, 0:3] = np.diag(qa * extra**2 / 2.0)
-            q_x[3:6, 3:6] = np.diag(qa * extra)
+            cv = cv_transition(extra, np.array([opt.q_h, opt.q_h, opt.q_v]))
+            phi_x[0:6, 0:6], q_x[0:6, 0:6] = cv
             p = phi_x @ p @ phi_x.T + q_x
             phi = phi_x @ phi
             self._coast(t)
-        f = np.array([[1.0, dt], [0.0, 1.0]])
-        sb, sd = SPEED_OF_LIGHT**2 * _H0 / 2.0, SPEED_OF_LIGHT**2 * 2.0 * np.pi**2 * _H2
-        q = np.array([[sb * dt + sd * dt**3 / 3.0, sd * dt**2 / 2.0], [sd * dt**2 / 2.0, sd * dt]])
+        f, q = clock_transition(dt)
         c = self.c
         out = np.empty_like(c)
         out[:_N, :_N] = p

@@ -33,11 +33,11 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from coopproc.estimation.linalg import cholesky_solve_nb
+from coopproc.estimation.range_model import range_unit
 from coopproc.estimation.robust import GAMMA_REJECT, igg3_scalar, mad_sigma_nb
 from coopproc.model import FloatArray
 
-__all__ = ["N_STATE", "odo_backward", "odo_forward"]
+__all__ = ["N_STATE", "odo_forward"]
 
 #: east, north, psi, speed scale, yaw-rate scale, yaw-rate bias, range bias
 N_STATE = 7
@@ -170,6 +170,7 @@ def odo_forward(
     c = c0.copy()
     f = np.eye(n)
     h = np.zeros(n)
+    diff = np.zeros(3)
     for k in range(k_n):
         if k > 0:
             _predict(x, c, f, t[k] - t[k - 1], v_o[k], w_o[k], q)
@@ -178,11 +179,11 @@ def odo_forward(
             fs[k] = np.eye(n)
         xp[k], cp[k] = x, c
         for j in range(ptr[k], ptr[k + 1]):
-            de = x[0] - anchor[j, 0]
-            dn = x[1] - anchor[j, 1]
-            du = up[k] - anchor[j, 2]
-            rho = max(np.sqrt(de * de + dn * dn + du * du), 1e-6)
-            h[0], h[1], h[6] = de / rho, dn / rho, 1.0
+            diff[0] = x[0] - anchor[j, 0]
+            diff[1] = x[1] - anchor[j, 1]
+            diff[2] = up[k] - anchor[j, 2]
+            rho = range_unit(diff, 0.0, diff)
+            h[0], h[1], h[6] = diff[0], diff[1], 1.0  # the range bias x[6]: d h / d b = 1
             v = rng[j] - rho - x[6]
             s_raw = var[j]
             for a in range(n):
@@ -205,21 +206,3 @@ def odo_forward(
         xf[k], cf[k] = x, c
     out = np.array([nll])
     return xf, cf, xp, cp, fs, innov, out
-
-
-@numba.njit(cache=True)
-def odo_backward(
-    xf: FloatArray, cf: FloatArray, xp: FloatArray, cp: FloatArray, fs: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """Rauch-Tung-Striebel over the forward pass (paper 003 sec. 2.8):
-    A_k = C_k F_{k+1}^T (C^-_{k+1})^-1, X^s_k = X_k + A_k (X^s_{k+1} - X^-_{k+1}),
-    C^s_k = C_k + A_k (C^s_{k+1} - C^-_{k+1}) A_k^T."""
-    k_n = xf.shape[0]
-    xs = xf.copy()
-    cs = cf.copy()
-    for k in range(k_n - 2, -1, -1):
-        a = cholesky_solve_nb(cp[k + 1], fs[k + 1] @ cf[k]).T
-        xs[k] = xf[k] + a @ (xs[k + 1] - xp[k + 1])
-        ck = cf[k] + a @ (cs[k + 1] - cp[k + 1]) @ a.T
-        cs[k] = 0.5 * (ck + ck.T)
-    return xs, cs

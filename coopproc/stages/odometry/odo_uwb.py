@@ -33,9 +33,10 @@ import numpy as np
 import pandas as pd
 
 from coopproc.errors import StageError
+from coopproc.estimation.kalman import rts_backward_nb
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.stages.base import PositionInput, PositionProduct, PositionStage
-from coopproc.stages.odometry.odo_kernel import odo_backward, odo_forward
+from coopproc.stages.odometry.odo_kernel import odo_forward
 from coopproc.stages.odometry.odo_track import OdoTrack, OdoUwbParams, head_of, odo_tracks
 
 __all__ = ["ODO_UWB", "ODO_UWB_RTS", "OdoFit", "fit_note", "fit_track", "odo_uwb_positions"]
@@ -202,7 +203,7 @@ def fit_track(track: OdoTrack, params: OdoUwbParams) -> OdoFit:
     xf, cf, xp, cp, fs, innov, _ = _run(
         track, params, heading, scale, sigmas, params.search_yaw_scale
     )
-    xs, cs = odo_backward(xf, cf, xp, cp, fs)
+    xs, cs = rts_backward_nb(xf, cf, xp, cp, fs)  # paper 003 sec. 2.8
     estimated = 0 in (params.speed_sigma_mps, params.yaw_rate_sigma_radps, params.range_sigma_scale)
     return OdoFit(xf, cf, xs, cs, innov, heading, scale, sigmas[0], sigmas[1], sigmas[2], estimated)
 

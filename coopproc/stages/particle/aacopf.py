@@ -42,6 +42,7 @@ from __future__ import annotations
 import numpy as np
 
 from coopproc.estimation.locate_result import LocateInputs, Track
+from coopproc.estimation.range_model import slant_ranges
 from coopproc.stages.particle.aco import aco_targets, share_weights
 from coopproc.stages.particle.core import (
     TrackBuilder,
@@ -106,7 +107,7 @@ def run_aacopf(
                 z = inputs.range_m[t, j]
                 if np.isfinite(z):
                     ax, ay = inputs.aux_en_m[t, j]
-                    d_hat = np.hypot(cloud.east - ax, cloud.north - ay)
+                    d_hat = slant_ranges(np.column_stack([cloud.east - ax, cloud.north - ay]))
                     d_pred = float(w_prior @ d_hat)
                     spread2 = float(w_prior @ (d_hat - d_pred) ** 2)
                     if spread2 <= params.judge_spread_m**2:

@@ -18,6 +18,7 @@ import numpy as np
 
 from coopproc.estimation.angles import wrap_pi
 from coopproc.estimation.locate_result import LocateInputs, Track
+from coopproc.estimation.range_model import slant_ranges_units
 from coopproc.model import FloatArray
 from coopproc.stages.particle.modes import modes_of_hypotheses
 from coopproc.stages.particle.params import LocateParams
@@ -77,9 +78,8 @@ def run_ekf(
             if not np.isfinite(z):
                 continue
             ax, ay = inputs.aux_en_m[t, j]
-            dx, dy = x[:, 0] - ax, x[:, 1] - ay
-            d = np.maximum(np.hypot(dx, dy), 1e-6)
-            h = np.column_stack([dx / d, dy / d, np.zeros(n_h)])  # eq. (17) H, (H, 3)
+            d, unit = slant_ranges_units(np.column_stack([x[:, 0] - ax, x[:, 1] - ay]))
+            h = np.column_stack([unit, np.zeros(n_h)])  # eq. (17) H, (H, 3)
             r = inputs.sigma_m[t, j] ** 2 + params.likelihood_floor_m**2
             ph = np.einsum("hij,hj->hi", p, h)
             s_inn = np.einsum("hi,hi->h", h, ph) + r

@@ -28,6 +28,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from coopproc.estimation.range_model import slant_range
 from coopproc.model import FloatArray
 from coopproc.stages.particle.normal import standard_normal
 
@@ -80,12 +81,13 @@ def range_update(
     -inf for none (core.log_likelihood's ``outlier_sigmas``)."""
     n = log_w.shape[0]
     top = -np.inf
+    diff = np.empty(2)
     for i in range(n):
         acc = 0.0
         for j in range(z.shape[0]):
-            dx = east[i] - ax[j]
-            dy = north[i] - ay[j]
-            d = np.sqrt(dx * dx + dy * dy) - z[j]
+            diff[0] = east[i] - ax[j]
+            diff[1] = north[i] - ay[j]
+            d = slant_range(diff, 0.0) - z[j]
             term = -0.5 * d * d / s2[j]
             if floor[j] > -np.inf:
                 term = np.logaddexp(term, floor[j])

@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from coopproc.estimation.locate_result import Observability
+from coopproc.estimation.range_model import slant_ranges_units
 from coopproc.model import FloatArray
 
 __all__ = ["analyze", "observability_matrix", "transition"]
@@ -52,8 +53,8 @@ def observability_matrix(
     a[1:] = np.cumsum(-delta_l_m * np.sin(phi_step_rad))
     b[1:] = np.cumsum(delta_l_m * np.cos(phi_step_rad))
     rel = target_en_m[:, None, :] - aux_en_m  # (E, J, 2)
-    dist = np.maximum(np.hypot(rel[..., 0], rel[..., 1]), 1e-9)
-    hx, hy = rel[..., 0] / dist, rel[..., 1] / dist  # H(t)
+    _, unit = slant_ranges_units(rel)
+    hx, hy = unit[..., 0], unit[..., 1]  # H(t)
     ok = has_range & np.isfinite(hx) & np.isfinite(hy)
     ep, _ = np.nonzero(ok)
     rows = np.column_stack([hx[ok], hy[ok], hx[ok] * a[ep] + hy[ok] * b[ep]])  # H(t) prod Phi

@@ -29,6 +29,7 @@ from typing import Literal
 import numpy as np
 from numba import njit
 
+from coopproc.estimation.range_model import slant_ranges
 from coopproc.model import FloatArray
 from coopproc.stages.ranging.calibration import window_slices
 
@@ -156,7 +157,7 @@ def range_increments(pos1_m: FloatArray, pos2_m: FloatArray) -> FloatArray:
     eq. (1) approximates (see the module docstring for the measured difference).
     """
     out = np.full(pos1_m.shape[0], np.nan)
-    dist = np.linalg.norm(pos1_m - pos2_m, axis=1)
+    dist = slant_ranges(pos1_m - pos2_m)
     out[1:] = np.diff(dist)
     return out
 
@@ -176,7 +177,7 @@ def anchored_increments(
     out = np.full(base1_m.shape[0], np.nan)
     rel_prev = base1_m[:-1] - base2_m[:-1]
     rel_now = rel_prev + np.diff(nav1_m, axis=0) - np.diff(nav2_m, axis=0)
-    out[1:] = np.linalg.norm(rel_now, axis=1) - np.linalg.norm(rel_prev, axis=1)
+    out[1:] = slant_ranges(rel_now) - slant_ranges(rel_prev)
     return out
 
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from coopproc.estimation.range_model import slant_ranges
 from coopproc.model import FloatArray, Session, Trajectory, pair_members
 from coopproc.stages.ranging.calibration import robust_sigma, window_slices
 from coopproc.stages.ranging.config import RangingConfig
@@ -235,7 +236,7 @@ def prepare_pair(
         di_cp_m=range_increments(cp_a, cp_b),
         di_ref_m=range_increments(ref_a, ref_b),
         var_m2=var,
-        reference_m=np.linalg.norm(ref_a - ref_b, axis=1),
+        reference_m=slant_ranges(ref_a - ref_b),
         rn_m=rn_inc,
         rn_var_m2=rn_var,
         di_by_velocity=by_velocity,

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from coopproc.estimation.range_model import slant_ranges
 from coopproc.model import FloatArray, Trajectory
 
 __all__ = ["columns_at", "platform_velocity", "rn_increments", "velocity_columns"]
@@ -68,7 +69,7 @@ def rn_increments(
         return out
     rel = pos1_mid_m[1:] - pos2_mid_m[1:]
     vrel = vel1_mid_mps[1:] - vel2_mid_mps[1:]
-    dist = np.linalg.norm(rel, axis=1)
+    dist = slant_ranges(rel)
     with np.errstate(invalid="ignore", divide="ignore"):
         rate = np.einsum("ij,ij->i", rel, vrel) / dist
     out[1:] = np.where(dist > 0, rate, 0.0) * np.diff(time_s)

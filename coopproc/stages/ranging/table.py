@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from coopproc.errors import StageError
+from coopproc.estimation.range_model import slant_ranges
 from coopproc.model import FloatArray, Session, Trajectory, pair_members
 
 __all__ = [
@@ -80,8 +81,8 @@ def observed_table(session: Session) -> pd.DataFrame:
     for pair in session.ranges.pairs:
         t, observed = pair_columns(session, pair)
         a, b = pair_members(pair)
-        reference = np.linalg.norm(
-            reference_positions(session, a, t) - reference_positions(session, b, t), axis=1
+        reference = slant_ranges(
+            reference_positions(session, a, t) - reference_positions(session, b, t)
         )
         parts.append(
             pd.DataFrame(

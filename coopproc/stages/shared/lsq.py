@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from coopproc.estimation.range_model import slant_ranges_units
 from coopproc.model import FloatArray, Session, Trajectory
 from coopproc.stages.shared.data import (
     anchor_positions,
@@ -344,11 +345,12 @@ def _design(
 ) -> tuple[FloatArray, FloatArray]:
     """Distances (E, m) and unit vectors (E, m, dim) from the anchors to the tag at x."""
     diff = x[:, None, :] - pos[:, :, :dim]
-    sq = np.einsum("emd,emd->em", diff, diff)
-    if dim == 2:
-        sq = sq + (tag_up[:, None] - pos[:, :, 2]) ** 2
-    rho = np.sqrt(np.maximum(sq, 1e-12))
-    return rho, diff / rho[..., None]
+    if dim == 3:
+        return slant_ranges_units(diff)
+    # in the plane the known height difference is the third component, not estimated
+    up = (tag_up[:, None] - pos[:, :, 2])[..., None]
+    rho, unit = slant_ranges_units(np.concatenate((diff, up), axis=-1))
+    return rho, unit[..., :dim]
 
 
 def _gauss_newton(

@@ -21,8 +21,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from coopproc.estimation.kalman import kf_update, rts_step
-from coopproc.stages.odometry.odo_kernel import N_STATE, odo_backward, odo_forward
+from coopproc.estimation.kalman import kf_update, rts_backward_nb, rts_step
+from coopproc.stages.odometry.odo_kernel import N_STATE, odo_forward
 from coopproc.stages.odometry.odo_track import OdoTrack, OdoUwbParams
 from coopproc.stages.odometry.odo_uwb import fit_note, fit_track
 
@@ -144,7 +144,7 @@ def test_kernel_matches_dense_ekf_with_numerical_jacobians() -> None:
         ref_cf.append(c.copy())
     np.testing.assert_allclose(xf, np.array(ref_f), atol=1e-6)
     np.testing.assert_allclose(fs, np.array(ref_fs), atol=1e-6)
-    xs, _ = odo_backward(xf, cf, xp, cp, fs)
+    xs, _ = rts_backward_nb(xf, cf, xp, cp, fs)
     ref_s = [ref_f[-1]]
     c_s = ref_cf[-1]
     for k in range(len(track.t) - 2, -1, -1):
