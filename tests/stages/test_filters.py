@@ -19,6 +19,7 @@ from coopproc.estimation.robust import (
 )
 from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_RANGE, ekf_forward
 from coopproc.stages.fusion.ekf_update import _observe
+from coopproc.stages.fusion.kernel_types import Navigation, Observations, Process, Robust, Slots
 
 
 @pytest.mark.parametrize(("k0", "k1"), [(3.0, 4.0), (2.5, 4.5), (3.5, 3.8)])
@@ -137,12 +138,14 @@ def test_compiled_epoch_update_equals_batch_ekf_update() -> None:
     z = np.array([10.6, 9.5, 0.3])
     r = np.array([0.02, 0.05, 0.01])
     xs, var, gamma, innov, _, cp_x, cp_c, *_ = ekf_forward(
-        x0, c0, np.zeros(1), np.zeros(2), np.zeros((2, 2)), np.array([0, 1, 2]), np.zeros(2),
-        False, np.zeros(1),
-        np.array([0, 3], dtype=np.int64), kind, a, b, np.arange(3, dtype=np.int32), anchor,
-        np.zeros(3), z, r, 2, False,
-        3.0, 4.0, 1.0, 0, np.array([0, 2], dtype=np.int64), np.array([0, 1]), 16,
-        np.full(2, -1, dtype=np.int64), np.zeros((2, 5)), np.zeros(0, dtype=np.int64), np.zeros(0),
+        x0, c0,
+        Navigation(np.zeros(1), np.zeros(2), np.zeros((2, 2)), np.array([0, 1, 2])),
+        Process.without_dr(np.zeros(2), False, np.zeros(1)),
+        Observations(np.array([0, 3], dtype=np.int64), kind, a, b,
+                     np.arange(3, dtype=np.int32), anchor, np.zeros(3), z, r),
+        2, Robust(False, 3.0, 4.0, 1.0, 0),
+        Slots(np.array([0, 2], dtype=np.int64), np.array([0, 1])), 16,
+        np.zeros(0, dtype=np.int64), np.zeros(0),
     )  # fmt: skip
     # the checkpoint before epoch 0 is the prior; the recorded slots are both platforms
     assert cp_x[0] == pytest.approx(x0) and cp_c[0] == pytest.approx(c0)

@@ -47,11 +47,18 @@ from coopproc.stages.fusion.ekf_update import (
     OBS_ANCHOR,
     OBS_POSITION,
     OBS_RANGE,
-    IntArray,
     epoch_buffers,
     epoch_innovations,
     epoch_update,
     max_epoch_obs,
+)
+from coopproc.stages.fusion.kernel_types import (
+    IntArray,
+    Navigation,
+    Observations,
+    Process,
+    Robust,
+    Slots,
 )
 from coopproc.stages.fusion.mad_window import union_median, window_push
 from coopproc.stages.fusion.nav_kernel import nav_at
@@ -88,11 +95,7 @@ def time_update(
     nav_prev: FloatArray,
     k: int,
     dim: int,
-    q_coef: FloatArray,
-    q_squared: bool,
-    dt: FloatArray,
-    dr_idx: IntArray,
-    dr_q: FloatArray,
+    proc: Process,
     f_out: FloatArray,
 ) -> None:
     """Paper 002 eq. (12)-(13): X += u_k, C += Q_k, in place; with DR states
@@ -100,13 +103,15 @@ def time_update(
 
     u_k is each platform's dead-reckoning increment ``nav_now[p] - nav_prev[p]`` (its
     navigation at epochs k and k - 1, :func:`nav_at`); the position process noise per
-    axis is ``q_coef[p] * dt[k]`` (``q_squared``: ``(q_coef[p] * dt[k]) ** 2``).
+    axis is ``q_coef[p] * dt[k]`` (``q_squared``: ``(q_coef[p] * dt[k]) ** 2``), from
+    ``proc`` (:class:`~coopproc.stages.fusion.kernel_types.Process`).
     ``dr_idx[p]``: the index of platform p's heading correction (-1: no DR states, F = I
     for it); ``dr_q[p]``: the heading, heading-rate and scale random walks' variance per
     second, then the position's and the heading's variance per metre travelled (the
     odometer's noise grows with the distance, :mod:`~coopproc.stages.fusion.dr_model`);
     ``f_out[p]``: E's epoch entries (:func:`~coopproc.stages.fusion.dr_model.dr_predict`).
     """
+    q_coef, q_squared, dt, dr_idx, dr_q = proc
     for p in range(nav_now.shape[0]):
         if q_squared:
             t = q_coef[p] * dt[k]
@@ -138,41 +143,22 @@ def time_update(
 def ekf_forward(
     x0: FloatArray,
     c0: FloatArray,
-    epochs: FloatArray,
-    nav_t: FloatArray,
-    nav_v: FloatArray,
-    nav_ptr: IntArray,
-    q_coef: FloatArray,
-    q_squared: bool,
-    dt: FloatArray,
-    obs_ptr: IntArray,
-    obs_kind: IntArray,
-    obs_a: IntArray,
-    obs_b: IntArray,
-    obs_anchor: IntArray,
-    anchor_tab: FloatArray,
-    obs_dz2: FloatArray,
-    z: FloatArray,
-    r_var: FloatArray,
+    nav: Navigation,
+    proc: Process,
+    obs: Observations,
     dim: int,
-    robust: bool,
-    k0: float,
-    k1: float,
-    sigma_floor: float,
-    mad_window: int,
-    rec_ptr: IntArray,
-    rec_plat: IntArray,
+    rob: Robust,
+    slots: Slots,
     block: int,
-    dr_idx: IntArray,
-    dr_q: FloatArray,
     dr_rec: IntArray,
     gamma_in: FloatArray,
 ) -> tuple[
     FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
     FloatArray, FloatArray, FloatArray,
 ]:  # fmt: skip
-    """Forward EKF over K epochs (K = ``dt.shape[0]``; each platform's navigation samples
-    ``nav_t``/``nav_v``/``nav_ptr`` as :func:`nav_at` reads them, ``nav_v`` (S, dim)).
+    """Forward EKF over K epochs (K = ``proc.dt.shape[0]``; each platform's navigation
+    samples ``nav`` as :func:`nav_at` reads them; the inputs' groups are
+    :mod:`~coopproc.stages.fusion.kernel_types`'s).
 
     ``mad_window``: the MAD unit-weight sigma of eq. (20) of an epoch with fewer than
     :data:`MAD_EPOCH_MIN` observations is taken over its innovations together with the last
@@ -182,7 +168,7 @@ def ekf_forward(
     itself, every standardized innovation is 1 and the robust factor never acts.
 
     Returns the filtered states and variances at the recorded slots (R, dim) (slot r is
-    platform ``rec_plat[r]`` at the epoch whose ``rec_ptr`` range holds r), the robust
+    platform ``slots.plat[r]`` at the epoch whose ``slots.ptr`` range holds r), the robust
     factor of every observation (M,), its innovation at the prior (M,) and that
     innovation's variance H C H^T + R (M,), and the smoother checkpoints: state (B, n) and
     covariance (B, n, n) before epoch ``b * block`` (``block <= 0``: none kept); then the
@@ -190,15 +176,17 @@ def ekf_forward(
     epochs ``dr_rec`` (ascending), (len(dr_rec), n - P dim) each; last, every
     observation's standardized innovation (M,), the value eq. (18) turned into its robust
     factor: v / (sigma sqrt(H C H^T + R)) with eq. (20)'s MAD sigma (without the robust
-    factor, or with ``gamma_in``, sigma = 1). ``dr_idx``, ``dr_q``: see
+    factor, or with ``gamma_in``, sigma = 1). ``proc.dr_idx``, ``proc.dr_q``: see
     :func:`time_update` (all -1: the position-only filter). ``gamma_in``: every
     observation's robust factor, given (an iteration of the robust smoother,
     :mod:`~coopproc.stages.fusion.robust_refit`), instead of eq. (18)-(20) at the prior
     (empty: computed here).
     """
-    n_epochs = dt.shape[0]
+    robust, k0, k1, sigma_floor, mad_window = rob
+    rec_ptr, rec_plat = slots
+    n_epochs = proc.dt.shape[0]
     n = x0.shape[0]
-    n_obs = z.shape[0]
+    n_obs = obs.z.shape[0]
     n_rec = rec_plat.shape[0]
     xs = np.empty((n_rec, dim))
     var = np.empty((n_rec, dim))
@@ -215,8 +203,9 @@ def ekf_forward(
     std_innov = np.zeros(n_obs)
     x = x0.copy()
     c = c0.copy()
-    max_m = max_epoch_obs(obs_ptr)
-    h_idx, h_val, h_cnt, v, d, ph, x_prior = epoch_buffers(max_m, dim, n)
+    max_m = max_epoch_obs(obs.ptr)
+    work = epoch_buffers(max_m, dim, n)
+    v, d = work.v, work.d
     unused = np.zeros((1, 1))
     unused_v = np.zeros(1)
     ring = np.zeros(max(mad_window, 1))
@@ -224,7 +213,7 @@ def ekf_forward(
     ring_state = np.zeros(4, dtype=np.int64)  # filled, next slot, sorted count, NaN count
     pool = np.zeros(max(mad_window, 1) + max_m)
     ones = np.ones(max(mad_window, 1) + max_m)
-    n_plat = nav_ptr.shape[0] - 1
+    n_plat = nav.ptr.shape[0] - 1
     cursor = np.full(n_plat, -1, dtype=np.int64)
     nav_prev = np.zeros((n_plat, dim))
     nav_now = np.zeros((n_plat, dim))
@@ -234,21 +223,18 @@ def ekf_forward(
     dr_var = np.empty((dr_rec.shape[0], n - n_pos))
     dr_next = 0
     if n_epochs > 0:
-        nav_at(nav_t, nav_v, nav_ptr, epochs[0], cursor, nav_prev)
+        nav_at(nav.t, nav.v, nav.ptr, nav.epochs[0], cursor, nav_prev)
     for k in range(n_epochs):
         if block > 0 and k % block == 0:
             copy1(cp_x[k // block], x)
             copy2(cp_c[k // block], c)
         if k > 0:
-            nav_at(nav_t, nav_v, nav_ptr, epochs[k], cursor, nav_now)
-            time_update(x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt, dr_idx, dr_q, f_out)
+            nav_at(nav.t, nav.v, nav.ptr, nav.epochs[k], cursor, nav_now)
+            time_update(x, c, nav_now, nav_prev, k, dim, proc, f_out)
             copy2(nav_prev, nav_now)
-        lo = obs_ptr[k]
-        m = obs_ptr[k + 1] - lo
-        epoch_innovations(
-            x, c, lo, m, obs_kind, obs_a, obs_b, obs_anchor, anchor_tab, obs_dz2, z, r_var,
-            dim, h_idx, h_val, h_cnt, v, d,
-        )  # fmt: skip
+        lo = obs.ptr[k]
+        m = obs.ptr[k + 1] - lo
+        epoch_innovations(x, c, lo, m, obs, dim, work)
         for j in range(m):
             innov[lo + j] = v[j]
             innov_var[lo + j] = d[j]
@@ -278,8 +264,8 @@ def ekf_forward(
                 if mad_window > 0:
                     window_push(ring, ring_sorted, ring_state, abs(v[j]) / np.sqrt(d[j]))
         epoch_update(
-            x, c, lo, m, h_idx, h_val, h_cnt, v, gamma, r_var, x_prior, ph,
-            bool(np.bool_(False)), unused, unused_v, unused_v,
+            x, c, lo, m, work, gamma, obs.r_var, bool(np.bool_(False)), unused, unused_v,
+            unused_v,
         )  # fmt: skip
         for r in range(rec_ptr[k], rec_ptr[k + 1]):
             p = rec_plat[r]

@@ -16,10 +16,10 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from numpy.typing import NDArray
 
 from coopproc.estimation.range_model import range_unit
 from coopproc.model import FloatArray
+from coopproc.stages.fusion.kernel_types import EpochWork, IntArray, Observations
 
 __all__ = [
     "OBS_ANCHOR",
@@ -34,8 +34,6 @@ __all__ = [
 OBS_RANGE = 0
 OBS_ANCHOR = 1
 OBS_POSITION = 2
-
-IntArray = NDArray[np.int64]
 
 
 @numba.njit(cache=True)
@@ -79,35 +77,26 @@ def epoch_innovations(
     c: FloatArray,
     lo: int,
     m: int,
-    obs_kind: IntArray,
-    obs_a: IntArray,
-    obs_b: IntArray,
-    obs_anchor: IntArray,
-    anchor_tab: FloatArray,
-    obs_dz2: FloatArray,
-    z: FloatArray,
-    r_var: FloatArray,
+    obs: Observations,
     dim: int,
-    h_idx: IntArray,
-    h_val: FloatArray,
-    h_cnt: IntArray,
-    v: FloatArray,
-    d: FloatArray,
+    work: EpochWork,
 ) -> None:
-    """Innovations at the prior and their variances d = H C H^T + R, eq. (14), (19)."""
+    """Innovations at the prior and their variances d = H C H^T + R, eq. (14), (19), of
+    observations ``lo:lo + m``, into ``work`` (``v``, ``d`` and the Jacobian rows)."""
+    h_idx, h_val, h_cnt, v, d = work.h_idx, work.h_val, work.h_cnt, work.v, work.d
     for j in range(m):
         o = lo + j
         pred, cnt = _observe(
-            x, obs_kind[o], obs_a[o], obs_b[o], anchor_tab[obs_anchor[o]], obs_dz2[o], dim,
-            h_idx[j], h_val[j],
+            x, obs.kind[o], obs.a[o], obs.b[o], obs.anchor_tab[obs.anchor[o]], obs.dz2[o],
+            dim, h_idx[j], h_val[j],
         )  # fmt: skip
         h_cnt[j] = cnt
-        v[j] = z[o] - pred
+        v[j] = obs.z[o] - pred
         hch = 0.0
         for p in range(cnt):
             for s in range(cnt):
                 hch += h_val[j, p] * c[h_idx[j, p], h_idx[j, s]] * h_val[j, s]
-        d[j] = hch + r_var[o]
+        d[j] = hch + obs.r_var[o]
 
 
 @numba.njit(cache=True)
@@ -116,14 +105,9 @@ def epoch_update(
     c: FloatArray,
     lo: int,
     m: int,
-    h_idx: IntArray,
-    h_val: FloatArray,
-    h_cnt: IntArray,
-    v: FloatArray,
+    work: EpochWork,
     gamma: FloatArray,
     r_var: FloatArray,
-    x_prior: FloatArray,
-    ph: FloatArray,
     keep: bool,
     gains: FloatArray,
     y: FloatArray,
@@ -136,6 +120,9 @@ def epoch_update(
     Callers pass ``keep`` as ``bool(np.bool_(...))``, a run-time bool: a literal ``True`` or
     ``False`` would compile one specialisation per caller (issue 32, the first run).
     """
+    h_idx, h_val, h_cnt, v, ph, x_prior = (
+        work.h_idx, work.h_val, work.h_cnt, work.v, work.ph, work.x_prior
+    )  # fmt: skip
     n = x.shape[0]
     for i in range(n):
         x_prior[i] = x[i]
@@ -184,13 +171,11 @@ def max_epoch_obs(obs_ptr: IntArray) -> int:
 
 
 @numba.njit(cache=True)
-def epoch_buffers(
-    max_m: int, dim: int, n: int
-) -> tuple[IntArray, FloatArray, IntArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+def epoch_buffers(max_m: int, dim: int, n: int) -> EpochWork:
     """Work arrays of one epoch for :func:`epoch_innovations` and :func:`epoch_update`:
     Jacobian rows (indices, values, counts), innovations, their variances, C h, the prior."""
     width = 2 * dim
-    return (
+    return EpochWork(
         np.zeros((max_m, width), dtype=np.int64),
         np.zeros((max_m, width)),
         np.zeros(max_m, dtype=np.int64),

@@ -48,6 +48,7 @@ from coopproc.stages.fusion.ekf import (
     ekf_forward,
 )
 from coopproc.stages.fusion.inputs import FusionInputs, fusion_inputs
+from coopproc.stages.fusion.kernel_types import Navigation, Observations, Process, Robust, Slots
 from coopproc.stages.fusion.output import solutions_from_slots
 from coopproc.stages.fusion.params import FusionParams, fusion_params_from_toml
 from coopproc.stages.fusion.robust_refit import smoothed_gammas
@@ -179,7 +180,7 @@ def fuse(
     del inputs  # memory (issue 11): a caller that keeps none frees them as they are spent
     smooth = params.smoother and n_ep > 1
     block = block_size(n_ep) if smooth else 0
-    kernel_obs = (
+    kernel_obs = Observations(
         obs["ptr"], obs["kind"], obs["a"], obs["b"], obs["anchor"], obs["anchor_table"],
         obs["dz2"], obs["z"], obs["var"],
     )  # fmt: skip
@@ -187,17 +188,26 @@ def fuse(
     # smoother pass follows; else the smoother records its own and the forward pass none
     # (memory, issue 11: four floats per recorded slot, about 0.27 GB per fusion at a day)
     record_forward = forward or not smooth
-    forward_slots = (
-        (rec_ptr, rec_plat) if record_forward else (np.zeros_like(rec_ptr), rec_plat[:0])
-    )
+    slots = Slots(rec_ptr, rec_plat)
+    forward_slots = slots if record_forward else Slots(np.zeros_like(rec_ptr), rec_plat[:0])
     if q_squared and dr.active:  # the kernel squares every q_coef
         q_coef = np.where(dr.idx >= 0, np.sqrt(dr.position_q), q_coef)
-    noise = (epochs, nav_t, nav_v, nav_ptr, q_coef, q_squared, dt)
+    nav = Navigation(epochs, nav_t, nav_v, nav_ptr)
+    proc = Process(q_coef, q_squared, dt, dr.idx, dr.q)
+    rob = Robust(params.robust, params.k0, params.k1, params.mad_floor, params.mad_window)
     xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c, dr_xf, dr_vf, std_innov = ekf_forward(
-        x0, c0, *noise, *kernel_obs, params.dims, params.robust, params.k0, params.k1,
-        params.mad_floor, params.mad_window, *forward_slots, block, dr.idx, dr.q, dr_rec,
+        x0,
+        c0,
+        nav,
+        proc,
+        kernel_obs,
+        params.dims,
+        rob,
+        forward_slots,
+        block,
+        dr_rec,
         np.zeros(0),
-    )  # fmt: skip
+    )
     del forward_slots
     at = obs["at"]  # the range rows' observations, in row (= observation) order
     table = pd.DataFrame(
@@ -226,9 +236,8 @@ def fuse(
         # a smoother pass that a refit follows gives its states only: no variances, no DR
         # states (an n^2 product per reported value, ~1 s of 5 at 10 x 1 h)
         xs_s, var_s, dr_xs, dr_vs = mbf_backward(
-            cp_x, cp_c, *noise, *kernel_obs, gamma, dim, rec_ptr, rec_plat, block,
-            smoothed_sigma and refits == 0, dr_idx=dr.idx, dr_q=dr.q,
-            dr_rec=dr_rec if refits == 0 else dr_rec[:0],
+            cp_x, cp_c, nav, proc, kernel_obs, gamma, dim, slots, block,
+            smoothed_sigma and refits == 0, dr_rec=dr_rec if refits == 0 else dr_rec[:0],
         )  # fmt: skip
         for _ in range(refits):
             # the robust factors against the smoothed solution, then the filter and the
@@ -250,12 +259,12 @@ def fuse(
             # on sample_logs and TIERS)
             refit_checkpoints(
                 _first_changed_block(before, gamma, obs["ptr"], block, cp_x.shape[0]),
-                cp_x, cp_c, *noise, *kernel_obs, gamma, dim, block, dr.idx, dr.q,
+                cp_x, cp_c, nav, proc, kernel_obs, gamma, dim, block,
             )  # fmt: skip
             del before
             xs_s, var_s, dr_xs, dr_vs = mbf_backward(
-                cp_x, cp_c, *noise, *kernel_obs, gamma, dim, rec_ptr, rec_plat, block,
-                smoothed_sigma, dr_idx=dr.idx, dr_q=dr.q, dr_rec=dr_rec,
+                cp_x, cp_c, nav, proc, kernel_obs, gamma, dim, slots, block, smoothed_sigma,
+                dr_rec=dr_rec,
             )  # fmt: skip
     else:
         xs_s, var_s, dr_xs, dr_vs = xs_f, var_f, dr_xf, dr_vf
@@ -269,17 +278,17 @@ def fuse(
     del dr_xf, dr_vf, dr_xs, dr_vs
     # memory (issue 11): the observations and the range rows are spent (unless the caller
     # keeps its inputs for another fusion); free them before the trajectories are built
-    del cp_x, cp_c, obs, kernel_obs, gamma, ep_idx, noise
+    del cp_x, cp_c, obs, kernel_obs, gamma, ep_idx, nav, proc, slots
     del nav_t, nav_v, nav_ptr
     # their pages back to the system before the trajectories take more: glibc keeps the
     # smoother's freed blocks (below its mmap threshold), ~0.7 GB at a day (issue 11)
     release_freed_memory()
-    slots = (session, moving, epochs, rec_ptr, rec_plat, dim, output)
+    where = (session, moving, epochs, rec_ptr, rec_plat, dim, output)
     solutions = [(xs_s, var_s if smoothed_sigma else None, False)]
     if forward:
         solutions.insert(0, (xs_f, var_f if forward_sigma else None, True))
     del xs_f, var_f, xs_s, var_s  # the forward states go once their trajectories are built
-    built = solutions_from_slots(*slots, solutions)
+    built = solutions_from_slots(*where, solutions)
     held = built.pop(0) if forward else {}
     return FusionOutput(
         smoothed=built[0], forward=held, epochs_s=epochs, observations=table,

@@ -49,9 +49,16 @@ import numpy as np
 
 from coopproc.model import FloatArray
 from coopproc.stages.fusion.dr_model import adjoint_step
-from coopproc.stages.fusion.ekf import (
+from coopproc.stages.fusion.ekf import max_epoch_obs
+from coopproc.stages.fusion.kernel_types import (
+    Adjoints,
     IntArray,
-    max_epoch_obs,
+    NavCursor,
+    Navigation,
+    Observations,
+    Process,
+    Slots,
+    Smoothed,
 )
 from coopproc.stages.fusion.smoother_rerun import BlockBuffers, block_extent, rerun_block
 
@@ -62,37 +69,25 @@ __all__ = ["mbf_backward"]
 def _backward_block(
     b: int,
     obs_ptr: IntArray,
-    rec_ptr: IntArray,
-    rec_plat: IntArray,
+    slots: Slots,
     dim: int,
     block: int,
-    n_epochs: int,
     with_var: bool,
-    bx: FloatArray,
-    bc: FloatArray,
-    b_rows: FloatArray,
-    b_idx: IntArray,
-    b_val: FloatArray,
-    b_cnt: IntArray,
-    b_gain: FloatArray,
-    b_y: FloatArray,
-    b_s: FloatArray,
-    b_f: FloatArray,
-    b_dr_rows: FloatArray,
-    dr_idx: IntArray,
+    buf: BlockBuffers,
+    proc: Process,
     dr_rec: IntArray,
-    dt: FloatArray,
-    lam: FloatArray,
-    lam_t: FloatArray,
-    lam_g: FloatArray,
-    col: FloatArray,
-    xs: FloatArray,
-    var: FloatArray,
-    dr_xs: FloatArray,
-    dr_var: FloatArray,
+    adj: Adjoints,
+    out: Smoothed,
 ) -> None:
     """The backward pass over block ``b`` (re-run into the given buffers): the smoothed
-    recorded slots of its epochs, and the adjoints carried to the block before."""
+    recorded slots of its epochs (into ``out``), and the adjoints carried to the block
+    before (in ``adj``)."""
+    rec_ptr, rec_plat = slots
+    bx, bc, b_rows, b_idx, b_val, b_cnt, b_gain, b_y, b_s, b_f, b_dr_rows, _ = buf
+    dr_idx, dt = proc.dr_idx, proc.dt
+    lam, lam_t, lam_g, col = adj
+    xs, var, dr_xs, dr_var = out
+    n_epochs = dt.shape[0]
     n = lam.shape[0]
     first = b * block
     last = min(first + block, n_epochs)
@@ -201,33 +196,17 @@ def _cpu_count() -> int:
 def mbf_backward(
     cp_x: FloatArray,
     cp_c: FloatArray,
-    epochs: FloatArray,
-    nav_t: FloatArray,
-    nav_v: FloatArray,
-    nav_ptr: IntArray,
-    q_coef: FloatArray,
-    q_squared: bool,
-    dt: FloatArray,
-    obs_ptr: IntArray,
-    obs_kind: IntArray,
-    obs_a: IntArray,
-    obs_b: IntArray,
-    obs_anchor: IntArray,
-    anchor_tab: FloatArray,
-    obs_dz2: FloatArray,
-    z: FloatArray,
-    r_var: FloatArray,
+    nav: Navigation,
+    proc: Process,
+    obs: Observations,
     gamma: FloatArray,
     dim: int,
-    rec_ptr: IntArray,
-    rec_plat: IntArray,
+    slots: Slots,
     block: int,
     with_var: bool = True,
     threads: int | None = None,
-    dr_idx: IntArray | None = None,
-    dr_q: FloatArray | None = None,
     dr_rec: IntArray | None = None,
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+) -> Smoothed:
     """Smoothed states and variances (R, dim) at the recorded slots (see the module doc).
 
     ``cp_x``, ``cp_c``, ``gamma`` come from :func:`~coopproc.stages.fusion.ekf.ekf_forward`
@@ -236,71 +215,53 @@ def mbf_backward(
     tables do not use them). ``threads``: 2 re-runs the next block in a second thread
     while the backward pass takes this one, 1 does both in turn (None: 2 when this
     process may use two cores or more); the result is the same, bit for bit.
-    ``dr_idx``, ``dr_q``, ``dr_rec``: as given to ``ekf_forward`` (None: no DR states);
-    the smoothed DR states and their variances at the epochs ``dr_rec`` are returned after
+    ``dr_rec``: the epochs the DR states are reported at, as given to ``ekf_forward``
+    (None: none); the smoothed DR states and their variances there are returned after
     the positions' (always with variances: a few per second).
     """
-    n_epochs = dt.shape[0]
+    n_epochs = proc.dt.shape[0]
     n = cp_x.shape[1]
     n_blocks = cp_x.shape[0]
-    n_rec = rec_plat.shape[0]
-    n_plat = nav_ptr.shape[0] - 1
-    if dr_idx is None:
-        dr_idx = np.full(n_plat, -1, dtype=np.int64)
-    if dr_q is None:
-        dr_q = np.zeros((n_plat, 5))
+    n_rec = slots.plat.shape[0]
+    n_plat = nav.ptr.shape[0] - 1
     if dr_rec is None:
         dr_rec = np.zeros(0, dtype=np.int64)
     n_dr = n - n_plat * dim
-    dr_xs = np.empty((dr_rec.shape[0], n_dr))
-    dr_var = np.empty((dr_rec.shape[0], n_dr))
-    xs = np.empty((n_rec, dim))
-    var = np.empty((n_rec if with_var else 0, dim))
-    lam = np.zeros(n)
+    out = Smoothed(
+        xs=np.empty((n_rec, dim)),
+        var=np.empty((n_rec if with_var else 0, dim)),
+        dr_xs=np.empty((dr_rec.shape[0], n_dr)),
+        dr_var=np.empty((dr_rec.shape[0], n_dr)),
+    )
     # Lambda, symmetric bit for bit (module doc), so its rows are its columns: Lambda g
     # is a sum of contiguous rows, vectorized (the name from when the transpose was kept)
-    lam_t = np.zeros((n, n))
-    lam_g = np.zeros(n)
-    col = np.zeros(n)
+    adj = Adjoints(lam=np.zeros(n), lam_t=np.zeros((n, n)), lam_g=np.zeros(n), col=np.zeros(n))
     if n_blocks == 0:
-        return xs, var, dr_xs, dr_var
-    max_m = max_epoch_obs(obs_ptr)
-    most, most_rec, most_dr = block_extent(obs_ptr, rec_ptr, dr_rec, n_blocks, block, n_epochs)
+        return out
+    max_m = max_epoch_obs(obs.ptr)
+    most, most_rec, most_dr = block_extent(obs.ptr, slots.ptr, dr_rec, n_blocks, block, n_epochs)
     pipelined = (threads if threads is not None else min(_cpu_count(), 2)) >= 2 and n_blocks > 1
     buffers = [
         BlockBuffers.allocate(block, n, dim, most, most_rec, max_m, with_var, n_plat, most_dr)
         for _ in range(2 if pipelined else 1)
     ]
-    cursor = np.full(n_plat, -1, dtype=np.int64)
-    nav_prev = np.zeros((n_plat, dim))
-    nav_now = np.zeros((n_plat, dim))
-    inputs = (
-        cp_x, cp_c, epochs, nav_t, nav_v, nav_ptr, q_coef, q_squared, dt, obs_ptr, obs_kind,
-        obs_a, obs_b, obs_anchor, anchor_tab, obs_dz2, z, r_var, gamma, dim, rec_ptr,
-        rec_plat, block, with_var, dr_idx, dr_q, dr_rec, cursor, nav_prev, nav_now,
-    )  # fmt: skip
+    at = NavCursor.allocate(n_plat, dim)
 
     def rerun(b: int) -> None:
         buf = buffers[b % len(buffers)]
         rerun_block(
-            b, *inputs, buf.bx, buf.bc, buf.b_rows, buf.b_idx, buf.b_val, buf.b_cnt,
-            buf.b_gain, buf.b_y, buf.b_s, buf.b_f, buf.b_dr_rows, *buf.work,
-        )  # fmt: skip
+            b, cp_x, cp_c, nav, proc, obs, gamma, dim, slots, block, with_var, dr_rec, at, buf
+        )
 
     def backward(b: int) -> None:
         buf = buffers[b % len(buffers)]
-        _backward_block(
-            b, obs_ptr, rec_ptr, rec_plat, dim, block, n_epochs, with_var, buf.bx, buf.bc,
-            buf.b_rows, buf.b_idx, buf.b_val, buf.b_cnt, buf.b_gain, buf.b_y, buf.b_s,
-            buf.b_f, buf.b_dr_rows, dr_idx, dr_rec, dt, lam, lam_t, lam_g, col, xs, var,
-            dr_xs, dr_var,
-        )  # fmt: skip
+        _backward_block(b, obs.ptr, slots, dim, block, with_var, buf, proc, dr_rec, adj, out)
 
     if not pipelined:
         for b in range(n_blocks - 1, -1, -1):
             rerun(b)
             backward(b)
-        return xs, var, dr_xs, dr_var
+        return out
     # the re-runs go one after the other (they share the navigation cursor), each into the
     # buffers the backward pass is not reading
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="smoother") as pool:
@@ -310,4 +271,4 @@ def mbf_backward(
             backward(b)
             if ahead is not None:
                 ahead.result()
-    return xs, var, dr_xs, dr_var
+    return out

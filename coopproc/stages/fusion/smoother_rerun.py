@@ -12,7 +12,7 @@ epochs they are reported.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -20,13 +20,21 @@ import numpy as np
 from coopproc.model import FloatArray
 from coopproc.stages.fusion.copies import copy1, copy2
 from coopproc.stages.fusion.ekf import (
-    IntArray,
     epoch_buffers,
     epoch_innovations,
     epoch_update,
     max_epoch_obs,
     nav_at,
     time_update,
+)
+from coopproc.stages.fusion.kernel_types import (
+    EpochWork,
+    IntArray,
+    NavCursor,
+    Navigation,
+    Observations,
+    Process,
+    Slots,
 )
 
 __all__ = ["BlockBuffers", "block_extent", "filter_epoch", "refit_checkpoints", "rerun_block"]
@@ -56,11 +64,11 @@ def block_extent(
     return most, most_rec, most_dr
 
 
-@dataclass(frozen=True)
-class BlockBuffers:
+class BlockBuffers(NamedTuple):
     """One block's re-run: its filtered states, covariances (or the recorded platforms'
-    rows of them), and every scalar update's Jacobian row, gain, innovation and variance;
-    with the per-epoch work arrays of the re-run."""
+    rows of them), and every scalar update's Jacobian row, gain, innovation and variance,
+    the DR transition's epoch entries and the DR states' covariance rows; with the
+    per-epoch work arrays of the re-run."""
 
     bx: FloatArray
     bc: FloatArray
@@ -73,7 +81,7 @@ class BlockBuffers:
     b_s: FloatArray
     b_f: FloatArray
     b_dr_rows: FloatArray
-    work: tuple[IntArray, FloatArray, IntArray, FloatArray, FloatArray, FloatArray, FloatArray]
+    work: EpochWork
 
     @classmethod
     def allocate(
@@ -111,37 +119,14 @@ def filter_epoch(
     k: int,
     x: FloatArray,
     c: FloatArray,
-    cursor: IntArray,
-    nav_prev: FloatArray,
-    nav_now: FloatArray,
+    at: NavCursor,
     f_out: FloatArray,
-    epochs: FloatArray,
-    nav_t: FloatArray,
-    nav_v: FloatArray,
-    nav_ptr: IntArray,
-    q_coef: FloatArray,
-    q_squared: bool,
-    dt: FloatArray,
-    obs_ptr: IntArray,
-    obs_kind: IntArray,
-    obs_a: IntArray,
-    obs_b: IntArray,
-    obs_anchor: IntArray,
-    anchor_tab: FloatArray,
-    obs_dz2: FloatArray,
-    z: FloatArray,
-    r_var: FloatArray,
+    nav: Navigation,
+    proc: Process,
+    obs: Observations,
     gamma: FloatArray,
     dim: int,
-    dr_idx: IntArray,
-    dr_q: FloatArray,
-    h_idx: IntArray,
-    h_val: FloatArray,
-    h_cnt: IntArray,
-    v: FloatArray,
-    d: FloatArray,
-    ph: FloatArray,
-    x_prior: FloatArray,
+    work: EpochWork,
     keep: bool,
     gains: FloatArray,
     y: FloatArray,
@@ -153,18 +138,13 @@ def filter_epoch(
     :func:`~coopproc.stages.fusion.ekf_update.epoch_update`); returns the epoch's
     observation count. ``ekf_forward``'s epoch without its robust step."""
     if k > 0:
-        nav_at(nav_t, nav_v, nav_ptr, epochs[k], cursor, nav_now)
-        time_update(x, c, nav_now, nav_prev, k, dim, q_coef, q_squared, dt, dr_idx, dr_q, f_out)
-        copy2(nav_prev, nav_now)
-    lo = obs_ptr[k]
-    m = obs_ptr[k + 1] - lo
-    epoch_innovations(
-        x, c, lo, m, obs_kind, obs_a, obs_b, obs_anchor, anchor_tab, obs_dz2, z,
-        r_var, dim, h_idx, h_val, h_cnt, v, d,
-    )  # fmt: skip
-    epoch_update(
-        x, c, lo, m, h_idx, h_val, h_cnt, v, gamma, r_var, x_prior, ph, keep, gains, y, s_out
-    )
+        nav_at(nav.t, nav.v, nav.ptr, nav.epochs[k], at.cursor, at.now)
+        time_update(x, c, at.now, at.prev, k, dim, proc, f_out)
+        copy2(at.prev, at.now)
+    lo = obs.ptr[k]
+    m = obs.ptr[k + 1] - lo
+    epoch_innovations(x, c, lo, m, obs, dim, work)
+    epoch_update(x, c, lo, m, work, gamma, obs.r_var, keep, gains, y, s_out)
     return m
 
 
@@ -173,56 +153,24 @@ def rerun_block(
     b: int,
     cp_x: FloatArray,
     cp_c: FloatArray,
-    epochs: FloatArray,
-    nav_t: FloatArray,
-    nav_v: FloatArray,
-    nav_ptr: IntArray,
-    q_coef: FloatArray,
-    q_squared: bool,
-    dt: FloatArray,
-    obs_ptr: IntArray,
-    obs_kind: IntArray,
-    obs_a: IntArray,
-    obs_b: IntArray,
-    obs_anchor: IntArray,
-    anchor_tab: FloatArray,
-    obs_dz2: FloatArray,
-    z: FloatArray,
-    r_var: FloatArray,
+    nav: Navigation,
+    proc: Process,
+    obs: Observations,
     gamma: FloatArray,
     dim: int,
-    rec_ptr: IntArray,
-    rec_plat: IntArray,
+    slots: Slots,
     block: int,
     with_var: bool,
-    dr_idx: IntArray,
-    dr_q: FloatArray,
     dr_rec: IntArray,
-    cursor: IntArray,
-    nav_prev: FloatArray,
-    nav_now: FloatArray,
-    bx: FloatArray,
-    bc: FloatArray,
-    b_rows: FloatArray,
-    b_idx: IntArray,
-    b_val: FloatArray,
-    b_cnt: IntArray,
-    b_gain: FloatArray,
-    b_y: FloatArray,
-    b_s: FloatArray,
-    b_f: FloatArray,
-    b_dr_rows: FloatArray,
-    h_idx: IntArray,
-    h_val: FloatArray,
-    h_cnt: IntArray,
-    v: FloatArray,
-    d: FloatArray,
-    ph: FloatArray,
-    x_prior: FloatArray,
+    at: NavCursor,
+    buf: BlockBuffers,
 ) -> None:
     """Re-run the forward filter over block ``b`` from its checkpoint, keeping what the
-    backward pass reads (the forward pass's own code and robust factors: the same bits)."""
-    n_epochs = dt.shape[0]
+    backward pass reads in ``buf`` (the forward pass's own code and robust factors: the
+    same bits)."""
+    obs_ptr = obs.ptr
+    rec_ptr, rec_plat = slots
+    n_epochs = proc.dt.shape[0]
     first = b * block
     last = min(first + block, n_epochs)
     base = obs_ptr[first]
@@ -230,36 +178,35 @@ def rerun_block(
     x = cp_x[b].copy()
     c = cp_c[b].copy()
     n = x.shape[0]
-    n_pos = (nav_ptr.shape[0] - 1) * dim
+    n_pos = (nav.ptr.shape[0] - 1) * dim
     n_dr = n - n_pos
     dr_next = np.searchsorted(dr_rec, first)
     dr_base = dr_next
+    h_idx, h_val, h_cnt = buf.work.h_idx, buf.work.h_val, buf.work.h_cnt
     # the navigation at the epoch before the block (the cursor searches back)
-    nav_at(nav_t, nav_v, nav_ptr, epochs[max(first - 1, 0)], cursor, nav_prev)
+    nav_at(nav.t, nav.v, nav.ptr, nav.epochs[max(first - 1, 0)], at.cursor, at.prev)
     for k in range(first, last):
-        at = obs_ptr[k] - base
-        to = obs_ptr[k + 1] - base
+        lo = obs_ptr[k] - base
+        hi = obs_ptr[k + 1] - base
         m = filter_epoch(
-            k, x, c, cursor, nav_prev, nav_now, b_f[k - first], epochs, nav_t, nav_v,
-            nav_ptr, q_coef, q_squared, dt, obs_ptr, obs_kind, obs_a, obs_b, obs_anchor,
-            anchor_tab, obs_dz2, z, r_var, gamma, dim, dr_idx, dr_q, h_idx, h_val, h_cnt,
-            v, d, ph, x_prior, bool(np.bool_(True)), b_gain[at:to], b_y[at:to], b_s[at:to],
+            k, x, c, at, buf.b_f[k - first], nav, proc, obs, gamma, dim, buf.work,
+            bool(np.bool_(True)), buf.b_gain[lo:hi], buf.b_y[lo:hi], buf.b_s[lo:hi],
         )  # fmt: skip
         for j in range(m):
-            b_cnt[at + j] = h_cnt[j]
+            buf.b_cnt[lo + j] = h_cnt[j]
             for p in range(h_cnt[j]):
-                b_idx[at + j, p] = h_idx[j, p]
-                b_val[at + j, p] = h_val[j, p]
-        copy1(bx[k - first], x)
+                buf.b_idx[lo + j, p] = h_idx[j, p]
+                buf.b_val[lo + j, p] = h_val[j, p]
+        copy1(buf.bx[k - first], x)
         if with_var:
-            copy2(bc[k - first], c)
+            copy2(buf.bc[k - first], c)
         for r in range(rec_ptr[k], rec_ptr[k + 1]):
             p = rec_plat[r]
             for ax in range(dim):
-                copy1(b_rows[(r - rec_base) * dim + ax], c[p * dim + ax])
+                copy1(buf.b_rows[(r - rec_base) * dim + ax], c[p * dim + ax])
         if dr_next < dr_rec.shape[0] and dr_rec[dr_next] == k:
             for j in range(n_dr):
-                copy1(b_dr_rows[(dr_next - dr_base) * n_dr + j], c[n_pos + j])
+                copy1(buf.b_dr_rows[(dr_next - dr_base) * n_dr + j], c[n_pos + j])
             dr_next += 1
 
 
@@ -268,27 +215,12 @@ def refit_checkpoints(
     b0: int,
     cp_x: FloatArray,
     cp_c: FloatArray,
-    epochs: FloatArray,
-    nav_t: FloatArray,
-    nav_v: FloatArray,
-    nav_ptr: IntArray,
-    q_coef: FloatArray,
-    q_squared: bool,
-    dt: FloatArray,
-    obs_ptr: IntArray,
-    obs_kind: IntArray,
-    obs_a: IntArray,
-    obs_b: IntArray,
-    obs_anchor: IntArray,
-    anchor_tab: FloatArray,
-    obs_dz2: FloatArray,
-    z: FloatArray,
-    r_var: FloatArray,
+    nav: Navigation,
+    proc: Process,
+    obs: Observations,
     gamma: FloatArray,
     dim: int,
     block: int,
-    dr_idx: IntArray,
-    dr_q: FloatArray,
 ) -> None:
     """The robust refit's forward pass (:mod:`~coopproc.stages.fusion.robust_refit`) from
     checkpoint ``b0`` on: the checkpoints after it, in place, with the refit's factors.
@@ -298,7 +230,7 @@ def refit_checkpoints(
     checkpoints up to ``b0``: only the later ones are filtered again (the forward pass's
     own code, as :func:`rerun_block`). ``b0`` past the last block: nothing changed.
     """
-    n_epochs = dt.shape[0]
+    n_epochs = proc.dt.shape[0]
     n_blocks = cp_x.shape[0]
     if b0 >= n_blocks:
         return
@@ -306,22 +238,20 @@ def refit_checkpoints(
     x = cp_x[b0].copy()
     c = cp_c[b0].copy()
     n = x.shape[0]
-    n_plat = nav_ptr.shape[0] - 1
-    h_idx, h_val, h_cnt, v, d, ph, x_prior = epoch_buffers(max_epoch_obs(obs_ptr), dim, n)
+    n_plat = nav.ptr.shape[0] - 1
+    work = epoch_buffers(max_epoch_obs(obs.ptr), dim, n)
     unused = np.zeros((1, 1))
     unused_v = np.zeros(1)
-    cursor = np.full(n_plat, -1, dtype=np.int64)
-    nav_prev = np.zeros((n_plat, dim))
-    nav_now = np.zeros((n_plat, dim))
+    at = NavCursor(
+        np.full(n_plat, -1, dtype=np.int64), np.zeros((n_plat, dim)), np.zeros((n_plat, dim))
+    )
     f_out = np.zeros((n_plat, 4))
-    nav_at(nav_t, nav_v, nav_ptr, epochs[max(first - 1, 0)], cursor, nav_prev)
+    nav_at(nav.t, nav.v, nav.ptr, nav.epochs[max(first - 1, 0)], at.cursor, at.prev)
     for k in range(first, n_epochs):
         if k % block == 0 and k > first:
             copy1(cp_x[k // block], x)
             copy2(cp_c[k // block], c)
         filter_epoch(
-            k, x, c, cursor, nav_prev, nav_now, f_out, epochs, nav_t, nav_v, nav_ptr,
-            q_coef, q_squared, dt, obs_ptr, obs_kind, obs_a, obs_b, obs_anchor, anchor_tab,
-            obs_dz2, z, r_var, gamma, dim, dr_idx, dr_q, h_idx, h_val, h_cnt, v, d, ph,
-            x_prior, bool(np.bool_(False)), unused, unused_v, unused_v,
+            k, x, c, at, f_out, nav, proc, obs, gamma, dim, work, bool(np.bool_(False)),
+            unused, unused_v, unused_v,
         )  # fmt: skip

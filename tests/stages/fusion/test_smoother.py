@@ -7,9 +7,11 @@ import pytest
 
 from coopproc.estimation.kalman import rts_step
 from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_POSITION, OBS_RANGE, ekf_forward, nav_at
+from coopproc.stages.fusion.kernel_types import Navigation, Observations, Process, Robust, Slots
 from coopproc.stages.fusion.smoother import mbf_backward
 
 DIM = 2
+ROBUST = Robust(True, 3.0, 4.0, 1.0, 20)
 
 
 def _problem(seed: int, n_plat: int = 3, n_ep: int = 60) -> dict[str, np.ndarray]:
@@ -77,33 +79,36 @@ def _problem(seed: int, n_plat: int = 3, n_ep: int = 60) -> dict[str, np.ndarray
     }
 
 
-def _forward(pb: dict[str, np.ndarray], rec_ptr: np.ndarray, rec_plat: np.ndarray, block: int):
+def _forward(pb: dict[str, np.ndarray], rec: Slots, block: int):
     return ekf_forward(
-        pb["x0"], pb["c0"], *_nav(pb), pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"],
-        pb["a"], pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"], pb["z"], pb["var"], DIM,
-        True, 3.0, 4.0, 1.0, 20, rec_ptr, rec_plat, block, *_no_dr(pb), np.zeros(0),
+        pb["x0"], pb["c0"], *_kernel(pb), DIM, ROBUST, rec, block, np.zeros(0, np.int64),
+        np.zeros(0),
     )  # fmt: skip
 
 
-def _no_dr(pb: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    n_plat = pb["nav_ptr"].shape[0] - 1
-    return np.full(n_plat, -1, dtype=np.int64), np.zeros((n_plat, 5)), np.zeros(0, np.int64)
+def _kernel(pb: dict[str, np.ndarray]) -> tuple[Navigation, Process, Observations]:
+    """The problem as the kernels take it (DR states where ``pb`` has them)."""
+    nav = Navigation(pb["epochs"], pb["nav_t"], pb["nav_v"], pb["nav_ptr"])
+    proc = Process.without_dr(pb["q_coef"], False, pb["dt"])
+    if "dr_idx" in pb:
+        proc = proc._replace(dr_idx=pb["dr_idx"], dr_q=pb["dr_q"])
+    obs = Observations(
+        pb["ptr"], pb["kind"], pb["a"], pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"],
+        pb["z"], pb["var"],
+    )  # fmt: skip
+    return nav, proc, obs
 
 
-def _nav(pb: dict[str, np.ndarray]) -> tuple[np.ndarray, ...]:
-    return pb["epochs"], pb["nav_t"], pb["nav_v"], pb["nav_ptr"]
-
-
-def _all_slots(n_ep: int, n_plat: int) -> tuple[np.ndarray, np.ndarray]:
+def _all_slots(n_ep: int, n_plat: int) -> Slots:
     ptr = np.arange(n_ep + 1, dtype=np.int64) * n_plat
-    return ptr, np.tile(np.arange(n_plat, dtype=np.int64), n_ep)
+    return Slots(ptr, np.tile(np.arange(n_plat, dtype=np.int64), n_ep))
 
 
 def _dense_rts(pb: dict[str, np.ndarray], n_plat: int) -> tuple[np.ndarray, np.ndarray]:
     """States and variances of the dense RTS recursion (filters.rts_step) at every epoch
     but the last, from the forward pass's posteriors (checkpoints with block = 1)."""
     n_ep = pb["dt"].shape[0]
-    xs_f, _, _, _, _, _, cp_c, *_ = _forward(pb, *_all_slots(n_ep, n_plat), 1)
+    xs_f, _, _, _, _, _, cp_c, *_ = _forward(pb, _all_slots(n_ep, n_plat), 1)
     xs_f = xs_f.reshape(n_ep, n_plat * DIM)
     post = cp_c[1:]  # posterior covariance of epochs 0 .. K - 2
     q = (pb["q_coef"] * pb["dt"][:, None]).repeat(DIM, axis=1)
@@ -128,20 +133,16 @@ def test_mbf_smoother_equals_dense_rts(seed: int, block: int) -> None:
     pb = _problem(seed, n_plat)
     n_ep = pb["dt"].shape[0]
     rec = _all_slots(n_ep, n_plat)
-    _, _, gamma, _, _, cp_x, cp_c, *_ = _forward(pb, *rec, block)
+    _, _, gamma, _, _, cp_x, cp_c, *_ = _forward(pb, rec, block)
     assert (gamma < 1e-6).sum() >= 1  # the outlier was rejected, and the smoother knows it
-    xs, var, *_ = mbf_backward(
-        cp_x, cp_c, *_nav(pb), pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"], pb["a"],
-        pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"], pb["z"], pb["var"], gamma, DIM,
-        *rec, block,
-    )  # fmt: skip
+    xs, var, *_ = mbf_backward(cp_x, cp_c, *_kernel(pb), gamma, DIM, rec, block)
     ref_x, ref_var = _dense_rts(pb, n_plat)
     got_x = xs.reshape(n_ep, -1)[:-1]
     got_var = var.reshape(n_ep, -1)[:-1]
     assert got_x == pytest.approx(ref_x, abs=1e-9)
     assert got_var == pytest.approx(ref_var, rel=1e-8, abs=1e-12)
     # smoothing used the future: the variances are below the filtered ones
-    _, var_f, *_ = _forward(pb, *rec, block)
+    _, var_f, *_ = _forward(pb, rec, block)
     assert (got_var <= var_f.reshape(n_ep, -1)[:-1] + 1e-12).all()
     assert np.abs(got_var - var_f.reshape(n_ep, -1)[:-1]).max() > 1e-3
 
@@ -155,15 +156,11 @@ def test_recorded_subset_gives_the_same_slots() -> None:
     keep = rng.random(full[1].shape[0]) < 0.3
     epoch_of = np.repeat(np.arange(n_ep), n_plat)
     sub_ptr = np.concatenate(([0], np.cumsum(np.bincount(epoch_of[keep], minlength=n_ep))))
-    sub = (sub_ptr.astype(np.int64), full[1][keep])
+    sub = Slots(sub_ptr.astype(np.int64), full[1][keep])
     outs = []
     for rec in (full, sub):
-        xs_f, var_f, gamma, _, _, cp_x, cp_c, *_ = _forward(pb, *rec, 8)
-        xs, var, *_ = mbf_backward(
-            cp_x, cp_c, *_nav(pb), pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"],
-            pb["a"], pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"], pb["z"], pb["var"],
-            gamma, DIM, *rec, 8,
-        )  # fmt: skip
+        xs_f, var_f, gamma, _, _, cp_x, cp_c, *_ = _forward(pb, rec, 8)
+        xs, var, *_ = mbf_backward(cp_x, cp_c, *_kernel(pb), gamma, DIM, rec, 8)
         outs.append((xs_f, var_f, xs, var))
     for whole, part in zip(outs[0], outs[1], strict=True):
         np.testing.assert_array_equal(whole[keep], part)
@@ -199,15 +196,13 @@ def test_pipelined_smoother_is_the_sequential_one_bit_for_bit(with_var: bool) ->
     pb = _problem(6, n_plat)
     n_ep = pb["dt"].shape[0]
     rec = _all_slots(n_ep, n_plat)
-    _, _, gamma, _, _, cp_x, cp_c, *_ = _forward(pb, *rec, 5)
+    _, _, gamma, _, _, cp_x, cp_c, *_ = _forward(pb, rec, 5)
     assert cp_x.shape[0] >= 3  # several blocks, so the pipeline has work to overlap
     results = []
     for threads in (1, 2):
         smoothed = mbf_backward(
-            cp_x, cp_c, *_nav(pb), pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"],
-            pb["a"], pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"], pb["z"],
-            pb["var"], gamma, DIM, *rec, 5, with_var, threads=threads,
-        )  # fmt: skip
+            cp_x, cp_c, *_kernel(pb), gamma, DIM, rec, 5, with_var, threads=threads
+        )
         results.append(smoothed)
     for one, two in zip(results[0], results[1], strict=True):
         assert one.tobytes() == two.tobytes()
@@ -283,14 +278,11 @@ def test_mbf_smoother_with_dr_states_equals_dense_extended_rts(seed: int, block:
     n_ep = pb["dt"].shape[0]
     rec = _all_slots(n_ep, n_plat)
     dr_rec = np.arange(n_ep, dtype=np.int64)
-    dr = (pb["dr_idx"], pb["dr_q"], dr_rec)
 
     def forward(block_: int) -> tuple[np.ndarray, ...]:
-        return ekf_forward(
-            pb["x0"], pb["c0"], *_nav(pb), pb["q_coef"], False, pb["dt"], pb["ptr"],
-            pb["kind"], pb["a"], pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"],
-            pb["z"], pb["var"], DIM, True, 3.0, 4.0, 1.0, 20, *rec, block_, *dr, np.zeros(0),
-        )  # fmt: skip
+        return ekf_forward(  # type: ignore[no-any-return]
+            pb["x0"], pb["c0"], *_kernel(pb), DIM, ROBUST, rec, block_, dr_rec, np.zeros(0)
+        )
 
     # with block 1 the checkpoint before epoch k + 1 is epoch k's posterior
     *_, cp_x1, cp_c1, _, _, _ = forward(1)
@@ -313,10 +305,8 @@ def test_mbf_smoother_with_dr_states_equals_dense_extended_rts(seed: int, block:
     assert dr_xf[-1] == pytest.approx(x_pred[n_plat * DIM :], abs=1e-9)
     assert dr_vf[-1] == pytest.approx(np.diag(jac @ post_c[last] @ jac.T + q)[n_plat * DIM :])
     xs, var, dr_xs, dr_vs = mbf_backward(
-        cp_x, cp_c, *_nav(pb), pb["q_coef"], False, pb["dt"], pb["ptr"], pb["kind"], pb["a"],
-        pb["b"], pb["anchor"], pb["anchor_table"], pb["dz2"], pb["z"], pb["var"], gamma, DIM,
-        *rec, block, dr_idx=dr[0], dr_q=dr[1], dr_rec=dr[2],
-    )  # fmt: skip
+        cp_x, cp_c, *_kernel(pb), gamma, DIM, rec, block, dr_rec=dr_rec
+    )
     n_pos = n_plat * DIM
     assert xs.reshape(n_ep, -1)[:-1] == pytest.approx(ref_x[:, :n_pos], abs=1e-7)
     assert var.reshape(n_ep, -1)[:-1] == pytest.approx(ref_var[:, :n_pos], rel=1e-6, abs=1e-10)

@@ -1,0 +1,146 @@
+"""The cooperative fusion's compiled kernels' inputs, as small typed structures.
+
+The forward EKF (:mod:`~coopproc.stages.fusion.ekf`), the smoother's re-run and backward
+pass (:mod:`~coopproc.stages.fusion.smoother_rerun`, :mod:`~coopproc.stages.fusion.smoother`)
+and the robust refit share the same inputs; each group is one ``NamedTuple`` of arrays,
+which numba passes to compiled code as a tuple (an attribute read costs nothing), so a
+kernel takes a handful of arguments instead of dozens of positional arrays (issue 34
+part 1). The fields are the arrays :func:`~coopproc.stages.fusion.fuse.fuse` builds;
+each docstring says what the kernels read from it.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from coopproc.model import FloatArray
+
+__all__ = [
+    "Adjoints",
+    "EpochWork",
+    "IntArray",
+    "NavCursor",
+    "Navigation",
+    "Observations",
+    "Process",
+    "Robust",
+    "Slots",
+    "Smoothed",
+]
+
+IntArray = NDArray[np.int64]
+
+
+class Navigation(NamedTuple):
+    """The fusion epochs (K,) and every moving platform's navigation samples as
+    :func:`~coopproc.stages.fusion.nav_kernel.nav_at` reads them: times ``t`` (S,),
+    positions ``v`` (S, dim), platform p's samples at ``ptr[p]:ptr[p + 1]``."""
+
+    epochs: FloatArray
+    t: FloatArray
+    v: FloatArray
+    ptr: IntArray
+
+
+class Process(NamedTuple):
+    """The process model of :func:`~coopproc.stages.fusion.ekf.time_update`: the position
+    noise coefficient per platform ``q_coef`` (P,) (``q_squared``: (q dt)^2, else q dt),
+    the epochs' steps ``dt`` (K,), and the DR states' index ``dr_idx`` (P,) (-1: none)
+    and random walks ``dr_q`` (P, 5) (:mod:`~coopproc.stages.fusion.dr_model`)."""
+
+    q_coef: FloatArray
+    q_squared: bool
+    dt: FloatArray
+    dr_idx: IntArray
+    dr_q: FloatArray
+
+    @classmethod
+    def without_dr(cls, q_coef: FloatArray, q_squared: bool, dt: FloatArray) -> Process:
+        """The position-only model (no platform carries DR states)."""
+        n_plat = q_coef.shape[0]
+        return cls(q_coef, q_squared, dt, np.full(n_plat, -1, np.int64), np.zeros((n_plat, 5)))
+
+
+class Observations(NamedTuple):
+    """Every observation, CSR by epoch (epoch k's are ``ptr[k]:ptr[k + 1]``): its kind,
+    platforms ``a``/``b``, row ``anchor`` of ``anchor_tab`` (the fixed point or offset),
+    squared out-of-plane term ``dz2``, value ``z`` and variance ``r_var``
+    (:mod:`~coopproc.stages.fusion.ekf_update`)."""
+
+    ptr: IntArray
+    kind: NDArray[np.integer]
+    a: NDArray[np.integer]
+    b: NDArray[np.integer]
+    anchor: NDArray[np.integer]
+    anchor_tab: FloatArray
+    dz2: FloatArray
+    z: FloatArray
+    r_var: FloatArray
+
+
+class Robust(NamedTuple):
+    """The robust update's settings (paper 002 eq. (18)-(20)): on or off, k0, k1, the MAD
+    sigma's floor and the window of earlier innovations a small epoch pools with."""
+
+    robust: bool
+    k0: float
+    k1: float
+    sigma_floor: float
+    mad_window: int
+
+
+class Slots(NamedTuple):
+    """The recorded (epoch, platform) slots, CSR by epoch: epoch k's are platforms
+    ``plat[ptr[k]:ptr[k + 1]]``."""
+
+    ptr: IntArray
+    plat: IntArray
+
+
+class EpochWork(NamedTuple):
+    """One epoch's work arrays (:func:`~coopproc.stages.fusion.ekf_update.epoch_buffers`):
+    Jacobian rows (indices, values, counts), innovations, their variances, C h, the prior."""
+
+    h_idx: IntArray
+    h_val: FloatArray
+    h_cnt: IntArray
+    v: FloatArray
+    d: FloatArray
+    ph: FloatArray
+    x_prior: FloatArray
+
+
+class NavCursor(NamedTuple):
+    """Where :func:`~coopproc.stages.fusion.nav_kernel.nav_at` is in each platform's
+    samples, and the navigation at the epoch before and at this one (P, dim)."""
+
+    cursor: IntArray
+    prev: FloatArray
+    now: FloatArray
+
+    @classmethod
+    def allocate(cls, n_plat: int, dim: int) -> NavCursor:
+        return cls(np.full(n_plat, -1, np.int64), np.zeros((n_plat, dim)), np.zeros((n_plat, dim)))
+
+
+class Adjoints(NamedTuple):
+    """The smoother's backward adjoints lambda (n,) and Lambda (n, n), and its two work
+    vectors (Lambda g and one column), :mod:`~coopproc.stages.fusion.smoother`."""
+
+    lam: FloatArray
+    lam_t: FloatArray
+    lam_g: FloatArray
+    col: FloatArray
+
+
+class Smoothed(NamedTuple):
+    """The smoother's results: states and variances at the recorded slots (R, dim), the DR
+    states and their variances at the epochs they are reported (E, n - P dim)."""
+
+    xs: FloatArray
+    var: FloatArray
+    dr_xs: FloatArray
+    dr_var: FloatArray
