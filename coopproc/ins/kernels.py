@@ -11,9 +11,11 @@ One compiled signature: float64 arrays, 15 or 21 states chosen by the covariance
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import NamedTuple
 
 import numba
 import numpy as np
+import numpy.typing as npt
 
 from coopproc.estimation.range_model import lever_arm_row, range_unit
 from coopproc.estimation.robust import GAMMA_REJECT, igg3_scalar
@@ -172,19 +174,55 @@ def _pseudo(
             h[:] = 0.0
 
 
+class ImuSamples(NamedTuple):
+    """The IMU samples: times (K,), angle and velocity increments (K, 3)."""
+
+    t: FloatArray
+    dth: FloatArray
+    dv: FloatArray
+
+
+class LoopState(NamedTuple):
+    """The loop's state between chunks: nav (10), the previous compensated increments,
+    the covariance epoch's accumulated increments and length (7), the sensor errors
+    (12), P, the error state, and [next event, next propagation epoch]."""
+
+    nav: FloatArray
+    dth_prev: FloatArray
+    dv_prev: FloatArray
+    acc: FloatArray
+    sens: FloatArray
+    p: FloatArray
+    x: FloatArray
+    ptr: npt.NDArray[np.int64]
+
+
+class LoopRecord(NamedTuple):
+    """What the loop writes: nav per sample, and per propagation epoch its sample, the
+    smoother's inputs, the filtered P and error state; the innovation statistics."""
+
+    out: FloatArray
+    epoch_k: npt.NDArray[np.int64]
+    epoch_in: FloatArray
+    p_filt: FloatArray
+    x_filt: FloatArray
+    stats: FloatArray
+
+
 @numba.njit(cache=True)
 def _forward_chunk(
-    t: FloatArray, dth_raw: FloatArray, dv_raw: FloatArray, k0: int, k1: int,
-    nav: FloatArray, dth_prev: FloatArray, dv_prev: FloatArray, acc: FloatArray,
-    sens: FloatArray, p: FloatArray, x: FloatArray, ptr: np.ndarray,
-    ev_kind: np.ndarray, ev_k: np.ndarray, ev_dt: FloatArray, ev_data: FloatArray,
-    lever: FloatArray, nhc_every: int, nhc_sigma: FloatArray, nhc_lever: FloatArray,
-    zupt_every: int, zupt_sigma: float, static: np.ndarray, is_epoch: np.ndarray,
-    robust: FloatArray, qc: FloatArray, tau: float,
-    out: FloatArray, epoch_k: np.ndarray, epoch_in: FloatArray, p_filt: FloatArray,
-    x_filt: FloatArray, stats: FloatArray,
+    imu: ImuSamples, k0: int, k1: int, st: LoopState, plan: EventPlan, qc: FloatArray,
+    tau: float, rec: LoopRecord,
 ) -> None:  # fmt: skip
-    """Samples k0..k1-1 of the loop of run_events; the state lives in the arrays."""
+    """Samples k0..k1-1 of the loop of run_events; the state lives in ``st``'s arrays,
+    what the smoother reads is written to ``rec``."""
+    t, dth_raw, dv_raw = imu
+    nav, dth_prev, dv_prev, acc, sens, p, x, ptr = st
+    out, epoch_k, epoch_in, p_filt, x_filt, stats = rec
+    ev_kind, ev_k, ev_dt, ev_data, lever = plan.kind, plan.k, plan.dt, plan.data, plan.lever
+    nhc_every, nhc_sigma, nhc_lever = plan.nhc_every, plan.nhc_sigma, plan.nhc_lever
+    zupt_every, zupt_sigma, static = plan.zupt_every, plan.zupt_sigma, plan.static
+    is_epoch, robust = plan.is_epoch, plan.robust
     n = x.shape[0]
     n_ev = ev_k.shape[0]
     scaled = n > N_BASE
@@ -283,15 +321,12 @@ def forward(
     ptr = np.array([0, 1], dtype=np.int64)
     qc = continuous_noise(ekf.noise, n)
     tau = float(ekf.noise.correlation_time)
+    imu = ImuSamples(t, dth, dv)
+    st = LoopState(nav, dth_prev, dv_prev, acc, sens, p, x, ptr)
+    rec = LoopRecord(out, epoch_k, epoch_in, p_filt, x_filt, stats)
     for k0 in range(1, k_n, CHUNK):
         k1 = min(k0 + CHUNK, k_n)
-        _forward_chunk(
-            t, dth, dv, k0, k1, nav, dth_prev, dv_prev, acc, sens, p, x, ptr,
-            plan.kind, plan.k, plan.dt, plan.data, plan.lever, plan.nhc_every,
-            plan.nhc_sigma, plan.nhc_lever, plan.zupt_every, plan.zupt_sigma,
-            plan.static, plan.is_epoch, plan.robust, qc, tau,
-            out, epoch_k, epoch_in, p_filt, x_filt, stats,
-        )  # fmt: skip
+        _forward_chunk(imu, k0, k1, st, plan, qc, tau, rec)
         if progress is not None:
             progress((k1 - 1) / (k_n - 1))
     return ForwardRun(out, epoch_k, epoch_in, p_filt, x_filt, stats, sens)

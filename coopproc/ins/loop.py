@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -96,8 +97,7 @@ N_STAT = 5
 EPOCH_IN = 17
 
 
-@dataclass(frozen=True, eq=False)
-class EventPlan:
+class EventPlan(NamedTuple):
     """The aiding of one run as arrays, each measurement tied to an IMU sample.
 
     ``kind``/``k``/``dt``/``data``: one row per measurement event, sorted by ``k`` (then
@@ -108,7 +108,8 @@ class EventPlan:
     zero-velocity updates at samples k with k % every == 0 (0: off), zero velocity only
     where ``static[k]``. ``is_epoch[k]``: the covariance is propagated at sample k (every
     ``cov_every`` samples, every aided sample and the last). ``robust`` (k0, k1) or
-    k0 <= 0 for none (IGG-III on range, position and speed).
+    k0 <= 0 for none (IGG-III on range, position and speed). A ``NamedTuple``: the
+    compiled loop (:mod:`coopproc.ins.kernels`) takes it whole.
     """
 
     kind: npt.NDArray[np.int64]
