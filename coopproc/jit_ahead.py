@@ -27,7 +27,8 @@ renames it, so none is left half-written).
 :data:`AHEAD`'s signatures are those a run of ``sample_logs`` compiles (every kernel has
 one; tests/test_jit_cache.py checks that they still are), in a short code: ``f8``,
 ``i8``, ``i4``, ``i1``, ``u8``, ``u1``, ``b1`` for float64 ... bool scalars, ``f8[2]``
-for a C-contiguous 2-d array of float64, a trailing ``r`` for a read-only one.
+for a C-contiguous 2-d array of float64, a trailing ``r`` for a read-only one, and
+``module.Class(...)`` for a NamedTuple of the types inside the parentheses.
 """
 
 from __future__ import annotations
@@ -44,8 +45,9 @@ __all__ = ["AHEAD", "compile_ahead", "signature"]
 #: (module, kernel, signature code) the second process compiles, in this order.
 AHEAD: tuple[tuple[str, str, str], ...] = (
     ("coopproc.stages.ranging.nlos_kernel", "filter_kernel",
-     "f8[1] f8[1] f8[1] f8[1] f8[1] f8 f8 f8 b1 f8 b1 f8 f8 f8 f8 i8 i8 i8 f8 i8 b1 f8 f8[1] "
-     "f8 f8 i1[1] f8[1]"),
+     "coopproc.stages.ranging.nlos_types.FilterSeries(f8[1] f8[1] f8[1] f8[1] f8[1] f8[1] "
+     "i1[1] f8[1]) coopproc.stages.ranging.nlos_types.FilterSettings(f8 f8 f8 b1 f8 b1 f8 "
+     "f8 f8 f8 i8 i8 i8 f8 i8 b1 f8 f8 f8)"),
     ("coopproc.stages.ranging.di", "_smooth_kernel", "f8[1] f8[1] f8[1] f8[1] f8[1] f8 f8"),
     ("coopproc.run.positions_table", "_found_merged", "f8[1] f8[1]"),
     ("coopproc.report.track_kernels", "run_starts", "i1[1]r i1[1]r"),
@@ -71,18 +73,41 @@ _SCALARS = {
 
 def signature(code: str) -> tuple[object, ...]:
     """The numba argument types of a signature code (module docstring)."""
+    items, rest = _items(code.replace("(", " ( ").replace(")", " ) ").split())
+    if rest:
+        raise ValueError(f"unbalanced ')' in signature code {code!r}")
+    return tuple(items)
+
+
+def _items(tokens: list[str]) -> tuple[list[object], list[str]]:
+    """The types of ``tokens`` up to a closing ``)`` (and the tokens after it). A name
+    followed by ``(`` is a NamedTuple class (``module.Class``) of the types inside."""
     from numba.core import types
 
     out: list[object] = []
-    for token in code.split():
-        name, _, rest = token.partition("[")
+    while tokens:
+        token, tokens = tokens[0], tokens[1:]
+        if token == ")":
+            return out, tokens
+        if tokens and tokens[0] == "(":
+            module, _, name = token.rpartition(".")
+            cls = getattr(importlib.import_module(module), name)
+            fields, tokens = _items(tokens[1:])
+            same = all(f == fields[0] for f in fields)
+            out.append(
+                types.NamedUniTuple(fields[0], len(fields), cls)
+                if same
+                else types.NamedTuple(fields, cls)
+            )
+            continue
+        name, _, dims = token.partition("[")
         dtype = getattr(types, _SCALARS[name])
-        if not rest:
+        if not dims:
             out.append(dtype)
             continue
-        ndim, _, flags = rest.partition("]")
+        ndim, _, flags = dims.partition("]")
         out.append(types.Array(dtype, int(ndim), "C", readonly=flags == "r"))
-    return tuple(out)
+    return out, tokens
 
 
 def _cpus() -> int:

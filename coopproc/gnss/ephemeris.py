@@ -28,6 +28,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from numpy.typing import NDArray
 
+from coopproc.estimation.range_model import slant_ranges_units
 from coopproc.model import FloatArray
 
 __all__ = [
@@ -38,6 +39,7 @@ __all__ = [
     "SPEED_OF_LIGHT",
     "GpsEphemerides",
     "SatStates",
+    "geometric_range",
     "rotate_to_reception",
     "satellite_states",
 ]
@@ -309,3 +311,14 @@ def rotate_to_reception(pos_ecef_m: FloatArray, travel_s: FloatArray) -> FloatAr
     c, s = np.cos(angle), np.sin(angle)
     p = np.asarray(pos_ecef_m, dtype=np.float64)
     return np.column_stack([c * p[:, 0] + s * p[:, 1], -s * p[:, 0] + c * p[:, 1], p[:, 2]])
+
+
+def geometric_range(sat_ecef_m: FloatArray, rx_ecef_m: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The pseudorange's geometric part (m) and the unit vectors from the receiver to the
+    satellites: |sat - rx| (:mod:`coopproc.estimation.range_model`) plus the first-order
+    term of the earth's rotation during the travel, omega_e (x_s y_r - y_s x_r) / c
+    (IS-GPS-200 sec. 20.3.3.4.3.4; the SPP and the tightly coupled filters' one model)."""
+    sat = np.asarray(sat_ecef_m, dtype=np.float64)
+    x = np.asarray(rx_ecef_m, dtype=np.float64)
+    geo, unit = slant_ranges_units(sat - x[None, :])
+    return geo + OMEGA_E_DOT * (sat[:, 0] * x[1] - sat[:, 1] * x[0]) / SPEED_OF_LIGHT, unit

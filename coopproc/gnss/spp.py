@@ -39,10 +39,10 @@ from coopproc.gnss.corrections import (
     saastamoinen_m,
 )
 from coopproc.gnss.ephemeris import (
-    OMEGA_E_DOT,
     SPEED_OF_LIGHT,
     GpsEphemerides,
     SatStates,
+    geometric_range,
     satellite_states,
 )
 from coopproc.gnss.rinex_obs import GnssObservations
@@ -294,12 +294,7 @@ def _wls(
     s = ep.states
     for _ in range(opt.max_iterations):
         sat = s.pos_ecef_m
-        d = sat - x[None, :3]
-        # earth rotation during the travel: the first-order term of the rotated range
-        rho = (
-            np.linalg.norm(d, axis=1)
-            + OMEGA_E_DOT * (sat[:, 0] * x[1] - sat[:, 1] * x[0]) / SPEED_OF_LIGHT
-        )
+        rho, unit = geometric_range(sat, x[:3])  # with the earth's rotation in the travel
         near_surface = bool(np.linalg.norm(x[:3]) > 6.0e6)
         iono = np.zeros_like(rho)
         tropo = np.zeros_like(rho)
@@ -321,7 +316,7 @@ def _wls(
         model = rho + x[3] - SPEED_OF_LIGHT * (s.clock_s - s.tgd_s) + iono + tropo
         v = ep.code_m - model
         var = code_variance_m2(el, iono, opt.tropo and near_surface, opt.errors)
-        h_mat = np.column_stack([-d / np.linalg.norm(d, axis=1)[:, None], np.ones_like(rho)])
+        h_mat = np.column_stack([-unit, np.ones_like(rho)])
         hu, vu, wu = h_mat[used], v[used], 1.0 / var[used]
         normal = hu.T @ (hu * wu[:, None])
         try:

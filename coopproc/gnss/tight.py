@@ -36,7 +36,7 @@ from coopproc.gnss.corrections import (
     klobuchar_s,
     saastamoinen_m,
 )
-from coopproc.gnss.ephemeris import OMEGA_E_DOT, SPEED_OF_LIGHT, satellite_states
+from coopproc.gnss.ephemeris import OMEGA_E_DOT, SPEED_OF_LIGHT, geometric_range, satellite_states
 from coopproc.gnss.receiver import GnssReceiver
 from coopproc.gnss.rinex_write import L1_WAVELENGTH_M
 from coopproc.gnss.spp import CODE_L1
@@ -176,10 +176,7 @@ def epoch_model(
     x = frame.to_ecef(enu)
     v = frame.rot.T @ vel_enu
     sat, sv = ep.sat_pos[sel], ep.sat_vel[sel]
-    d = sat - x[None, :]
-    geo = np.linalg.norm(d, axis=1)
-    u = d / geo[:, None]
-    rho = geo + OMEGA_E_DOT * (sat[:, 0] * x[1] - sat[:, 1] * x[0]) / SPEED_OF_LIGHT
+    rho, u = geometric_range(sat, x)
     az, el = azel(x, sat, (frame.lat_rad, frame.lon_rad))
     keep = el >= np.radians(mask_deg)
     height = frame.height_m + float(enu[2])

@@ -19,6 +19,7 @@ import numpy as np
 from coopproc.model import FloatArray
 from coopproc.stages.ranging.jump import JUMP_MIN_POINTS, range_jump
 from coopproc.stages.ranging.nlos_kernel import filter_kernel
+from coopproc.stages.ranging.nlos_types import FilterSeries, FilterSettings
 
 __all__ = [
     "JUMP_MIN_POINTS",
@@ -162,6 +163,31 @@ _OUTPUT_FIELDS: tuple[str, ...] = (
 )
 
 
+def _settings(params: KernelParams) -> FilterSettings:
+    """The loop's numbers as the compiled kernel takes them (one type: floats, bools, ints)."""
+    return FilterSettings(
+        sigma_init=float(params.initial_sigma_m),
+        gamma_sigma=float(params.gamma_sigma),
+        window_s=float(params.window_s),
+        aligned=bool(params.aligned),
+        accel=float(params.di_accel_sigma),
+        one_shot=bool(params.one_shot),
+        backdate_s=float(params.backdate_s),
+        onset_fraction=float(params.onset_fraction),
+        confirm_fraction=float(params.confirm_fraction),
+        end_confirm_s=float(params.end_confirm_s),
+        end_min_epochs=int(params.end_min_epochs),
+        adaptive_n=max(int(params.adaptive_n), 1),
+        adaptive_min_n=int(params.adaptive_min_n),
+        min_sigma=float(params.min_sigma_m),
+        suspect_epochs=int(params.suspect_epochs),
+        positive_only=bool(params.positive_only),
+        max_event_s=float(params.max_event_s),
+        jump_fraction=float(params.jump_fraction),
+        jump_window_s=float(params.jump_window_s),
+    )
+
+
 def _filter_piece(
     time_s: FloatArray,
     range_m: FloatArray,
@@ -172,35 +198,17 @@ def _filter_piece(
 ) -> DistanceFilterOutput:
     """:func:`filter_distance` over a piece of series without restart gaps."""
     f64 = np.float64
-    d, flag, est, event, step, sigma, resid = filter_kernel(
+    series = FilterSeries(
         np.ascontiguousarray(time_s, dtype=f64),
         np.ascontiguousarray(range_m, dtype=f64),
         np.ascontiguousarray(di_m, dtype=f64),
         np.ascontiguousarray(di_var_m2, dtype=f64),
         np.ascontiguousarray(noise.sigma_m, dtype=f64),
-        float(params.initial_sigma_m),
-        float(params.gamma_sigma),
-        float(params.window_s),
-        bool(params.aligned),
-        float(params.di_accel_sigma),
-        bool(params.one_shot),
-        float(params.backdate_s),
-        float(params.onset_fraction),
-        float(params.confirm_fraction),
-        float(params.end_confirm_s),
-        int(params.end_min_epochs),
-        max(int(params.adaptive_n), 1),
-        int(params.adaptive_min_n),
-        float(params.min_sigma_m),
-        int(params.suspect_epochs),
-        bool(params.positive_only),
-        float(params.max_event_s),
         np.ascontiguousarray(noise.detect_sigma_m, dtype=f64),
-        float(params.jump_fraction),
-        float(params.jump_window_s),
         np.ascontiguousarray(noise.ranges_only, dtype=np.int8),
         np.ascontiguousarray(noise.motion_m, dtype=f64),
     )
+    d, flag, est, event, step, sigma, resid = filter_kernel(series, _settings(params))
     return DistanceFilterOutput(
         distance_m=d,
         nlos_flag=flag,

@@ -56,40 +56,25 @@ from coopproc.stages.ranging.jump import (
     step_fit,
     steps_up,
 )
+from coopproc.stages.ranging.nlos_types import FilterSeries, FilterSettings
 
 __all__ = ["filter_kernel"]
 
 
 @njit(cache=True)
 def filter_kernel(
-    t: FloatArray,
-    rng: FloatArray,
-    di: FloatArray,
-    di_var: FloatArray,
-    sigma_known: FloatArray,
-    sigma_init: float,
-    gamma_sigma: float,
-    window_s: float,
-    aligned: bool,
-    accel: float,
-    one_shot: bool,
-    backdate_s: float,
-    onset_fraction: float,
-    confirm_fraction: float,
-    end_confirm_s: float,
-    end_min_epochs: int,
-    adaptive_n: int,
-    adaptive_min_n: int,
-    min_sigma: float,
-    suspect_epochs: int,
-    positive_only: bool,
-    max_event_s: float,
-    detect_sigma: FloatArray,
-    jump_fraction: float,
-    jump_window_s: float,
-    ranges_only: np.ndarray,
-    motion: FloatArray,
+    series: FilterSeries, settings: FilterSettings
 ) -> tuple[FloatArray, np.ndarray, FloatArray, np.ndarray, FloatArray, FloatArray, FloatArray]:
+    """The loop over one piece (module docstring): distance, NLOS flag (int8), estimate,
+    event index (-1: none), the running estimate in estimation windows, the sigma used
+    and the eq. (9) residual, per epoch."""
+    t, rng, di, di_var, sigma_known, detect_sigma, ranges_only, motion = series
+    (
+        sigma_init, gamma_sigma, window_s, aligned, accel, one_shot, backdate_s,
+        onset_fraction, confirm_fraction, end_confirm_s, end_min_epochs, adaptive_n,
+        adaptive_min_n, min_sigma, suspect_epochs, positive_only, max_event_s,
+        jump_fraction, jump_window_s,
+    ) = settings  # fmt: skip
     n = t.shape[0]
     out_d = np.full(n, np.nan)
     flag = np.zeros(n, dtype=np.int8)
