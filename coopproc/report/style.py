@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from coopproc.errors import ConfigError
+from coopproc.report.table_specs import METHOD_LABELS
 
 __all__ = [
     "COLUMN_WIDTH_IN",
@@ -81,10 +82,12 @@ class LineStyle:
 
 
 METHOD_STYLES: dict[str, LineStyle] = {
-    "observed": LineStyle("Observed", "#1f77b4", "-", 0.8),
-    "rn": LineStyle("RN-Based", "#2ca02c", "--"),
-    "di": LineStyle("DI-Based", "#ff7f0e", "-."),
-    "nav": LineStyle("Own nav", "#7f7f7f", ":"),
+    # the display names are table_specs.METHOD_LABELS' (one definition, the registry's
+    # RangeStage.labels for rn/di: tests/report/test_method_labels.py)
+    "observed": LineStyle(METHOD_LABELS["observed"], "#1f77b4", "-", 0.8),
+    "rn": LineStyle(METHOD_LABELS["rn"], "#2ca02c", "--"),
+    "di": LineStyle(METHOD_LABELS["di"], "#ff7f0e", "-."),
+    "nav": LineStyle(METHOD_LABELS["nav"], "#7f7f7f", ":"),
     "reference": LineStyle("Reference", "#000000", "-", 1.2),
     # paper 003 Table 1's UWB/INS modes (coopproc/stages/ins/ins_stage.py): a colour per
     # aiding, dashed forward, solid smoothed
