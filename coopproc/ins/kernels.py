@@ -30,6 +30,7 @@ from coopproc.ins.propagation import (
     propagate_cov,
 )
 from coopproc.ins.quat import quat_to_dcm
+from coopproc.ins.rows import body_velocity_row, position_row
 from coopproc.model import FloatArray
 
 __all__ = ["CHUNK", "forward"]
@@ -97,16 +98,7 @@ def _event(
     ``h`` a scratch row of n zeros (left zero)."""
     c = quat_to_dcm(nav[6:10])
     if kind == 2:
-        # v^b_x = C[:, 0] . v^n + (w x l)_x; H: [0, C[:, 0], -(C^T [v x])_0, -[l x]_0]
-        vb = w_b[1] * lever[2] - w_b[2] * lever[1]
-        for i in range(3):
-            vb += c[i, 0] * nav[3 + i]
-            h[3 + i] = c[i, 0]
-        v = nav[3:6]
-        h[6] = -(c[1, 0] * v[2] - c[2, 0] * v[1])
-        h[7] = -(c[2, 0] * v[0] - c[0, 0] * v[2])
-        h[8] = -(c[0, 0] * v[1] - c[1, 0] * v[0])
-        h[10], h[11] = lever[2], -lever[1]
+        vb = body_velocity_row(c, nav[3:6], w_b, lever, 0, h)  # the forward speed
         _update(p, x, h, vb - d[0], d[1] * d[1], robust, stats, 2)
         h[:] = 0.0
         return
@@ -132,10 +124,7 @@ def _event(
         h[:] = 0.0
         return
     for i in range(3):
-        # row i of [I, 0, [cl x]]
-        h[i] = 1.0
-        h[6 + (i + 1) % 3] = -cl[(i + 2) % 3]
-        h[6 + (i + 2) % 3] = cl[(i + 1) % 3]
+        position_row(cl, i, h)
         _update(p, x, h, dd[i] + nav[3 + i] * dte, d[3 + i] * d[3 + i], robust, stats, 1)
         h[:] = 0.0
 
@@ -150,21 +139,8 @@ def _pseudo(
     none = np.zeros(2)
     if nhc:
         c = quat_to_dcm(nav[6:10])
-        v = nav[3:6]
-        lv = nhc_lever
-        wl = np.array([w_b[1] * lv[2] - w_b[2] * lv[1], w_b[2] * lv[0] - w_b[0] * lv[2],
-                       w_b[0] * lv[1] - w_b[1] * lv[0]])  # fmt: skip
-        for r in range(1, 3):
-            vb = wl[r]
-            for i in range(3):
-                vb += c[i, r] * v[i]
-                h[3 + i] = c[i, r]
-            h[6] = -(c[1, r] * v[2] - c[2, r] * v[1])
-            h[7] = -(c[2, r] * v[0] - c[0, r] * v[2])
-            h[8] = -(c[0, r] * v[1] - c[1, r] * v[0])
-            # -[l x] row r
-            h[9 + (r + 1) % 3] = lv[(r + 2) % 3]
-            h[9 + (r + 2) % 3] = -lv[(r + 1) % 3]
+        for r in range(1, 3):  # the lateral and vertical body velocity
+            vb = body_velocity_row(c, nav[3:6], w_b, nhc_lever, r, h)
             _update(p, x, h, vb, nhc_sigma[r - 1] ** 2, none, stats, 3)
             h[:] = 0.0
     if zupt:

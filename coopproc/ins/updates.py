@@ -15,8 +15,9 @@ import numpy as np
 
 from coopproc.estimation.range_model import lever_arm_row, range_unit
 from coopproc.ins.earth import ecef_to_enu_matrix, llh_to_ecef
-from coopproc.ins.errorstate import ATT, BG, N_BASE, POS, VEL, Measurement
-from coopproc.ins.quat import quat_to_dcm, skew
+from coopproc.ins.errorstate import ATT, N_BASE, POS, VEL, Measurement
+from coopproc.ins.quat import quat_to_dcm
+from coopproc.ins.rows import body_velocity_row, position_row
 from coopproc.model import FloatArray
 
 __all__ = [
@@ -46,8 +47,8 @@ def position_update(
     ant, c_en, cl = antenna_ecef(nav, lever_b)
     v = c_en @ (ant - llh_to_ecef(meas_llh[0], meas_llh[1], meas_llh[2]))
     h = np.zeros((3, N_BASE))
-    h[:, POS] = np.eye(3)
-    h[:, ATT] = skew(cl)
+    for i in range(3):
+        position_row(cl, i, h[i])  # [I, 0, [cl x]]
     r = np.broadcast_to(np.asarray(sigma_enu, dtype=np.float64), 3) ** 2
     return Measurement(v, h, r.copy())
 
@@ -76,11 +77,10 @@ def body_velocity_rows(
     column is the lever-arm term's). ``w_b``: the compensated body rate (rad/s)."""
     c = quat_to_dcm(nav[6:10])
     lever = np.asarray(lever_b, dtype=np.float64)
-    v_b = c.T @ nav[3:6] + np.cross(w_b, lever)
+    w = np.asarray(w_b, dtype=np.float64)
+    v = np.ascontiguousarray(nav[3:6], dtype=np.float64)
     h = np.zeros((3, N_BASE))
-    h[:, VEL] = c.T
-    h[:, ATT] = -c.T @ skew(nav[3:6])
-    h[:, BG] = -skew(lever)
+    v_b = np.array([body_velocity_row(c, v, w, lever, r, h[r]) for r in range(3)])
     return v_b, h
 
 
