@@ -18,7 +18,7 @@ every ``block`` epochs is kept; :mod:`coopproc.stages.fusion.smoother` re-runs e
 from its checkpoint (bit for bit the same arithmetic, with the forward pass's robust
 factors) instead of storing K covariances.
 
-Observation kinds (``obs_kind``):
+Observation kinds (``obs.kind``):
 
 - ``OBS_RANGE`` (0): range between moving platforms ``a`` and ``b``, |X_a - X_b - o| with
   ``o = anchor_tab[obs_anchor]`` the difference of their dead-reckoning motion from the
@@ -29,9 +29,11 @@ Observation kinds (``obs_kind``):
   observation: codes are int8/int32, read only here);
 - ``OBS_POSITION`` (2): coordinate ``b`` (axis) of platform ``a`` (a leader's own fix).
 
-With ``dim == 2`` the range model is sqrt(de^2 + dn^2 + dz2) where ``dz2`` is the squared
-height difference taken from the navigation (or the anchor's height); with ``dim == 3``
-``dz2`` is 0 and the height is estimated.
+With ``dim == 2`` the range model (:mod:`coopproc.estimation.range_model`) is
+sqrt(dz2 + de^2 + dn^2) where ``dz2`` is the squared height difference taken from the
+navigation (or the anchor's height); with ``dim == 3`` ``dz2`` is 0 and the height is
+estimated. The kernels' inputs are the typed groups of
+:mod:`~coopproc.stages.fusion.kernel_types`.
 """
 
 from __future__ import annotations
