@@ -279,8 +279,11 @@ def report(
     matplotlib.use("Agg")
     from coopproc.report.formats import format_tables
     from coopproc.report.rundir import load_run
+    from coopproc.report.table_specs import run_labels
 
     run = load_run(out)
+    # the tables and figures name the methods as the run did (run.json "method_labels")
+    click.get_current_context().with_resource(run_labels(run.info))
     plots = plots or pdf or svg
     tau_given = click.get_current_context().get_parameter_source("allan_tau")
     stochastic = (

@@ -10,12 +10,13 @@ fonts come from a :class:`FigureStyle` (``--style default|single-column|double-c
 
 from __future__ import annotations
 
+import dataclasses
 import zlib
 from dataclasses import dataclass
 from typing import Any
 
 from coopproc.errors import ConfigError
-from coopproc.report.table_specs import METHOD_LABELS
+from coopproc.report.table_specs import METHOD_LABELS, method_label
 
 __all__ = [
     "COLUMN_WIDTH_IN",
@@ -118,14 +119,17 @@ EXTRA_DASHES: tuple[Any, ...] = ((0, (3, 1, 1, 1)), (0, (5, 1.5)), (0, (1, 1)))
 
 
 def method_style(method: str) -> LineStyle:
-    """The style of a method. A method beyond the known ones is labelled by its name and
-    gets a colour and dash pattern from :data:`EXTRA_COLORS` / :data:`EXTRA_DASHES` chosen
-    by a checksum of its name: the same in every figure and every run."""
+    """The style of a method, labelled by :func:`~coopproc.report.table_specs.method_label`
+    (the run's own names). A method beyond the known ones gets a colour and dash pattern
+    from :data:`EXTRA_COLORS` / :data:`EXTRA_DASHES` chosen by a checksum of its name: the
+    same in every figure and every run."""
+    label = method_label(method)
     if method in METHOD_STYLES:
-        return METHOD_STYLES[method]
+        known = METHOD_STYLES[method]
+        return known if known.label == label else dataclasses.replace(known, label=label)
     code = zlib.crc32(method.encode("utf-8"))
     color = EXTRA_COLORS[code % len(EXTRA_COLORS)]
-    return LineStyle(method, color, EXTRA_DASHES[(code // len(EXTRA_COLORS)) % len(EXTRA_DASHES)])
+    return LineStyle(label, color, EXTRA_DASHES[(code // len(EXTRA_COLORS)) % len(EXTRA_DASHES)])
 
 
 #: Settings every style shares (grid, line widths, reproducible files).

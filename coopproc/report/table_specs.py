@@ -6,8 +6,11 @@ they print the same.
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator, Mapping
+from contextvars import ContextVar
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 __all__ = [
     "METHOD_LABELS",
@@ -16,6 +19,7 @@ __all__ = [
     "MetricSpec",
     "method_label",
     "number_text",
+    "run_labels",
 ]
 
 Better = Literal["min", "max", "absmin", "one"]
@@ -29,9 +33,32 @@ METHOD_LABELS: dict[str, str] = {
 }
 
 
+#: The display names the run being reported declares (run.json ``"method_labels"``: what
+#: the stage registry calls each method of its chain), entered with :func:`run_labels`.
+_RUN_LABELS: ContextVar[Mapping[str, str] | None] = ContextVar("run_labels", default=None)
+
+
 def method_label(method: str) -> str:
-    """The display name of a method: :data:`METHOD_LABELS`, else the method's own name."""
-    return METHOD_LABELS.get(method, method)
+    """The display name of a method: the run's own (:func:`run_labels`), else
+    :data:`METHOD_LABELS`, else the method's own name."""
+    declared = _RUN_LABELS.get()
+    named = declared.get(method) if declared is not None else None
+    return named or METHOD_LABELS.get(method, method)
+
+
+@contextlib.contextmanager
+def run_labels(info: Mapping[str, Any]) -> Iterator[None]:
+    """Within it, :func:`method_label` names the methods as the run's ``run.json`` facts
+    (``info``) do: its ``"method_labels"`` (a run before them: the defaults). Entered by
+    whatever reports one run (``coopproc report``, the run's own figures and report.html);
+    forked page workers inherit it."""
+    labels = info.get("method_labels")
+    named = {str(k): str(v) for k, v in labels.items()} if isinstance(labels, dict) else {}
+    token = _RUN_LABELS.set(named)
+    try:
+        yield
+    finally:
+        _RUN_LABELS.reset(token)
 
 
 def number_text(name: str, value: float) -> str:

@@ -37,10 +37,12 @@ from coopproc.report.pages import FigureOptions
 from coopproc.report.rpe import evaluation_and_rpe
 from coopproc.report.run_tables import RunTables
 from coopproc.report.rundir import RUN_EXTENSION_FILES, RUN_FILES, table_file_name
+from coopproc.report.table_specs import run_labels
 from coopproc.run.calibration_summary import calibration_facts
 from coopproc.run.config import RunConfig
 from coopproc.run.outages import OutageOutput, OutageReport
 from coopproc.run.pipeline_output import PipelineOutput
+from coopproc.stages.registry import declared_labels
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -193,6 +195,10 @@ def write_run(
             for s in output.chain
         ],
         "methods": {k: list(v) for k, v in (output.methods or {}).items()},
+        # the display names the registry declares for them: the report shows these
+        "method_labels": declared_labels(
+            dict.fromkeys(m for names in (output.methods or {}).values() for m in names)
+        ),
         "inputs": [
             {"file": _relative(p, session.root), "sha256": digests.get(p) or sha256_of(p)}
             for p in session.inputs
@@ -219,7 +225,10 @@ def write_run(
     if injected is not None:
         scores = injected_scores(injected[1], output.result.nlos_events, output.nlos_methods)
         info["injected"] = {"file": injected[0].name, "sha256": sha256_of(injected[0])}
-    with atomic_output_dir(out_dir, force=force, protect=[session.root, *session.inputs]) as tmp:
+    with (
+        atomic_output_dir(out_dir, force=force, protect=[session.root, *session.inputs]) as tmp,
+        run_labels(info),  # the figures and report.html name the methods as run.json does
+    ):
         # the same list of files and columns that `coopproc report` reads back
         phase("write tables")
         since = clock()

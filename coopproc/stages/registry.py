@@ -64,6 +64,12 @@ def method_label(method: str, long: bool = False) -> str:
     return method if names is None else names[1 if long else 0]
 
 
+def declared_labels(methods: Iterable[str]) -> dict[str, str]:
+    """The long names of ``methods`` that their range processors declare (run.json
+    ``"method_labels"``, which the report shows them by); the others are not listed."""
+    return {m: method_label(m, long=True) for m in methods if method_label(m, long=True) != m}
+
+
 def nlos_source(methods: Iterable[str]) -> str | None:
     """Of ``methods`` (chain order) that detect NLOS, the one whose decisions fill
     ranges.csv's NLOS columns and head the summary: the first a range processor declares

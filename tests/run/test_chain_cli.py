@@ -98,6 +98,7 @@ def test_di_without_rn(default_run: Path, tmp_path: Path) -> None:
         "ranging (di)",
         "fusion (di)",
     ]
+    assert info["method_labels"] == {"di": "DI-Based"}  # the registry's, for the report
 
 
 @pytest.mark.slow  # a run with every figure (docs/extending.md's worked example)
