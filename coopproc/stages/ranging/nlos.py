@@ -12,6 +12,7 @@ estimation, onset back-dating, false alarms, event ends, adaptive sigma) is
 from __future__ import annotations
 
 import itertools
+import typing
 from dataclasses import dataclass
 
 import numpy as np
@@ -163,29 +164,16 @@ _OUTPUT_FIELDS: tuple[str, ...] = (
 )
 
 
+#: Each setting's type as the compiled loop takes it (one signature: floats, bools, ints).
+_SETTING_TYPES: dict[str, type] = typing.get_type_hints(FilterSettings)
+
+
 def _settings(params: KernelParams) -> FilterSettings:
-    """The loop's numbers as the compiled kernel takes them (one type: floats, bools, ints)."""
-    return FilterSettings(
-        sigma_init=float(params.initial_sigma_m),
-        gamma_sigma=float(params.gamma_sigma),
-        window_s=float(params.window_s),
-        aligned=bool(params.aligned),
-        accel=float(params.di_accel_sigma),
-        one_shot=bool(params.one_shot),
-        backdate_s=float(params.backdate_s),
-        onset_fraction=float(params.onset_fraction),
-        confirm_fraction=float(params.confirm_fraction),
-        end_confirm_s=float(params.end_confirm_s),
-        end_min_epochs=int(params.end_min_epochs),
-        adaptive_n=max(int(params.adaptive_n), 1),
-        adaptive_min_n=int(params.adaptive_min_n),
-        min_sigma=float(params.min_sigma_m),
-        suspect_epochs=int(params.suspect_epochs),
-        positive_only=bool(params.positive_only),
-        max_event_s=float(params.max_event_s),
-        jump_fraction=float(params.jump_fraction),
-        jump_window_s=float(params.jump_window_s),
-    )
+    """The loop's numbers: ``params``' fields of :class:`FilterSettings`' names, each as its
+    type there (adaptive_n at least 1)."""
+    values = {name: kind(getattr(params, name)) for name, kind in _SETTING_TYPES.items()}
+    values["adaptive_n"] = max(values["adaptive_n"], 1)
+    return FilterSettings(**values)
 
 
 def _filter_piece(

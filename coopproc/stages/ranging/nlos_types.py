@@ -30,17 +30,18 @@ class FilterSeries(NamedTuple):
 
 
 class FilterSettings(NamedTuple):
-    """The loop's numbers (:class:`~coopproc.stages.ranging.nlos.KernelParams`, the
-    module docstring's names): the initial sigma, gamma_max's factor, the estimation
-    window, the transition convention, the DI noise, RN's one-shot estimate, onset
-    back-dating, the false-alarm and end rules, the adaptive sigma, suspects, the sign
-    rule, the longest event and the range-step test."""
+    """The loop's numbers: the fields of :class:`~coopproc.stages.ranging.nlos.KernelParams`
+    that the compiled loop reads, by the same names, each as this type (``nlos._settings``
+    copies them by name): the initial sigma, gamma_max's factor, the estimation window, the
+    transition convention, the DI noise, RN's one-shot estimate, onset back-dating, the
+    false-alarm and end rules, the adaptive sigma, suspects, the sign rule, the longest
+    event and the range-step test."""
 
-    sigma_init: float
+    initial_sigma_m: float
     gamma_sigma: float
     window_s: float
     aligned: bool
-    accel: float
+    di_accel_sigma: float
     one_shot: bool
     backdate_s: float
     onset_fraction: float
@@ -49,7 +50,7 @@ class FilterSettings(NamedTuple):
     end_min_epochs: int
     adaptive_n: int
     adaptive_min_n: int
-    min_sigma: float
+    min_sigma_m: float
     suspect_epochs: int
     positive_only: bool
     max_event_s: float

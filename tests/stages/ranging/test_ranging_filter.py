@@ -159,3 +159,18 @@ def test_adaptive_sigma_from_innovations() -> None:
     assert out.nlos_flag.mean() < 0.01
     rms_out = np.sqrt(np.mean((out.distance_m[600:] - true[600:]) ** 2))
     assert rms_out < 0.4 * 0.1
+
+
+def test_the_kernel_settings_are_the_params_by_name() -> None:
+    """The compiled loop's FilterSettings are KernelParams' fields of the same names, each
+    as the loop's type (one list of the numbers, issue 34)."""
+    from coopproc.stages.ranging.nlos import _settings
+    from coopproc.stages.ranging.nlos_types import FilterSettings
+
+    given = replace(BASE, adaptive_n=0, end_min_epochs=2.0, window_s=3)  # type: ignore[arg-type]
+    settings = _settings(given)
+    for name in FilterSettings._fields:
+        assert settings._asdict()[name] == getattr(given, name) or name == "adaptive_n"
+    assert settings.adaptive_n == 1  # at least one epoch
+    assert type(settings.end_min_epochs) is int and type(settings.window_s) is float
+    assert type(settings.aligned) is bool
