@@ -313,3 +313,39 @@ def test_the_range_formula_finder_finds_them() -> None:
     assert not any(
         p.search("step = np.linalg.norm(np.diff(p, axis=0), axis=1)") for p in RANGE_FORMULAS
     )
+
+
+#: where the process's memory is given back (memory.py, issue 34 part 5): at the runner's
+#: phase boundaries (cli/run.py, run/batch.py) and once before the figures' workers fork
+#: (run/output.py); everywhere else a scope marked @gives_back; nothing calls the
+#: allocator or takes a callback to let go of the session
+MEMORY_CALLS = {
+    "release_freed_memory": {"cli/run.py", "run/batch.py", "run/output.py"},
+    "malloc_trim": set(),
+    "mallopt": set(),
+    "samples_spent": set(),
+}
+#: the scopes whose working memory goes back when they return
+MEMORY_SCOPES = {
+    "stages/fusion/fuse.py": 2,  # the forward pass; the passes before the trajectories
+    "stages/ranging/stage.py": 2,  # the DI passes; each pair's rows
+    "run/positions_table.py": 1,  # each platform's samples once its rows are in
+    "report/page_workers.py": 1,  # each figure page in its worker
+}
+
+
+def test_the_memory_lifetime_is_managed_in_one_place() -> None:
+    found: dict[str, set[str]] = {name: set() for name in MEMORY_CALLS}
+    scopes: dict[str, int] = {}
+    for path in _modules():
+        rel = path.relative_to(ROOT).as_posix()
+        if rel == "memory.py":
+            continue
+        code = "\n".join(line.split("#")[0] for line in path.read_text("utf-8").splitlines())
+        for name in MEMORY_CALLS:
+            if name in code:
+                found[name].add(rel)
+        if code.count("@gives_back"):
+            scopes[rel] = code.count("@gives_back")
+    assert found == MEMORY_CALLS
+    assert scopes == MEMORY_SCOPES

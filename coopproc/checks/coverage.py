@@ -29,7 +29,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from coopproc.errors import InputError
-from coopproc.memory import release_freed_memory
 from coopproc.model import GAP_FACTOR, FloatArray, RangeTable, Session
 
 __all__ = [
@@ -283,5 +282,4 @@ def prepare_run(session: Session) -> tuple[Session, list[str]]:
     frame = frame_notes(session)
     if frame:
         session = dataclasses.replace(session, notes=(*session.notes, *frame))
-    release_freed_memory()  # the per-row masks of the checks
     return session, [*notes, *frame]

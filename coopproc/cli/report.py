@@ -282,8 +282,7 @@ def report(
     from coopproc.report.table_specs import run_labels
 
     run = load_run(out)
-    # the tables and figures name the methods as the run did (run.json "method_labels")
-    click.get_current_context().with_resource(run_labels(run.info))
+    click.get_current_context().with_resource(run_labels(run.info))  # its method names
     plots = plots or pdf or svg
     tau_given = click.get_current_context().get_parameter_source("allan_tau")
     stochastic = (

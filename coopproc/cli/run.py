@@ -116,6 +116,7 @@ def run(
     from coopproc.io import read_session
     from coopproc.jit_ahead import AHEAD, compile_ahead
     from coopproc.jit_cache import cold_kernels, compile_note
+    from coopproc.memory import Held, release_freed_memory
     from coopproc.run.calibration_summary import calibration_lines
     from coopproc.run.chain import resolve
     from coopproc.run.concurrent_steps import group_steps, workers
@@ -153,7 +154,13 @@ def run(
     steps = resolve(config.pipeline)
     total = len(steps) + 6 + (1 if config.run.figures else 0)
     with (
-        PhaseProgress(total, bar=show_bar, log=None if quiet else note, prefix="run") as phases,
+        PhaseProgress(
+            total,
+            bar=show_bar,
+            log=None if quiet else note,
+            prefix="run",
+            on_phase=release_freed_memory,  # the runner's memory at each boundary (memory.py)
+        ) as phases,
         contextlib.ExitStack() as compiling_ahead,
     ):
         phases.start("read")
@@ -188,11 +195,12 @@ def run(
         if compiling is not None:
             note(compiling)
 
-        def let_go_of_samples() -> None:  # the pipeline's metrics have read them
-            nonlocal data
-            data = data.without_samples()
-
-        output = run_pipeline(data, config, progress=phases.start, samples_spent=let_go_of_samples)
+        # handed over: the pipeline lets go of the samples once its metrics have read them
+        held = Held(data)
+        del data
+        output = run_pipeline(held, config, progress=phases.start)
+        data = held.value
+        del held
         phases.start("summary")
         summary = summarize(output)
         phases.end()

@@ -34,7 +34,6 @@ from coopproc.io.rosbag_scan import bag_files, is_bag
 from coopproc.io.session_toml import TomlRead, mcap_mapping, parse_session_toml, read_session_toml
 from coopproc.io.time_offsets import subtract_offsets
 from coopproc.io.timebase import TimedFile, WeekSource, check_times, infer_time_base, span_problem
-from coopproc.memory import release_freed_memory
 from coopproc.model import SensorFile, Session, SessionConfig
 
 __all__ = ["inspect_session", "read_session", "validate_session"]
@@ -387,7 +386,6 @@ def read_session(path: str | Path, *, strict: bool = False) -> Session:
     """
     loader = _Loader(strict)
     session = loader.load(path)
-    release_freed_memory()  # the parsers' buffers
     if loader.problems:
         raise flat(loader.problems[0])
     if session is None:  # pragma: no cover - every None path records a problem

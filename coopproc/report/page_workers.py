@@ -23,7 +23,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from coopproc.memory import release_freed_memory
+from coopproc.memory import gives_back
 
 __all__ = ["MAX_WORKERS", "page_workers", "save_pages"]
 
@@ -53,16 +53,14 @@ def page_workers() -> int:
     return max(1, min(cpus, MAX_WORKERS))
 
 
+# the page's figure and its drawn pixels are freed, but glibc would keep their pages in
+# this worker beside the tables it shares with the caller: a day's workers held ~0.5 GB
+# each between pages otherwise (issue 11)
+@gives_back
 def _save_one(index: int) -> list[Path]:
     assert _JOB is not None, "a page worker runs only inside save_pages"
     pages, save = _JOB
-    try:
-        return save(pages[index])
-    finally:
-        # the page's figure and its drawn pixels are freed, but glibc would keep their
-        # pages in this worker beside the tables it shares with the caller: a day's
-        # workers held ~0.5 GB each between pages otherwise (issue 11)
-        release_freed_memory()
+    return save(pages[index])
 
 
 def save_pages(

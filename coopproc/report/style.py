@@ -124,9 +124,11 @@ def method_style(method: str) -> LineStyle:
     from :data:`EXTRA_COLORS` / :data:`EXTRA_DASHES` chosen by a checksum of its name: the
     same in every figure and every run."""
     label = method_label(method)
-    if method in METHOD_STYLES:
+    if method in METHOD_STYLES:  # its own label ("Reference") unless a name is declared
         known = METHOD_STYLES[method]
-        return known if known.label == label else dataclasses.replace(known, label=label)
+        if label == method or label == known.label:
+            return known
+        return dataclasses.replace(known, label=label)
     code = zlib.crc32(method.encode("utf-8"))
     color = EXTRA_COLORS[code % len(EXTRA_COLORS)]
     return LineStyle(label, color, EXTRA_DASHES[(code // len(EXTRA_COLORS)) % len(EXTRA_DASHES)])

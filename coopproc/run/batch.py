@@ -106,6 +106,7 @@ def run_one(
     matplotlib.use("Agg")
     from coopproc.checks.coverage import nav_gap_spans, prepare_run
     from coopproc.io import read_session
+    from coopproc.memory import Held, release_freed_memory
     from coopproc.run.output import write_run
     from coopproc.run.pipeline import run_pipeline
     from coopproc.run.progress import PhaseProgress
@@ -113,7 +114,8 @@ def run_one(
 
     started = dt.datetime.now(dt.UTC)
     started_clock = time.perf_counter()
-    phases = PhaseProgress(0, bar=False, log=None)  # timings only: a worker shows nothing
+    # timings only: a worker shows nothing; the runner's memory at each boundary
+    phases = PhaseProgress(0, bar=False, log=None, on_phase=release_freed_memory)
     try:
         phases.start("read")
         session = read_session(session_path)
@@ -121,13 +123,12 @@ def run_one(
         session, _ = prepare_run(session)
         nav_gaps = nav_gap_spans(session)  # run.json's, before the samples are let go of
 
-        def let_go_of_samples() -> None:  # the pipeline's metrics have read them
-            nonlocal session
-            session = session.without_samples()
-
-        output = run_pipeline(
-            session, config, progress=phases.start, samples_spent=let_go_of_samples
-        )
+        # handed over: the pipeline lets go of the samples once its metrics have read them
+        held = Held(session)
+        del session
+        output = run_pipeline(held, config, progress=phases.start)
+        session = held.value
+        del held
         phases.start("summary")
         facts = summarize(output).facts
         phases.end()

@@ -249,13 +249,11 @@ def write_run(
         if config.run.figures:
             phase("figures")
             since = clock()
-            # the writers' buffers and the samples the caller let go (Session.without_samples)
-            # go back to the system before the page workers are forked
-            release_freed_memory()
             cap_notes: list[str] = []  # what the figures' page cap left out
             pages = list(figure_pages(run, figure_options))  # listed once, for report.html too
             # building the panels passes through about 1 GB at a day (issue 11): returned
-            # before the workers fork, not inherited by them
+            # before the workers fork, not inherited by them (the phase's start returned
+            # the writers' buffers and the samples the pipeline let go)
             release_freed_memory()
             figures = write_figures(
                 run,

@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from coopproc.errors import StageError
-from coopproc.memory import release_freed_memory
+from coopproc.memory import Held
 from coopproc.model import (
     DI_COLUMNS,
     NLOS_ESTIMATE_COLUMNS,
@@ -72,18 +72,21 @@ __all__ = ["run_pipeline"]
 
 
 def run_pipeline(
-    session: Session,
+    session: Session | Held[Session],
     config: RunConfig,
     progress: Callable[[str], None] | None = None,
-    samples_spent: Callable[[], None] | None = None,
 ) -> PipelineOutput:
     """Run the configured stage chain on a session (see the module docstring).
 
-    ``samples_spent`` is called once positions.csv's table is built: from there on
-    nothing reads the session's samples (nav, reference, range rows), and a caller that
-    lets go of them then (:meth:`~coopproc.model.Session.without_samples`) frees them
-    before the rest of the metrics, the writing and the figures (about 1.1 GB at a day of
-    10 platforms, issue 11)."""
+    A session handed over in a :class:`~coopproc.memory.Held` box, with no other
+    reference kept, is let go of as it is spent: once positions.csv's table has read the
+    navigation and reference, nothing reads the session's samples (nav, reference, range
+    rows), and the box then holds the session without them
+    (:meth:`~coopproc.model.Session.without_samples`), freed before the rest of the
+    metrics, the writing and the figures (about 1.1 GB at a day of 10 platforms, issue
+    11). A plain session is only read."""
+    held = session if isinstance(session, Held) else None
+    session = session.value if isinstance(session, Held) else session
     if config.run.outages:  # ranges withheld in the windows, listed again (run.outages)
         return run_with_outages(session, config, run_pipeline, progress)
     step_label = progress or (lambda label: None)
@@ -109,7 +112,7 @@ def run_pipeline(
         chain.steps,
     )
     tag_notes = list(chain.notes)
-    del chain  # it holds the sessions, which are let go of when spent (samples_spent)
+    del chain  # it holds the sessions, which are let go of when spent (held)
     if sigma_checked is not None and sigma_checked.note is not None:
         tag_notes.insert(0, sigma_checked.note)
     for step in steps:
@@ -142,7 +145,6 @@ def run_pipeline(
                     columns[method] = product.values[method]
                     range_sets[method] = ranges_for(base, columns[method], sigma_by_row)
                 cp_product = _drop_spent(steps[done:], range_sets, products, cp_product)
-                release_freed_memory()  # after the old CP product is let go, not before
                 continue
             results = run_concurrently(
                 [
@@ -170,7 +172,6 @@ def run_pipeline(
                         cp_step, session, dr_session, range_sets, products, config
                     )
             cp_product = _drop_spent(steps[done:], range_sets, products, cp_product)
-            release_freed_memory()
 
     # ranges.csv keeps the config's column order whatever order the steps ran in
     columns = {m: columns[m] for m in pipeline.ranges}
@@ -201,13 +202,11 @@ def run_pipeline(
         # reads the tables: the session lets go of its samples before the table is built,
         # and the table of each platform's once its rows are written (issue 11)
         samples = PositionSamples.of(session, output)
-        if samples_spent is not None:
+        if held is not None:
             session = dr_session = session.without_samples()
-            samples_spent()
-            release_freed_memory()  # the range rows' pages, before the table's
+            held.replace(session)
         positions = positions_table(samples, products, output, release=True)
         del samples
-        release_freed_memory()  # the trajectories' (and samples') pages, not kept
         sigma = {p: s for prod in range_products for p, s in prod.sigma.items()}
         # true NLOS is labelled against the declared sigma (or, without one, the robust
         # spread of observed - reference), never against what the detector estimated
@@ -274,12 +273,10 @@ def _drop_spent(
     MB): a processed range set after its last position step, the CP solution (causal and
     smoothed) after the last range step. Returns the CP product, without ``cp`` then.
 
-    The caller then gives the C heap's free pages back to the system
-    (:func:`~coopproc.memory.release_freed_memory`) once it has rebound its CP product: a
-    step's working arrays are freed when it ends, but glibc keeps most of them (at 10 x 4 h
-    about 470 MB after the fusions, at a day several GB), and the old CP product is freed
-    only when the caller lets it go (trimmed here, before that, a day's CP solution, about
-    0.43 GB, stayed in the heap through the next fusions)."""
+    A day's CP solution is about 0.43 GB: with the allocator's policy (memory.py) its
+    arrays go back to the system as soon as the caller rebinds its CP product, and the
+    next phase's start gives back the rest.
+    """
     wanted = {s.range_set for s in later if s.kind == "positions"}
     for name in [n for n in range_sets if n != "observed" and n not in wanted]:
         del range_sets[name]

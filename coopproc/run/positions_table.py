@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from coopproc.memory import release_freed_memory
+from coopproc.memory import gives_back
 from coopproc.model import POSITIONS_COLUMNS, FloatArray, Platform, Session, Trajectory
 from coopproc.stages.base import PositionProduct
 
@@ -208,6 +208,20 @@ def _platform_pieces(
     return sorted(methods), source, bound
 
 
+@gives_back  # before the next platform's rows take more (~20 MB columns at a day)
+def _let_go(
+    products: Mapping[str, PositionProduct],
+    samples: PositionSamples,
+    source: _Platform,
+    pid: str,
+) -> None:
+    """Platform ``pid``'s trajectories, navigation and reference, once its rows are in."""
+    _release(products, pid)
+    samples.nav.pop(pid, None)
+    samples.reference.pop(pid, None)
+    source.nav = source.ref = None
+
+
 def positions_table(
     session: Session | PositionSamples,
     products: Mapping[str, PositionProduct],
@@ -266,13 +280,7 @@ def positions_table(
             used_platforms.add(code)
         source.forget()  # its epochs and reference at them go now
         if release:
-            _release(products, platforms[code])
-            samples.nav.pop(platforms[code], None)
-            samples.reference.pop(platforms[code], None)
-            source.nav = source.ref = None
-            # their pages back to the system before the next platform's rows take more
-            # (glibc keeps freed arrays below its mmap threshold, ~20 MB columns at a day)
-            release_freed_memory()
+            _let_go(products, samples, source, platforms[code])
     if start == 0:
         return pd.DataFrame(columns=list(POSITIONS_COLUMNS))
     platform_code, platform_names = _used(platform_code[:start], platforms, used_platforms)

@@ -23,7 +23,8 @@ class PhaseProgress:
 
     ``total``: the number of phases expected (for the bar); ``bar``: show a tqdm bar
     (a terminal); ``log``: where the per-phase lines go when there is no bar (None: nowhere);
-    ``prefix``: the start of each line (e.g. "run").
+    ``prefix``: the start of each line (e.g. "run"); ``on_phase``: called as each phase
+    starts, inside its time (the runner gives back the freed memory there, memory.py).
     """
 
     def __init__(
@@ -34,8 +35,10 @@ class PhaseProgress:
         log: Callable[[str], None] | None,
         prefix: str = "",
         clock: Callable[[], float] = time.perf_counter,
+        on_phase: Callable[[], None] | None = None,
     ) -> None:
         self._clock = clock
+        self._on_phase = on_phase
         self._started = clock()
         self._current: str | None = None
         self._since = self._started
@@ -59,6 +62,8 @@ class PhaseProgress:
         self.end()
         self._current = label
         self._since = self._clock()
+        if self._on_phase is not None:  # e.g. the runner's memory (memory.py), timed here
+            self._on_phase()
         if self._bar is not None:
             self._bar.set_description(label)
 

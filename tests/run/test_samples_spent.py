@@ -1,7 +1,8 @@
 """run_pipeline lets go of the session's samples once the fusions and the ranging have run
-(issue 11): the range rows at once, each platform's navigation and reference once its
-positions.csv rows are written; nothing after that holds them, and the tables are those of
-a run that keeps them."""
+(issue 11), when the session is handed over in a Held box (memory.py, issue 34): the range
+rows at once, each platform's navigation and reference once its positions.csv rows are
+written; nothing after that holds them, the box holds the session without them, and the
+tables are those of a run that keeps them."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import weakref
 import pandas as pd
 
 from coopproc.checks.coverage import prepare_run
+from coopproc.memory import Held
 from coopproc.run.config import RunConfig
 from coopproc.run.pipeline import run_pipeline
 from coopproc.sim import simulate
@@ -22,21 +24,19 @@ def _session():
 
 
 def test_the_samples_are_freed_when_spent_and_the_tables_unchanged() -> None:
-    holder = [_session()]
-    nav = weakref.ref(next(iter(holder[0].nav.values())))
-    reference = weakref.ref(next(iter(holder[0].reference.values())))
-    rows = weakref.ref(holder[0].ranges.frame)
-    freed: list[bool] = []
-
-    def spent() -> None:
-        holder[0] = holder[0].without_samples()
-        gc.collect()
-        freed.append(rows() is None)
-
-    lean = run_pipeline(holder[0], RunConfig(), samples_spent=spent)
-    assert freed == [True]  # called once, and nothing in the pipeline held the range rows
+    held = Held(_session())
+    nav = weakref.ref(next(iter(held.value.nav.values())))
+    reference = weakref.ref(next(iter(held.value.reference.values())))
+    rows = weakref.ref(held.value.ranges.frame)
+    platforms = tuple(held.value.platforms)
+    lean = run_pipeline(held, RunConfig())
     gc.collect()
+    assert rows() is None  # nothing in the pipeline held the range rows
     assert nav() is None and reference() is None  # positions.csv's table let them go
-    kept = run_pipeline(_session(), RunConfig())
+    assert not held.value.nav and not held.value.reference  # the box: the session without
+    assert tuple(held.value.platforms) == platforms  # ... its samples, the rest kept
+    kept_session = _session()
+    kept = run_pipeline(kept_session, RunConfig())
+    assert kept_session.nav and len(kept_session.ranges) > 0  # a plain session is only read
     for name in ("ranges", "positions", "metrics", "position_metrics", "nlos_events"):
         pd.testing.assert_frame_equal(getattr(lean.result, name), getattr(kept.result, name))

@@ -40,17 +40,21 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
-from coopproc.memory import release_freed_memory
+from coopproc.memory import gives_back
 from coopproc.model import FloatArray, Session, Trajectory
-from coopproc.stages.fusion.dr_states import dr_layout, dr_states_table
+from coopproc.stages.fusion.dr_states import dr_states_table
 from coopproc.stages.fusion.ekf import (
-    block_size,
     ekf_forward,
 )
 from coopproc.stages.fusion.inputs import FusionInputs, fusion_inputs
-from coopproc.stages.fusion.kernel_types import Navigation, Observations, Process, Robust, Slots
+from coopproc.stages.fusion.kernel_types import (
+    Robust,
+    Slots,
+    Smoothed,
+)
 from coopproc.stages.fusion.output import solutions_from_slots
 from coopproc.stages.fusion.params import FusionParams, fusion_params_from_toml
+from coopproc.stages.fusion.problem import FilterProblem, filter_problem
 from coopproc.stages.fusion.robust_refit import smoothed_gammas
 from coopproc.stages.fusion.smoother import mbf_backward
 from coopproc.stages.fusion.smoother_rerun import refit_checkpoints
@@ -146,154 +150,179 @@ def fuse(
         them; the positions are the same bits; the DR noise cross-validation's fusions
         read the positions only).
     """
-    if inputs is None:
-        inputs = fusion_inputs(session, ranges, params, output)
-    elif inputs.session is not session or inputs.params != params or inputs.output != output:
+    if inputs is not None and (
+        inputs.session is not session or inputs.params != params or inputs.output != output
+    ):
         raise ValueError("fuse: inputs prepared for another session, params or output")
-    dim = params.dims
-    moving, epochs, ep_idx = inputs.moving, inputs.epochs, inputs.ep_idx
-    obs, rec_ptr, rec_plat = inputs.obs, inputs.rec_ptr, inputs.rec_plat
-    source = inputs.source
-    nav_t, nav_v, nav_ptr = inputs.nav
-    from_id, to_id = inputs.from_id, inputs.to_id
-    n_ep = epochs.shape[0]
-    dt = np.diff(epochs, prepend=epochs[0])
-    scale = drift_scale or {}
-    drift = np.array([_drift(session, p, params) * scale.get(p, 1.0) for p in moving])
-    if params.drift_correlation_s > 0:  # 2 sigma^2 tau dt, see the module docstring
-        q_coef = 2.0 * drift**2 * params.drift_correlation_s
-        q_squared = False
-    else:  # (sigma dt)^2
-        q_coef = drift.astype(np.float64)
-        q_squared = True
-    dr = dr_layout(session, moving, epochs, params, scale)
-    dr_rec = dr.rec if dr_states else dr.rec[:0]  # the epochs the DR states are reported at
-    if dr.active:  # positions first, each follower's DR states after
-        n_pos = inputs.x0.shape[0]
-        x0 = np.concatenate((inputs.x0, np.zeros(dr.prior.shape[0])))
-        c0 = np.zeros((x0.shape[0], x0.shape[0]))
-        c0[:n_pos, :n_pos] = inputs.c0
-        c0[n_pos:, n_pos:] = np.diag(dr.prior)
-        q_coef = np.where(dr.idx >= 0, dr.position_q, q_coef)
-    else:
-        x0, c0 = inputs.x0, inputs.c0
-    del inputs  # memory (issue 11): a caller that keeps none frees them as they are spent
-    smooth = params.smoother and n_ep > 1
-    block = block_size(n_ep) if smooth else 0
-    kernel_obs = Observations(
-        obs["ptr"], obs["kind"], obs["a"], obs["b"], obs["anchor"], obs["anchor_table"],
-        obs["dz2"], obs["z"], obs["var"],
+    # each pass is a function whose working arrays go when it returns (memory.py)
+    solved, where = _states(
+        session, ranges, params, output, inputs, drift_scale, dr_states, forward, discard,
+        smoothed_sigma, forward_sigma,
     )  # fmt: skip
-    # the forward states are read for the forward trajectories, or as the solution when no
-    # smoother pass follows; else the smoother records its own and the forward pass none
-    # (memory, issue 11: four floats per recorded slot, about 0.27 GB per fusion at a day)
-    record_forward = forward or not smooth
-    slots = Slots(rec_ptr, rec_plat)
-    forward_slots = slots if record_forward else Slots(np.zeros_like(rec_ptr), rec_plat[:0])
-    if q_squared and dr.active:  # the kernel squares every q_coef
-        q_coef = np.where(dr.idx >= 0, np.sqrt(dr.position_q), q_coef)
-    nav = Navigation(epochs, nav_t, nav_v, nav_ptr)
-    proc = Process(q_coef, q_squared, dt, dr.idx, dr.q)
+    if solved.solutions is None:  # discarded: the caller reads the table only
+        return FusionOutput(smoothed={}, forward={}, epochs_s=where[2], observations=solved.table)
+    built = solutions_from_slots(*where, solved.solutions)  # each solution's states let go
+    held = built.pop(0) if forward else {}
+    return FusionOutput(
+        smoothed=built[0], forward=held, epochs_s=where[2], observations=solved.table,
+        dr_states=solved.dr_states, dr_states_forward=solved.dr_states_forward,
+        decisions=solved.decisions,
+    )  # fmt: skip
+
+
+@gives_back  # the observations and the range rows, before the trajectories take more
+def _states(
+    session: Session,
+    ranges: pd.DataFrame,
+    params: FusionParams,
+    output: Literal["ranges", "nav"],
+    inputs: FusionInputs | None,
+    drift_scale: Mapping[str, float] | None,
+    dr_states: bool,
+    forward: bool,
+    discard: Callable[[pd.DataFrame], bool] | None,
+    smoothed_sigma: bool,
+    forward_sigma: bool,
+) -> tuple[_Solved, tuple[Session, list[str], FloatArray, np.ndarray, np.ndarray, int, str]]:
+    """The passes (:func:`_solve`) and the slots their states are at; inputs prepared here
+    are spent with the problem, a caller's stay the caller's."""
+    problem = filter_problem(
+        inputs if inputs is not None else fusion_inputs(session, ranges, params, output),
+        session, params, drift_scale, dr_states, forward,
+    )  # fmt: skip
+    solved = _solve(problem, params, discard, smoothed_sigma, forward_sigma, forward)
+    where = (
+        session, problem.moving, problem.epochs, problem.rec_ptr, problem.rec_plat,
+        params.dims, output,
+    )  # fmt: skip
+    return solved, where
+
+
+@dataclass(frozen=True, eq=False)
+class _Solved:
+    """The fusion's passes done: the observations table, and the solutions to build
+    trajectories from (:func:`solutions_from_slots`; None: discarded)."""
+
+    table: pd.DataFrame
+    solutions: list[tuple[FloatArray, FloatArray | None, bool]] | None = None
+    dr_states: pd.DataFrame | None = None
+    dr_states_forward: pd.DataFrame | None = None
+    decisions: RangeDecisions | None = None
+
+
+def _solve(
+    problem: FilterProblem,
+    params: FusionParams,
+    discard: Callable[[pd.DataFrame], bool] | None,
+    smoothed_sigma: bool,
+    forward_sigma: bool,
+    forward: bool,
+) -> _Solved:
+    """The forward pass, then the smoother and its robust refits (fuse's docstring)."""
+    pb = problem
     rob = Robust(params.robust, params.k0, params.k1, params.mad_floor, params.mad_window)
-    xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c, dr_xf, dr_vf, std_innov = ekf_forward(
-        x0,
-        c0,
-        nav,
-        proc,
-        kernel_obs,
-        params.dims,
-        rob,
-        forward_slots,
-        block,
-        dr_rec,
-        np.zeros(0),
+    table, judged, filtered, checkpoints, gamma = _forward(pb, params, rob)
+    smooth = pb.block > 0
+    if smooth and discard is not None and discard(table):
+        if not pb.record_forward:  # the caller reads the table only: no trajectories
+            return _Solved(table)
+        smooth = False
+        judged = None  # the caller reads the table only: no decisions kept
+    if smooth:
+        cp_x, cp_c = checkpoints
+        refits = params.robust_smoother_iterations if params.state == "dr" and params.robust else 0
+        # a smoother pass that a refit follows gives its states only: no variances, no DR
+        # states (an n^2 product per reported value, ~1 s of 5 at 10 x 1 h)
+        smoothed = mbf_backward(
+            cp_x, cp_c, pb.nav, pb.proc, pb.kernel_obs, gamma, params.dims, pb.slots,
+            pb.block, smoothed_sigma and refits == 0,
+            dr_rec=pb.dr_rec if refits == 0 else pb.dr_rec[:0],
+        )  # fmt: skip
+        for _ in range(refits):
+            # the robust factors against the smoothed solution, then the filter and the
+            # smoother again with them (robust_refit.py); the forward trajectories stay
+            # the causal filter's
+            refit, resid_m, std_s = smoothed_gammas(
+                pb.obs, pb.rec_ptr, pb.rec_plat, smoothed.xs, len(pb.moving), params.dims,
+                gamma, params.k0, params.k1, params.mad_floor, pb.epochs,
+            )  # fmt: skip
+            # the last refit's decisions (a range without a smoothed residual keeps the
+            # forward pass's factor, and its innovation)
+            judged = _refit_judged(judged, resid_m[pb.obs["at"]], std_s[pb.obs["at"]])
+            # the filter with the refit's factors: the checkpoints after the block of the
+            # first changed factor (before it the filter is the same, bit for bit; none
+            # changed on 2 of 9 refits of sample_logs, 14-40 % of the epochs precede it
+            # on sample_logs and TIERS)
+            first = _first_changed_block(gamma, refit, pb.obs["ptr"], pb.block, cp_x.shape[0])
+            gamma = refit
+            # the last smoothed states go before the next pass takes as much again
+            del smoothed, refit, resid_m, std_s
+            refit_checkpoints(
+                first, cp_x, cp_c, pb.nav, pb.proc, pb.kernel_obs, gamma, params.dims, pb.block
+            )
+            smoothed = mbf_backward(
+                cp_x, cp_c, pb.nav, pb.proc, pb.kernel_obs, gamma, params.dims, pb.slots,
+                pb.block, smoothed_sigma, dr_rec=pb.dr_rec,
+            )  # fmt: skip
+        del cp_x, cp_c, checkpoints  # spent before the DR tables
+    else:
+        smoothed = filtered
+    at = pb.obs["at"]
+    decisions = None
+    if judged is not None:
+        decisions = RangeDecisions(pb.source, judged[0], judged[1], gamma[at])
+    active = pb.dr.active and pb.dr_states
+    solutions = [(smoothed.xs, smoothed.var if smoothed_sigma else None, False)]
+    if forward:
+        solutions.insert(0, (filtered.xs, filtered.var if forward_sigma else None, True))
+    return _Solved(
+        table,
+        solutions,
+        _dr_table(pb, smoothed) if active else None,
+        _dr_table(pb, filtered) if active else None,
+        decisions,
     )
-    del forward_slots
-    at = obs["at"]  # the range rows' observations, in row (= observation) order
+
+
+@gives_back  # the forward pass's working arrays, before the smoother's
+def _forward(
+    pb: FilterProblem, params: FusionParams, rob: Robust
+) -> tuple[
+    pd.DataFrame,
+    tuple[FloatArray, FloatArray] | None,
+    Smoothed,
+    tuple[FloatArray, FloatArray],
+    FloatArray,
+]:
+    """The causal filter: the observations table, its decisions (the innovation at the
+    prior and its standardized value), the forward states (as :class:`Smoothed`: states,
+    variances, DR states), the smoother's checkpoints and the robust factors."""
+    forward_slots = (
+        pb.slots if pb.record_forward else Slots(np.zeros_like(pb.rec_ptr), pb.rec_plat[:0])
+    )
+    xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c, dr_xf, dr_vf, std_innov = ekf_forward(
+        pb.x0, pb.c0, pb.nav, pb.proc, pb.kernel_obs, params.dims, rob, forward_slots,
+        pb.block, pb.dr_rec, np.zeros(0),
+    )  # fmt: skip
+    at = pb.obs["at"]  # the range rows' observations, in row (= observation) order
     table = pd.DataFrame(
         {
-            "time": epochs[ep_idx],
-            "from": from_id,
-            "to": to_id,
-            "range": obs["z"][at],
+            "time": pb.epochs[pb.ep_idx],
+            "from": pb.from_id,
+            "to": pb.to_id,
+            "range": pb.obs["z"][at],
             "innovation": innov[at],
             "innovation_var": innov_var[at],
             "gamma": gamma[at],
         },
         copy=False,  # memory (issue 11): fresh arrays and immutable id columns, not copied
     )
-    # the forward pass's decisions: the innovation at the prior and its standardized value
-    judged: tuple[FloatArray, FloatArray] | None = (table["innovation"].to_numpy(), std_innov[at])
-    del innov, innov_var, std_innov, from_id, to_id  # memory (issue 11): the table took them
-    release_freed_memory()  # the forward pass's working arrays, before the smoother's
-    if smooth and discard is not None and discard(table):
-        if not record_forward:  # the caller reads the table only: no trajectories
-            return FusionOutput(smoothed={}, forward={}, epochs_s=epochs, observations=table)
-        smooth = False
-        judged = None  # the caller reads the table only: no decisions kept
-    if smooth:
-        refits = params.robust_smoother_iterations if params.state == "dr" and params.robust else 0
-        # a smoother pass that a refit follows gives its states only: no variances, no DR
-        # states (an n^2 product per reported value, ~1 s of 5 at 10 x 1 h)
-        xs_s, var_s, dr_xs, dr_vs = mbf_backward(
-            cp_x, cp_c, nav, proc, kernel_obs, gamma, dim, slots, block,
-            smoothed_sigma and refits == 0, dr_rec=dr_rec if refits == 0 else dr_rec[:0],
-        )  # fmt: skip
-        for _ in range(refits):
-            # the robust factors against the smoothed solution, then the filter and the
-            # smoother again with them (robust_refit.py); the forward trajectories stay
-            # the causal filter's
-            before = gamma
-            gamma, resid_m, std_s = smoothed_gammas(
-                obs, rec_ptr, rec_plat, xs_s, len(moving), dim, gamma, params.k0,
-                params.k1, params.mad_floor, epochs,
-            )  # fmt: skip
-            # the last refit's decisions (a range without a smoothed residual keeps the
-            # forward pass's factor, and its innovation)
-            judged = _refit_judged(judged, resid_m[at], std_s[at])
-            del resid_m, std_s
-            del xs_s, var_s, dr_xs, dr_vs
-            # the filter with the refit's factors: the checkpoints after the block of the
-            # first changed factor (before it the filter is the same, bit for bit; none
-            # changed on 2 of 9 refits of sample_logs, 14-40 % of the epochs precede it
-            # on sample_logs and TIERS)
-            refit_checkpoints(
-                _first_changed_block(before, gamma, obs["ptr"], block, cp_x.shape[0]),
-                cp_x, cp_c, nav, proc, kernel_obs, gamma, dim, block,
-            )  # fmt: skip
-            del before
-            xs_s, var_s, dr_xs, dr_vs = mbf_backward(
-                cp_x, cp_c, nav, proc, kernel_obs, gamma, dim, slots, block, smoothed_sigma,
-                dr_rec=dr_rec,
-            )  # fmt: skip
-    else:
-        xs_s, var_s, dr_xs, dr_vs = xs_f, var_f, dr_xf, dr_vf
-    decisions = None
-    if judged is not None:
-        decisions = RangeDecisions(source, judged[0], judged[1], gamma[at])
-    del at, judged
-    active = dr.active and dr_states
-    dr_table = dr_states_table(moving, epochs, dr, (dr_xs, dr_vs)) if active else None
-    dr_forward = dr_states_table(moving, epochs, dr, (dr_xf, dr_vf)) if active else None
-    del dr_xf, dr_vf, dr_xs, dr_vs
-    # memory (issue 11): the observations and the range rows are spent (unless the caller
-    # keeps its inputs for another fusion); free them before the trajectories are built
-    del cp_x, cp_c, obs, kernel_obs, gamma, ep_idx, nav, proc, slots
-    del nav_t, nav_v, nav_ptr
-    # their pages back to the system before the trajectories take more: glibc keeps the
-    # smoother's freed blocks (below its mmap threshold), ~0.7 GB at a day (issue 11)
-    release_freed_memory()
-    where = (session, moving, epochs, rec_ptr, rec_plat, dim, output)
-    solutions = [(xs_s, var_s if smoothed_sigma else None, False)]
-    if forward:
-        solutions.insert(0, (xs_f, var_f if forward_sigma else None, True))
-    del xs_f, var_f, xs_s, var_s  # the forward states go once their trajectories are built
-    built = solutions_from_slots(*where, solutions)
-    held = built.pop(0) if forward else {}
-    return FusionOutput(
-        smoothed=built[0], forward=held, epochs_s=epochs, observations=table,
-        dr_states=dr_table, dr_states_forward=dr_forward, decisions=decisions,
-    )  # fmt: skip
+    judged = (table["innovation"].to_numpy(), std_innov[at])
+    return table, judged, Smoothed(xs_f, var_f, dr_xf, dr_vf), (cp_x, cp_c), gamma
+
+
+def _dr_table(pb: FilterProblem, states: Smoothed) -> pd.DataFrame:
+    return dr_states_table(pb.moving, pb.epochs, pb.dr, (states.dr_xs, states.dr_var))
 
 
 def _first_changed_block(
@@ -320,8 +349,3 @@ def _refit_judged(
         resid_m = np.where(kept, forward[0], resid_m)
         std = np.where(kept, forward[1], std)
     return resid_m, std
-
-
-def _drift(session: Session, pid: str, params: FusionParams) -> float:
-    value = session.platforms[pid].drift_sigma_mps
-    return float(value) if value is not None and value > 0 else params.drift_sigma_mps

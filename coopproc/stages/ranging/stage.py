@@ -39,7 +39,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from coopproc.memory import release_freed_memory
+from coopproc.memory import gives_back
 from coopproc.model import (
     NLOS_ESTIMATE_COLUMNS,
     NLOS_EVENT_COLUMNS,
@@ -187,9 +187,13 @@ def _calibrated(
     return tuned, local.di_m, local.di_var_m2, local.noise, cal
 
 
+#: One pair's DI method: the smoothed DI, the DR DI, the filter's output, its calibration.
+_DiResult = tuple[SmoothedDI, FloatArray, DistanceFilterOutput, PairCalibration]
+
+
 def _di_method(
     p: PairInputs, config: RangingConfig, mask: NDArray[np.bool_] | None = None
-) -> tuple[SmoothedDI, FloatArray, DistanceFilterOutput, PairCalibration]:
+) -> _DiResult:
     """DI smoothing + distance filter; ``mask``: epochs whose CP solution is not trusted.
 
     At masked epochs the CP DI is not used and the DR DI is anchored (``dr_base = "cp"``)
@@ -246,11 +250,6 @@ def _event_intervals(
 _PREPARE_THREADS = min(2, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
 
 
-#: Pairs written between two returns of freed pages to the system (about 0.7 MB a pair at a
-#: day of 10 platforms; each return takes about a millisecond).
-_TRIM_EVERY = 8
-
-
 def _cp_source(left_out: LeftOutCP | None, pair: str) -> str:
     """PairCalibration.cp_source of ``pair``."""
     if left_out is None or not left_out.folds:
@@ -282,6 +281,43 @@ def run_ranging(
     of any pair sharing a platform with a pair in a first-pass event (widened by the
     guard times), so there the smoothed DI follows the DR DI plus the DI deviation.
     """
+    pairs, results = _di_passes(session, cp, config, left_out, dr_states)
+    tables = OutputColumns(pairs, "rn" in methods)
+    events: list[tuple[object, ...]] = []
+    steps: list[tuple[object, ...]] = []
+    sigma_used: dict[str, tuple[float, str]] = {}
+    calibration: dict[tuple[str, str], PairCalibration] = {}
+    queue = deque(pairs)
+    del pairs  # each pair's inputs go once its rows are written
+    for i in range(len(queue)):
+        p = queue.popleft()
+        found = _write_pair(i, p, results.pop(p.name), tables, config, methods, left_out)
+        calibration.update(found.calibration)
+        sigma_used[p.name] = found.sigma
+        events.extend(found.events)
+        steps.extend(found.steps)
+    ranges, di = tables.frames()
+    return RangingOutput(
+        ranges=ranges,
+        di=di,
+        nlos_events=pd.DataFrame(events, columns=list(NLOS_EVENT_COLUMNS)),
+        nlos_estimates=pd.DataFrame(steps, columns=list(NLOS_ESTIMATE_COLUMNS)),
+        sigma=sigma_used,
+        calibration=calibration,
+        rn_nlos=tables.rn_nlos if "rn" in methods else None,
+    )
+
+
+@gives_back  # the DI passes' working arrays, before the output columns take more
+def _di_passes(
+    session: Session,
+    cp: Mapping[str, Trajectory],
+    config: RangingConfig,
+    left_out: LeftOutCP | None,
+    dr_states: pd.DataFrame | None,
+) -> tuple[list[PairInputs], dict[str, _DiResult]]:
+    """Every pair's inputs and its DI method's result (the second pass where a first-pass
+    event masks the CP DI, run_ranging's docstring)."""
     # each platform's navigation columns and velocity once, shared by its pairs; the
     # pairs prepared two at a time (np.interp, most of it, releases the GIL: 6.9 -> ~4 s
     # at a day, issue 11), each by the same arithmetic, so the same arrays
@@ -310,49 +346,48 @@ def run_ranging(
                     mask |= (p.time_s >= lo) & (p.time_s <= hi)
             if mask.any():
                 results[p.name] = _di_method(p, config, mask)
+    return pairs, results
 
-    # the first pass's (and the masked pairs' first) working arrays: their pages back to
-    # the system before the output columns take more (glibc keeps freed arrays below its
-    # mmap threshold: a pair's are ~0.7 MB at a day, issue 11); so every few pairs below
-    release_freed_memory()
-    tables = OutputColumns(pairs, "rn" in methods)
+
+@dataclass(frozen=True)
+class _PairRows:
+    """What one pair adds to the stage's output besides its columns."""
+
+    calibration: dict[tuple[str, str], PairCalibration]
+    sigma: tuple[float, str]
+    events: list[tuple[object, ...]]
+    steps: list[tuple[object, ...]]
+
+
+@gives_back  # the pair's RN working arrays and the last pair's inputs
+def _write_pair(
+    i: int,
+    p: PairInputs,
+    di_result: _DiResult,
+    tables: OutputColumns,
+    config: RangingConfig,
+    methods: tuple[str, ...],
+    left_out: LeftOutCP | None,
+) -> _PairRows:
+    """Pair ``p``'s rows into ``tables`` (row block ``i``): its DI result, RN-Based when
+    asked for, their NLOS events and estimates."""
+    smoothed, di_dr, di_out, di_cal = di_result
+    di_cal = replace(di_cal, cp_source=_cp_source(left_out, p.name))
+    calibration = {(p.name, "di"): di_cal}
+    outs = {"di": di_out}
+    if "rn" in methods:
+        outs["rn"], calibration[(p.name, "rn")] = _rn_method(p, config)
+    sigma = di_cal.white_sigma_m
+    if di_cal.source == "adaptive":
+        sigma = float(np.nanmedian(di_out.sigma_m))
+    tables.write(i, p, smoothed, di_dr, outs)
     events: list[tuple[object, ...]] = []
     steps: list[tuple[object, ...]] = []
-    sigma_used: dict[str, tuple[float, str]] = {}
-    calibration: dict[tuple[str, str], PairCalibration] = {}
-    queue = deque(pairs)
-    del pairs  # each pair's inputs go once its rows are written
-    for i in range(len(queue)):
-        p = queue.popleft()
-        smoothed, di_dr, di_out, di_cal = results.pop(p.name)
-        di_cal = replace(di_cal, cp_source=_cp_source(left_out, p.name))
-        calibration[(p.name, "di")] = di_cal
-        outs = {"di": di_out}
-        if "rn" in methods:
-            outs["rn"], calibration[(p.name, "rn")] = _rn_method(p, config)
-        sigma = di_cal.white_sigma_m
-        if di_cal.source == "adaptive":
-            sigma = float(np.nanmedian(di_out.sigma_m))
-        sigma_used[p.name] = (sigma, di_cal.source)
-        tables.write(i, p, smoothed, di_dr, outs)
-        for method, out in outs.items():
-            ev, st = _events(p.name, method, p.time_s, out)
-            events.extend(ev)
-            steps.extend(st)
-        del p, smoothed, di_dr, di_out, outs
-        if i % _TRIM_EVERY == _TRIM_EVERY - 1:
-            release_freed_memory()
-    ranges, di = tables.frames()
-    release_freed_memory()
-    return RangingOutput(
-        ranges=ranges,
-        di=di,
-        nlos_events=pd.DataFrame(events, columns=list(NLOS_EVENT_COLUMNS)),
-        nlos_estimates=pd.DataFrame(steps, columns=list(NLOS_ESTIMATE_COLUMNS)),
-        sigma=sigma_used,
-        calibration=calibration,
-        rn_nlos=tables.rn_nlos if "rn" in methods else None,
-    )
+    for method, out in outs.items():
+        ev, st = _events(p.name, method, p.time_s, out)
+        events.extend(ev)
+        steps.extend(st)
+    return _PairRows(calibration, (sigma, di_cal.source), events, steps)
 
 
 def _rn_method(
