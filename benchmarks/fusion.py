@@ -49,10 +49,10 @@ from _common import load, median_seconds, session_dir, spread, target
 
 import coopproc.stages.fusion.fuse as fusion_mod
 from coopproc.checks.coverage import prepare_run
+from coopproc.estimation.dr_model import DR_STATES
 from coopproc.io import read_session
 from coopproc.run.config import RunConfig
 from coopproc.stages.base import PositionInput
-from coopproc.stages.fusion.dr_model import DR_STATES
 from coopproc.stages.fusion.dr_states import dr_followers
 from coopproc.stages.registry import POSITION_STAGES
 

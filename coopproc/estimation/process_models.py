@@ -2,9 +2,9 @@
 model the anchors' filters (paper 003 sec. 2.8), the tightly coupled GNSS filters and the
 receiver clock share.
 
-The dead-reckoning increment with heading and scale states is the cooperative fusion's
-(:mod:`coopproc.stages.fusion.dr_model`, its only user), and the INS error state the INS
-engine's (:mod:`coopproc.ins.propagation`).
+The dead-reckoning increment with heading, heading-rate and scale states is
+:mod:`coopproc.estimation.dr_model` (the cooperative fusion's process model), and the INS
+error state the INS engine's (:mod:`coopproc.ins.propagation`).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Which platforms carry DR states, their priors and noises, and their table.
 
-See :mod:`coopproc.stages.fusion.dr_model` for the model. This module lays the states
+See :mod:`coopproc.estimation.dr_model` for the model. This module lays the states
 out (each follower's three after all the positions), turns ``[fusion]``'s figures into
 the kernel's prior variances and per-second random-walk variances, picks the epochs at
 which the states are reported, and builds the ``dr_states`` table from the kernels'
@@ -17,9 +17,9 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from coopproc.estimation.dr_model import DR_STATES
 from coopproc.model import FloatArray, Session
 from coopproc.names import DR_STATES_COLUMNS
-from coopproc.stages.fusion.dr_model import DR_STATES
 
 if TYPE_CHECKING:
     from coopproc.stages.base import PositionProduct

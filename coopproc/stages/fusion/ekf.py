@@ -41,10 +41,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from coopproc.estimation.dr_model import DR_STATES, dr_predict
 from coopproc.estimation.robust import MAD_SCALE, igg3_scalar, mad_sigma_nb
 from coopproc.model import FloatArray
 from coopproc.stages.fusion.copies import copy1, copy2
-from coopproc.stages.fusion.dr_model import DR_STATES, dr_predict
 from coopproc.stages.fusion.ekf_update import (
     OBS_ANCHOR,
     OBS_POSITION,
@@ -101,7 +101,7 @@ def time_update(
     f_out: FloatArray,
 ) -> None:
     """Paper 002 eq. (12)-(13): X += u_k, C += Q_k, in place; with DR states
-    (:mod:`~coopproc.stages.fusion.dr_model`) X = f(X, u_k), C = F C F^T + Q_k.
+    (:mod:`~coopproc.estimation.dr_model`) X = f(X, u_k), C = F C F^T + Q_k.
 
     u_k is each platform's dead-reckoning increment ``nav_now[p] - nav_prev[p]`` (its
     navigation at epochs k and k - 1, :func:`nav_at`); the position process noise per
@@ -110,8 +110,8 @@ def time_update(
     ``dr_idx[p]``: the index of platform p's heading correction (-1: no DR states, F = I
     for it); ``dr_q[p]``: the heading, heading-rate and scale random walks' variance per
     second, then the position's and the heading's variance per metre travelled (the
-    odometer's noise grows with the distance, :mod:`~coopproc.stages.fusion.dr_model`);
-    ``f_out[p]``: E's epoch entries (:func:`~coopproc.stages.fusion.dr_model.dr_predict`).
+    odometer's noise grows with the distance, :mod:`~coopproc.estimation.dr_model`);
+    ``f_out[p]``: E's epoch entries (:func:`~coopproc.estimation.dr_model.dr_predict`).
     """
     q_coef, q_squared, dt, dr_idx, dr_q = proc
     for p in range(nav_now.shape[0]):

@@ -7,7 +7,7 @@ Observation kinds (``obs_kind``; :mod:`coopproc.stages.fusion.ekf` has the whole
 - ``OBS_POSITION`` (2): coordinate ``b`` (axis) of platform ``a`` (a leader's own fix).
 
 Only the position part of the state (index ``p * dim + axis``) is observed; the DR states
-of :mod:`~coopproc.stages.fusion.dr_model` stacked after the positions enter through the
+of :mod:`~coopproc.estimation.dr_model` stacked after the positions enter through the
 covariance. The epoch's observations are one batch EKF update, eq. (14)-(17), carried out
 as scalar updates whose innovations are corrected for the earlier ones' state change.
 """

@@ -6,7 +6,7 @@ with the ranges between platforms. Model (see ``fusion_ekf`` for the compiled lo
 - state: the ENU positions of all moving platforms, horizontal by default (``dims = 2``,
   heights taken from each platform's own navigation), or 3D; with ``state = "dr"`` each
   follower's heading correction, heading rate and odometer scale after them
-  (:mod:`~coopproc.stages.fusion.dr_model`: the prediction rotates and scales its DR
+  (:mod:`~coopproc.estimation.dr_model`: the prediction rotates and scales its DR
   increment, and its position noise is a residual one);
 - prediction: each platform's dead-reckoning increment between epochs (its own ``nav``
   interpolated to the epochs) with process noise from its drift sigma (paper 000
@@ -28,7 +28,7 @@ with the ranges between platforms. Model (see ``fusion_ekf`` for the compiled lo
 Epochs are the distinct range times (optionally merged, ``epoch_merge_s``) of the
 ranges whose moving ends both have navigation at that time (``nav_span.py``). With
 ``state = "dr"`` (default) each follower also carries its dead reckoning's heading,
-heading rate and scale (``dr_model.py``).
+heading rate and scale (:mod:`~coopproc.estimation.dr_model`).
 """
 
 from __future__ import annotations

@@ -49,7 +49,7 @@ class Process(NamedTuple):
     """The process model of :func:`~coopproc.stages.fusion.ekf.time_update`: the position
     noise coefficient per platform ``q_coef`` (P,) (``q_squared``: (q dt)^2, else q dt),
     the epochs' steps ``dt`` (K,), and the DR states' index ``dr_idx`` (P,) (-1: none)
-    and random walks ``dr_q`` (P, 5) (:mod:`~coopproc.stages.fusion.dr_model`)."""
+    and random walks ``dr_q`` (P, 5) (:mod:`~coopproc.estimation.dr_model`)."""
 
     q_coef: FloatArray
     q_squared: bool

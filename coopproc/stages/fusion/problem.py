@@ -64,8 +64,8 @@ def filter_problem(
 ) -> FilterProblem:
     """The filter's inputs for ``inputs`` with the drift scales: each platform's process
     noise from its drift sigma (fuse's module docstring), the followers' DR states after
-    the positions (``dr_model.py``), the smoother's block; ``dr_states``: the DR states are
-    reported; ``forward``: the forward trajectories are built."""
+    the positions (``estimation/dr_model.py``), the smoother's block; ``dr_states``: the
+    DR states are reported; ``forward``: the forward trajectories are built."""
     moving, epochs = inputs.moving, inputs.epochs
     dt = np.diff(epochs, prepend=epochs[0])
     scale = drift_scale or {}

@@ -11,7 +11,7 @@ with the equivalent modified Bryson-Frazier form (Bierman 1977), which for our m
 - backward adjoints, starting from lambda = 0, Lambda = 0 after the last epoch; the time
   update leaves them unchanged where F = I, and maps them by lambda <- F^T lambda,
   Lambda <- F^T Lambda F where a follower carries DR states (F = I + E, O(n) per
-  follower: :func:`~coopproc.stages.fusion.dr_model.adjoint_step`); each scalar update
+  follower: :func:`~coopproc.estimation.dr_model.adjoint_step`); each scalar update
   j (gain g = C h / s, corrected innovation y, variance s = h C h^T + R / gamma,
   eq. (15)-(17)), taken in reverse order, maps them by
   lambda <- (I - g h^T)^T lambda - h y / s,
@@ -29,7 +29,7 @@ variances a block keeps only the recorded platforms' rows of C_k, all the states
 Lambda is kept symmetric bit for bit (the few entries that two updates reach in two
 orders are averaged with their mirror), so Lambda g, the O(n^2) part of each backward
 step, sums contiguous rows (vectorized), and the transition's columns are copies of its
-rows (:func:`~coopproc.stages.fusion.dr_model.adjoint_step`). The tests check the result
+rows (:func:`~coopproc.estimation.dr_model.adjoint_step`). The tests check the result
 against the dense RTS recursion.
 
 The re-run of block b - 1 does not depend on the backward pass over block b, so on a
@@ -47,8 +47,8 @@ from concurrent.futures import ThreadPoolExecutor
 import numba
 import numpy as np
 
+from coopproc.estimation.dr_model import adjoint_step
 from coopproc.model import FloatArray
-from coopproc.stages.fusion.dr_model import adjoint_step
 from coopproc.stages.fusion.ekf import max_epoch_obs
 from coopproc.stages.fusion.kernel_types import (
     Adjoints,

@@ -6,7 +6,7 @@ with the forward pass's own code and robust factors (so bit for bit its covarian
 what the backward pass reads is kept in a :class:`BlockBuffers`: the block's filtered
 states (and covariances, or the recorded platforms' rows of them), every scalar update's
 Jacobian row, gain, innovation and variance, the DR transition's epoch entries
-(:mod:`~coopproc.stages.fusion.dr_model`) and the DR states' covariance rows at the
+(:mod:`~coopproc.estimation.dr_model`) and the DR states' covariance rows at the
 epochs they are reported.
 """
 

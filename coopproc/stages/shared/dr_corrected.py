@@ -13,7 +13,7 @@ a few degrees, the DI's RMSE still grows over the recording with it (about 2 % l
 that growth has another cause.
 
 The cooperative fusion with ``[fusion] state = "dr"`` estimates each follower's heading
-correction theta and scale correction s (:mod:`coopproc.stages.fusion.dr_model`:
+correction theta and scale correction s (:mod:`coopproc.estimation.dr_model`:
 the true increment is (1 + s) R(theta) u). :func:`corrected_navigation` applies them to
 the navigation's increments, east/north (up unchanged), and integrates from the first
 epoch: the corrected track's displacements are what the DR DI takes (its accumulated

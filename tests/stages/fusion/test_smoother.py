@@ -232,7 +232,7 @@ def _with_dr(pb: dict[str, np.ndarray], dr_plats: tuple[int, ...]) -> dict[str, 
 def _dr_transition(
     pb: dict[str, np.ndarray], x_post: np.ndarray, k: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The model of coopproc.stages.fusion.dr_model written densely: x_k = f(x_{k-1}),
+    """The model of coopproc.estimation.dr_model written densely: x_k = f(x_{k-1}),
     its Jacobian F (by central finite differences of f) and Q_k."""
     n_plat = pb["nav_ptr"].shape[0] - 1
     u = pb["nav"][:, k, :DIM] - pb["nav"][:, k - 1, :DIM]
