@@ -8,10 +8,11 @@ Three things decide what a run holds, and all three are here:
 
 - **Scopes.** A pass's working arrays are the locals of a function and go when it
   returns; :func:`gives_back` marks the passes after which the freed pages go back to the
-  system (``malloc_trim``, about a millisecond): the fusion's forward pass and its solve,
-  the ranging stage's first pass and each pair's rows, each platform's positions.csv
-  rows, each figure page in its worker, the readers, the checks. No stage calls the
-  allocator itself.
+  system (``malloc_trim``, about a millisecond): the fusion's forward pass and its
+  passes before the trajectories are built, the ranging stage's DI passes and each
+  pair's rows, each platform's release in positions.csv's table, each figure page in its
+  worker. The readers and the checks need none: a phase boundary follows each. No stage
+  calls the allocator itself.
 - **Phase boundaries.** The runner gives the free pages back as each phase starts
   (:class:`~coopproc.run.progress.PhaseProgress` is built with
   ``on_phase=release_freed_memory``) and once before the figures' workers are forked

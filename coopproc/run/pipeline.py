@@ -273,9 +273,8 @@ def _drop_spent(
     MB): a processed range set after its last position step, the CP solution (causal and
     smoothed) after the last range step. Returns the CP product, without ``cp`` then.
 
-    A day's CP solution is about 0.43 GB: with the allocator's policy (memory.py) its
-    arrays go back to the system as soon as the caller rebinds its CP product, and the
-    next phase's start gives back the rest.
+    A day's CP solution is about 0.43 GB: it is freed once the caller rebinds its CP
+    product, and the next phase's start gives its pages back to the system (memory.py).
     """
     wanted = {s.range_set for s in later if s.kind == "positions"}
     for name in [n for n in range_sets if n != "observed" and n not in wanted]:

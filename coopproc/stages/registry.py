@@ -67,7 +67,7 @@ def method_label(method: str, long: bool = False) -> str:
 def declared_labels(methods: Iterable[str]) -> dict[str, str]:
     """The long names of ``methods`` that their range processors declare (run.json
     ``"method_labels"``, which the report shows them by); the others are not listed."""
-    return {m: method_label(m, long=True) for m in methods if method_label(m, long=True) != m}
+    return {m: label for m in methods if (label := method_label(m, long=True)) != m}
 
 
 def nlos_source(methods: Iterable[str]) -> str | None:

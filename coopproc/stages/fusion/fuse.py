@@ -159,12 +159,13 @@ def fuse(
         session, ranges, params, output, inputs, drift_scale, dr_states, forward, discard,
         smoothed_sigma, forward_sigma,
     )  # fmt: skip
+    epochs = where[2]
     if solved.solutions is None:  # discarded: the caller reads the table only
-        return FusionOutput(smoothed={}, forward={}, epochs_s=where[2], observations=solved.table)
+        return FusionOutput(smoothed={}, forward={}, epochs_s=epochs, observations=solved.table)
     built = solutions_from_slots(*where, solved.solutions)  # each solution's states let go
     held = built.pop(0) if forward else {}
     return FusionOutput(
-        smoothed=built[0], forward=held, epochs_s=where[2], observations=solved.table,
+        smoothed=built[0], forward=held, epochs_s=epochs, observations=solved.table,
         dr_states=solved.dr_states, dr_states_forward=solved.dr_states_forward,
         decisions=solved.decisions,
     )  # fmt: skip
@@ -211,7 +212,7 @@ class _Solved:
 
 
 def _solve(
-    problem: FilterProblem,
+    pb: FilterProblem,
     params: FusionParams,
     discard: Callable[[pd.DataFrame], bool] | None,
     smoothed_sigma: bool,
@@ -219,7 +220,6 @@ def _solve(
     forward: bool,
 ) -> _Solved:
     """The forward pass, then the smoother and its robust refits (fuse's docstring)."""
-    pb = problem
     rob = Robust(params.robust, params.k0, params.k1, params.mad_floor, params.mad_window)
     table, judged, filtered, checkpoints, gamma = _forward(pb, params, rob)
     smooth = pb.block > 0
@@ -264,7 +264,6 @@ def _solve(
                 cp_x, cp_c, pb.nav, pb.proc, pb.kernel_obs, gamma, params.dims, pb.slots,
                 pb.block, smoothed_sigma, dr_rec=pb.dr_rec,
             )  # fmt: skip
-        del cp_x, cp_c, checkpoints  # spent before the DR tables
     else:
         smoothed = filtered
     at = pb.obs["at"]
