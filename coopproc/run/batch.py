@@ -267,6 +267,8 @@ def _compute(
         cluster = None
         client = None
         settings = dask.config.set(local_cluster_config() if scheduler is None else {})
+        quiet = dask_silenced(scheduler is None)  # batch_interrupt.py
+        quiet.__enter__()
         try:
             with sigint.ignored():
                 if scheduler is None:
@@ -329,6 +331,7 @@ def _compute(
                 if cluster is not None:
                     cluster.close()
             settings.__exit__(None, None, None)
+            quiet.__exit__(None, None, None)
         if sigint.hit:
             raise _Interrupted(outcomes)
     return outcomes

@@ -92,11 +92,14 @@ def quiet_workers() -> object:
 
 
 @contextlib.contextmanager
-def dask_silenced() -> Iterator[None]:
-    """This process's Dask loggers at CRITICAL for the block (the cluster's close)."""
+def dask_silenced(on: bool = True) -> Iterator[None]:
+    """This process's Dask loggers at CRITICAL for the block (the cluster's close; a local
+    cluster's whole run, ``on``: its nannies and scheduler, in this process, log a worker
+    killed for memory at WARNING and ERROR, which the session's one line says instead)."""
     logger = logging.getLogger("distributed")
     level = logger.level
-    logger.setLevel(logging.CRITICAL)
+    if on:
+        logger.setLevel(logging.CRITICAL)
     try:
         yield
     finally:

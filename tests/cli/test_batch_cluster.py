@@ -105,3 +105,48 @@ def test_an_unparsable_worker_memory_is_one_line_before_the_work(
     assert res.exit_code == 1, res.output
     assert res.output == error + "\n"
     assert not root.exists()
+
+
+@pytest.mark.slow  # 25 s measured: a 1 h simulation, its run until the kill, a 40 s session
+def test_a_session_over_its_worker_memory_fails_in_one_line_and_the_other_runs(
+    tmp_path: Path,
+) -> None:
+    """A worker that passes 95 % of ``--worker-memory`` is terminated by its nanny: that
+    session fails with one line naming the limit, the other session runs, nothing of the
+    killed one is left, and Dask's own log of the kill does not reach the terminal. Run
+    as a user would (a process of its own: Dask's log handlers write to the real stderr).
+    500 MB (terminated above 475 MB), measured here with single-session batches: the
+    40 s session peaks at 0.33-0.38 GB in a worker (killed at a 350 MB limit, not at
+    400 MB), the 10 x 1 h one at 0.57-0.67 GB (killed at 600 MB, not at 700 MB)."""
+    import json
+    import subprocess
+    import sys
+
+    small, big, root = tmp_path / "small", tmp_path / "big", tmp_path / "root"
+    _simulate(small, 3)
+    res = CliRunner().invoke(
+        main, ["simulate", str(big), "--scenario", "large", "--seed", "0", "--duration", "3600"]
+    )
+    assert res.exit_code == 0, res.output
+    args = [str(small), str(big), "-o", str(root), "--no-figures", "--workers", "2"]
+    done = subprocess.run(
+        [sys.executable, "-m", "coopproc", "batch", *args, "--worker-memory", "500MB"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 1, done.stdout + done.stderr
+    said = done.stdout + done.stderr
+    line = (
+        f"error: {big}: its Dask worker was terminated for using more than 95% of its "
+        "memory limit of 0.50 GB ("
+    )
+    assert said.count(line) == 1, said
+    assert "raise --worker-memory or use fewer --workers" in said
+    assert "1 of 2 sessions processed" in said
+    assert "distributed." not in said and "Traceback" not in said, said  # Dask's own log
+    assert (root / "small" / "metrics.csv").is_file()
+    assert not (root / "big").exists()  # nothing of the killed session
+    listed = {e["output"]: e for e in json.loads((root / "batch.json").read_text())["sessions"]}
+    assert listed["small"]["ok"] and not listed["big"]["ok"]
+    assert listed["big"]["error"].startswith(line.removeprefix("error: "))
