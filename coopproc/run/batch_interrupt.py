@@ -93,9 +93,11 @@ def quiet_workers() -> object:
 
 @contextlib.contextmanager
 def dask_silenced(on: bool = True) -> Iterator[None]:
-    """This process's Dask loggers at CRITICAL for the block (the cluster's close; a local
-    cluster's whole run, ``on``: its nannies and scheduler, in this process, log a worker
-    killed for memory at WARNING and ERROR, which the session's one line says instead)."""
+    """This process's Dask loggers at CRITICAL for the block (``on``; else as they are).
+
+    Used for the cluster's close, and for a local cluster's whole run: its nannies and
+    scheduler live in this process and log a worker killed for memory at WARNING and
+    ERROR, which the session's one line (batch_memory.py) says instead."""
     logger = logging.getLogger("distributed")
     level = logger.level
     if on:

@@ -107,7 +107,7 @@ def test_an_unparsable_worker_memory_is_one_line_before_the_work(
     assert not root.exists()
 
 
-@pytest.mark.slow  # 25 s measured: a 1 h simulation, its run until the kill, a 40 s session
+@pytest.mark.slow  # 29 s measured: a 1 h simulation, its run until the kill, a 40 s session
 def test_a_session_over_its_worker_memory_fails_in_one_line_and_the_other_runs(
     tmp_path: Path,
 ) -> None:
