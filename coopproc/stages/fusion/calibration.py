@@ -109,6 +109,9 @@ class FusionCalibration:
     range_digest: str = ""
     #: platform -> the range bias corrected in the fusion (m; the biased platforms only)
     platform_bias_m: Mapping[str, float] = field(default_factory=dict)
+    #: the dead-reckoning jumps the fusion's forward filter found: (platform, time, size
+    #: in m) in time order (:mod:`~coopproc.stages.fusion.dr_faults`)
+    dr_jumps: tuple[tuple[str, float, float], ...] = ()
 
 
 def _pair_figures(
@@ -219,7 +222,7 @@ def _drift_scales(
     fused = fuse(
         session, ranges, params, output="ranges", drift_scale=scale,
         smoothed_sigma=smoothed_sigma, discard=refitted, inputs=inputs, forward=forward,
-        forward_sigma=forward_sigma,
+        forward_sigma=forward_sigma, dr_faults="judge",
     )  # fmt: skip
     nis = platform_nis(fused.observations)
     for done in range(NIS_ROUNDS):
@@ -234,7 +237,7 @@ def _drift_scales(
         fused = fuse(
             session, ranges, params, output="ranges", drift_scale=scale,
             smoothed_sigma=smoothed_sigma, discard=refitted, inputs=inputs, forward=forward,
-            forward_sigma=forward_sigma,
+            forward_sigma=forward_sigma, dr_faults="judge",
         )  # fmt: skip
         nis = platform_nis(fused.observations)
     return fused, scale, nis
@@ -351,7 +354,10 @@ def calibrated_fuse(
                 smoothed_sigma=False, smoothed=False, inputs=inputs, forward=False,
             )  # fmt: skip
     unchanged = np.array_equal(new_sigma, given) and not platform_factor
-    if unchanged and output == "ranges":
+    # the calibration's fusions only look for the dead reckoning's jumps (dr_faults.py):
+    # the fusion returned gives them (one more fusion when the first found some)
+    jumped = first.dr_jumps is not None and len(first.dr_jumps) > 0
+    if unchanged and output == "ranges" and not jumped:
         result, nis = first, first_nis  # the sigmas, biases and drifts of the first fusion stand
     else:
         del first, resid  # freed before the final fusion, not held beside it

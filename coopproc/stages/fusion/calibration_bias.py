@@ -232,7 +232,7 @@ def platform_bias(
     if not bias:
         return ranges, {}
     current = corrected(ranges, bias)
-    fused = fuse(session, current, params, output="ranges", smoothed_sigma=False)
+    fused = fuse(session, current, params, output="ranges", smoothed_sigma=False, dr_faults="off")
     resid = residuals_by_row(session, fused, current)
     for platform in bias:
         r = resid[platform_rows(ranges, platform)]
@@ -255,7 +255,9 @@ def _iterate(
     current = ranges
     rms_first = float("nan")
     for _ in range(BIAS_ITERATIONS):
-        fused = fuse(session, current, params, output="ranges", smoothed_sigma=False)
+        fused = fuse(
+            session, current, params, output="ranges", smoothed_sigma=False, dr_faults="off"
+        )
         resid = residuals_by_row(session, fused, current)
         if np.isnan(rms_first):
             rms_first = _rms(resid, involved)
@@ -271,7 +273,7 @@ def _iterate(
         current = ranges.assign(range=corrected)
         if max(abs(v) for v in step.values()) < BIAS_TOL_M:
             break
-    fused = fuse(session, current, params, output="ranges", smoothed_sigma=False)
+    fused = fuse(session, current, params, output="ranges", smoothed_sigma=False, dr_faults="off")
     rms_last = _rms(residuals_by_row(session, fused, current), involved)
     if not rms_last < BIAS_GAIN * rms_first:
         return ranges, {}  # the bias does not explain the disagreement: leave the ranges

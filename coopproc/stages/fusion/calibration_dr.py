@@ -174,7 +174,7 @@ def dr_noise_factor(
             scale: Mapping[str, float] = dict.fromkeys(followers, factor)
             out = fuse(
                 session, ranges, params, output="ranges", drift_scale=scale,
-                discard=lambda table: True, inputs=inputs, forward=False,
+                discard=lambda table: True, inputs=inputs, forward=False, dr_faults="off",
             )  # fmt: skip
             scores[factor] = score(out.observations)
         return scores[factor]
@@ -228,7 +228,7 @@ def dr_noise_cv(
         for train, test, test_codes, inputs in folds:
             out = fuse(
                 session, train, params, drift_scale=scale, smoothed_sigma=False,
-                inputs=inputs, forward=False, dr_states=False,
+                inputs=inputs, forward=False, dr_states=False, dr_faults="off",
             )  # fmt: skip
             resid = residuals_by_row(session, out, test)
             for code in np.unique(test_codes):

@@ -45,6 +45,7 @@ from coopproc.estimation.dr_model import DR_STATES, dr_predict
 from coopproc.estimation.robust import MAD_SCALE, igg3_scalar, mad_sigma_nb
 from coopproc.model import FloatArray
 from coopproc.stages.fusion.copies import copy1, copy2
+from coopproc.stages.fusion.dr_faults import fault_buffers, judge_epoch, leaders
 from coopproc.stages.fusion.ekf_update import (
     OBS_ANCHOR,
     OBS_POSITION,
@@ -99,6 +100,10 @@ def time_update(
     dim: int,
     proc: Process,
     f_out: FloatArray,
+    jump_k: IntArray,
+    jump_p: IntArray,
+    jump_var: FloatArray,
+    n_jumps: int,
 ) -> None:
     """Paper 002 eq. (12)-(13): X += u_k, C += Q_k, in place; with DR states
     (:mod:`~coopproc.estimation.dr_model`) X = f(X, u_k), C = F C F^T + Q_k.
@@ -112,8 +117,25 @@ def time_update(
     second, then the position's and the heading's variance per metre travelled (the
     odometer's noise grows with the distance, :mod:`~coopproc.estimation.dr_model`);
     ``f_out[p]``: E's epoch entries (:func:`~coopproc.estimation.dr_model.dr_predict`).
+    The first ``n_jumps`` of ``jump_k`` (ascending), ``jump_p``, ``jump_var``: a dead
+    reckoning's jump, variance added to each horizontal axis of platform ``jump_p[j]``
+    at epoch ``jump_k[j]`` (:mod:`~coopproc.stages.fusion.dr_faults`; ``proc``'s own
+    after the forward pass).
     """
-    q_coef, q_squared, dt, dr_idx, dr_q = proc
+    q_coef, q_squared, dt, dr_idx, dr_q = (
+        proc.q_coef,
+        proc.q_squared,
+        proc.dt,
+        proc.dr_idx,
+        proc.dr_q,
+    )
+    if n_jumps > 0 and jump_k[n_jumps - 1] >= k:
+        j = int(np.searchsorted(jump_k[:n_jumps], k))
+        while j < n_jumps and jump_k[j] == k:
+            for ax in range(min(dim, 2)):
+                i = jump_p[j] * dim + ax
+                c[i, i] += jump_var[j]
+            j += 1
     for p in range(nav_now.shape[0]):
         if q_squared:
             t = q_coef[p] * dt[k]
@@ -156,7 +178,7 @@ def ekf_forward(
     gamma_in: FloatArray,
 ) -> tuple[
     FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
-    FloatArray, FloatArray, FloatArray,
+    FloatArray, FloatArray, FloatArray, IntArray, IntArray, FloatArray,
 ]:  # fmt: skip
     """Forward EKF over K epochs (K = ``proc.dt.shape[0]``; each platform's navigation
     samples ``nav`` as :func:`nav_at` reads them; the inputs' groups are
@@ -182,9 +204,12 @@ def ekf_forward(
     :func:`time_update` (all -1: the position-only filter). ``gamma_in``: every
     observation's robust factor, given (an iteration of the robust smoother,
     :mod:`~coopproc.stages.fusion.robust_refit`), instead of eq. (18)-(20) at the prior
-    (empty: computed here).
+    (empty: computed here). Then the dead-reckoning jumps given (epoch, platform,
+    variance; :mod:`~coopproc.stages.fusion.dr_faults`): ``proc``'s, and with
+    ``rob.fault_window > 0`` and the robust factor computed here those the filter found
+    (given as process noise with ``rob.fault_apply``, else found only).
     """
-    robust, k0, k1, sigma_floor, mad_window = rob
+    robust, k0, k1, sigma_floor, mad_window, fault_window, fault_apply = rob
     rec_ptr, rec_plat = slots
     n_epochs = proc.dt.shape[0]
     n = x0.shape[0]
@@ -224,6 +249,17 @@ def ekf_forward(
     dr_x = np.empty((dr_rec.shape[0], n - n_pos))
     dr_var = np.empty((dr_rec.shape[0], n - n_pos))
     dr_next = 0
+    faults = fault_buffers(n_plat, n_epochs + proc.jump_k.shape[0])
+    n_given = proc.jump_k.shape[0]
+    for j in range(n_given):  # given (a refit's): kept, none found
+        faults.jump_k[j] = proc.jump_k[j]
+        faults.jump_p[j] = proc.jump_p[j]
+        faults.jump_var[j] = proc.jump_var[j]
+    faults.n_jumps[0] = n_given
+    judge = robust and fault_window > 0.0 and n_given == 0
+    fixed = leaders(obs, n_plat)
+    scale = np.ones(max_m)
+    unit = np.ones(max_m)
     if n_epochs > 0:
         nav_at(nav.t, nav.v, nav.ptr, nav.epochs[0], cursor, nav_prev)
     for k in range(n_epochs):
@@ -232,7 +268,10 @@ def ekf_forward(
             copy2(cp_c[k // block], c)
         if k > 0:
             nav_at(nav.t, nav.v, nav.ptr, nav.epochs[k], cursor, nav_now)
-            time_update(x, c, nav_now, nav_prev, k, dim, proc, f_out)
+            time_update(
+                x, c, nav_now, nav_prev, k, dim, proc, f_out, faults.jump_k, faults.jump_p,
+                faults.jump_var, faults.n_jumps[0] if fault_apply else 0,
+            )  # fmt: skip
             copy2(nav_prev, nav_now)
         lo = obs.ptr[k]
         m = obs.ptr[k + 1] - lo
@@ -265,6 +304,13 @@ def ekf_forward(
                 gamma[lo + j] = igg3_scalar(std_innov[lo + j], k0, k1)
                 if mad_window > 0:
                     window_push(ring, ring_sorted, ring_state, abs(v[j]) / np.sqrt(d[j]))
+                unit[j] = np.sqrt(d[j])
+                scale[j] = sigma * unit[j]
+            if judge and k + 1 < n_epochs:  # a jump is given at the next epoch
+                judge_epoch(
+                    faults, k, nav.epochs[k], lo, m, obs, work, innov, gamma, scale, unit, fixed,
+                    fault_window, k0,
+                )  # fmt: skip
         epoch_update(
             x, c, lo, m, work, gamma, obs.r_var, bool(np.bool_(False)), unused, unused_v,
             unused_v,
@@ -279,4 +325,8 @@ def ekf_forward(
                 dr_x[dr_next, j] = x[n_pos + j]
                 dr_var[dr_next, j] = c[n_pos + j, n_pos + j]
             dr_next += 1
-    return xs, var, gamma, innov, innov_var, cp_x, cp_c, dr_x, dr_var, std_innov
+    n_j = faults.n_jumps[0]
+    return (
+        xs, var, gamma, innov, innov_var, cp_x, cp_c, dr_x, dr_var, std_innov,
+        faults.jump_k[:n_j].copy(), faults.jump_p[:n_j].copy(), faults.jump_var[:n_j].copy(),
+    )  # fmt: skip

@@ -26,6 +26,7 @@ from coopproc.model import Session
 from coopproc.stages.base import PositionInput, PositionProduct, PositionStage
 from coopproc.stages.fusion.calibration import FusionCalibration, calibrated_fuse
 from coopproc.stages.fusion.carried_weights import carried_factors
+from coopproc.stages.fusion.dr_faults import jumps_of
 from coopproc.stages.fusion.fuse import FusionOutput, FusionParams
 from coopproc.stages.fusion.leave_out import leave_pair_out
 from coopproc.stages.fusion.range_digest import range_rows_digest
@@ -95,7 +96,7 @@ def fusion_stage(inp: PositionInput, params: FusionParams) -> PositionProduct:
             cp_session, inp.ranges, params, cp_cal.pair_sigma_m, cp_cal.drift_scale,
             cp_cal.platform_bias_m,
         )  # fmt: skip
-    cal = dataclasses.replace(cal, range_digest=digest)
+    cal = dataclasses.replace(cal, range_digest=digest, dr_jumps=jumps_of(fused.dr_jumps))
     return PositionProduct(
         positions=fused.smoothed,
         cp=cp,

@@ -33,6 +33,7 @@ heading rate and scale (:mod:`~coopproc.estimation.dr_model`).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Literal
@@ -42,12 +43,14 @@ import pandas as pd
 
 from coopproc.memory import gives_back
 from coopproc.model import FloatArray, Session, Trajectory
+from coopproc.stages.fusion.dr_faults import confirmed_jumps, jumps_table, spread_jumps
 from coopproc.stages.fusion.dr_states import dr_states_table
 from coopproc.stages.fusion.ekf import (
     ekf_forward,
 )
 from coopproc.stages.fusion.inputs import FusionInputs, fusion_inputs
 from coopproc.stages.fusion.kernel_types import (
+    Process,
     Robust,
     Slots,
     Smoothed,
@@ -88,6 +91,9 @@ class FusionOutput:
     #: pass's: with the robust smoother's refits, the factors of the last refit), for
     #: range_weights.csv; None when the solution was discarded (``discard``).
     decisions: RangeDecisions | None = None
+    #: The dead-reckoning jumps the forward filter found (JUMP_COLUMNS: time, platform,
+    #: size_m; :mod:`~coopproc.stages.fusion.dr_faults`); empty with state "position".
+    dr_jumps: pd.DataFrame | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -121,6 +127,7 @@ def fuse(
     forward: bool = True,
     forward_sigma: bool = True,
     dr_states: bool = True,
+    dr_faults: Literal["apply", "judge", "off"] = "apply",
 ) -> FusionOutput:
     """Fuse every moving platform's navigation with the ranges.
 
@@ -149,6 +156,10 @@ def fuse(
     dr_states : report the DR states (False: ``dr_states`` is None and no pass records
         them; the positions are the same bits; the DR noise cross-validation's fusions
         read the positions only).
+    dr_faults : with DR states, the jumps of a platform's dead reckoning
+        (:mod:`~coopproc.stages.fusion.dr_faults`): ``"apply"`` found and given as process
+        noise; ``"judge"`` found and reported in ``dr_jumps`` only (the positions are those
+        of ``"off"``, bit for bit: the self-calibration's fusions); ``"off"`` not looked for.
     """
     if inputs is not None and (
         inputs.session is not session or inputs.params != params or inputs.output != output
@@ -157,7 +168,7 @@ def fuse(
     # each pass is a function whose working arrays go when it returns (memory.py)
     solved, where = _states(
         session, ranges, params, output, inputs, drift_scale, dr_states, forward, discard,
-        smoothed_sigma, forward_sigma,
+        (smoothed_sigma, forward_sigma, dr_faults),
     )  # fmt: skip
     epochs = where[2]
     if solved.solutions is None:  # discarded: the caller reads the table only
@@ -167,7 +178,7 @@ def fuse(
     return FusionOutput(
         smoothed=built[0], forward=held, epochs_s=epochs, observations=solved.table,
         dr_states=solved.dr_states, dr_states_forward=solved.dr_states_forward,
-        decisions=solved.decisions,
+        decisions=solved.decisions, dr_jumps=solved.dr_jumps,
     )  # fmt: skip
 
 
@@ -182,8 +193,7 @@ def _states(
     dr_states: bool,
     forward: bool,
     discard: Callable[[pd.DataFrame], bool] | None,
-    smoothed_sigma: bool,
-    forward_sigma: bool,
+    how: tuple[bool, bool, str],
 ) -> tuple[_Solved, tuple[Session, list[str], FloatArray, np.ndarray, np.ndarray, int, str]]:
     """The passes (:func:`_solve`) and the slots their states are at; inputs prepared here
     are spent with the problem, a caller's stay the caller's."""
@@ -191,7 +201,7 @@ def _states(
         inputs if inputs is not None else fusion_inputs(session, ranges, params, output),
         session, params, drift_scale, dr_states, forward,
     )  # fmt: skip
-    solved = _solve(problem, params, discard, smoothed_sigma, forward_sigma, forward)
+    solved = _solve(problem, params, discard, how, forward)
     where = (
         session, problem.moving, problem.epochs, problem.rec_ptr, problem.rec_plat,
         params.dims, output,
@@ -209,19 +219,28 @@ class _Solved:
     dr_states: pd.DataFrame | None = None
     dr_states_forward: pd.DataFrame | None = None
     decisions: RangeDecisions | None = None
+    dr_jumps: pd.DataFrame | None = None
 
 
 def _solve(
     pb: FilterProblem,
     params: FusionParams,
     discard: Callable[[pd.DataFrame], bool] | None,
-    smoothed_sigma: bool,
-    forward_sigma: bool,
+    how: tuple[bool, bool, str],
     forward: bool,
 ) -> _Solved:
-    """The forward pass, then the smoother and its robust refits (fuse's docstring)."""
-    rob = Robust(params.robust, params.k0, params.k1, params.mad_floor, params.mad_window)
-    table, judged, filtered, checkpoints, gamma = _forward(pb, params, rob)
+    """The forward pass, then the smoother and its robust refits (fuse's docstring;
+    ``how``: smoothed_sigma, forward_sigma, dr_faults)."""
+    smoothed_sigma, forward_sigma, faults = how
+    window = params.dr_fault_window_s if params.state == "dr" and faults != "off" else 0.0
+    rob = Robust(
+        params.robust, params.k0, params.k1, params.mad_floor, params.mad_window, window,
+        faults == "apply",
+    )  # fmt: skip
+    table, judged, filtered, checkpoints, gamma, found = _forward(pb, params, rob)
+    jumps = jumps_table(pb.moving, pb.epochs, found)
+    if faults == "apply":  # the smoother's re-runs and the refit take them (dr_faults.py)
+        pb = dataclasses.replace(pb, proc=found)
     smooth = pb.block > 0
     if smooth and discard is not None and discard(table):
         if not pb.record_forward:  # the caller reads the table only: no trajectories
@@ -238,6 +257,7 @@ def _solve(
             pb.block, smoothed_sigma and refits == 0,
             dr_rec=pb.dr_rec if refits == 0 else pb.dr_rec[:0],
         )  # fmt: skip
+        spread = False
         for _ in range(refits):
             # the robust factors against the smoothed solution, then the filter and the
             # smoother again with them (robust_refit.py); the forward trajectories stay
@@ -255,6 +275,14 @@ def _solve(
             # on sample_logs and TIERS)
             first = _first_changed_block(gamma, refit, pb.obs["ptr"], pb.block, cp_x.shape[0])
             gamma = refit
+            if pb.proc.jump_k.shape[0] and not spread:
+                # the jumps the smoothed solution confirms, by its step, each spread over
+                # the span before it was found (dr_faults.py); the filter changes from the
+                # first jump's block, kept or not
+                first = min(first, int(pb.proc.jump_k[0]) // pb.block)
+                kept = confirmed_jumps(pb.proc, pb.epochs, pb.nav, pb.slots, smoothed.xs)
+                pb = dataclasses.replace(pb, proc=spread_jumps(kept, pb.epochs, window))
+                spread = True
             # the last smoothed states go before the next pass takes as much again
             del smoothed, refit, resid_m, std_s
             refit_checkpoints(
@@ -280,6 +308,7 @@ def _solve(
         _dr_table(pb, smoothed) if active else None,
         _dr_table(pb, filtered) if active else None,
         decisions,
+        jumps,
     )
 
 
@@ -292,6 +321,7 @@ def _forward(
     Smoothed,
     tuple[FloatArray, FloatArray],
     FloatArray,
+    Process,
 ]:
     """The causal filter: the observations table, its decisions (the innovation at the
     prior and its standardized value), the forward states (as :class:`Smoothed`: states,
@@ -299,10 +329,12 @@ def _forward(
     forward_slots = (
         pb.slots if pb.record_forward else Slots(np.zeros_like(pb.rec_ptr), pb.rec_plat[:0])
     )
-    xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c, dr_xf, dr_vf, std_innov = ekf_forward(
+    out = ekf_forward(
         pb.x0, pb.c0, pb.nav, pb.proc, pb.kernel_obs, params.dims, rob, forward_slots,
         pb.block, pb.dr_rec, np.zeros(0),
     )  # fmt: skip
+    xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c, dr_xf, dr_vf, std_innov = out[:10]
+    jump_k, jump_p, jump_var = out[10:]
     at = pb.obs["at"]  # the range rows' observations, in row (= observation) order
     table = pd.DataFrame(
         {
@@ -317,7 +349,8 @@ def _forward(
         copy=False,  # memory (issue 11): fresh arrays and immutable id columns, not copied
     )
     judged = (table["innovation"].to_numpy(), std_innov[at])
-    return table, judged, Smoothed(xs_f, var_f, dr_xf, dr_vf), (cp_x, cp_c), gamma
+    proc = pb.proc._replace(jump_k=jump_k, jump_p=jump_p, jump_var=jump_var)
+    return table, judged, Smoothed(xs_f, var_f, dr_xf, dr_vf), (cp_x, cp_c), gamma, proc
 
 
 def _dr_table(pb: FilterProblem, states: Smoothed) -> pd.DataFrame:

@@ -49,19 +49,38 @@ class Process(NamedTuple):
     """The process model of :func:`~coopproc.stages.fusion.ekf.time_update`: the position
     noise coefficient per platform ``q_coef`` (P,) (``q_squared``: (q dt)^2, else q dt),
     the epochs' steps ``dt`` (K,), and the DR states' index ``dr_idx`` (P,) (-1: none)
-    and random walks ``dr_q`` (P, 5) (:mod:`~coopproc.estimation.dr_model`)."""
+    and random walks ``dr_q`` (P, 5) (:mod:`~coopproc.estimation.dr_model`); and the
+    dead-reckoning faults' extra position variance: at epoch ``jump_k[j]`` (sorted)
+    platform ``jump_p[j]``'s horizontal axes get ``jump_var[j]`` m^2 each
+    (:mod:`~coopproc.stages.fusion.dr_faults`; none outside the robust refit)."""
 
     q_coef: FloatArray
     q_squared: bool
     dt: FloatArray
     dr_idx: IntArray
     dr_q: FloatArray
+    jump_k: IntArray
+    jump_p: IntArray
+    jump_var: FloatArray
 
     @classmethod
     def without_dr(cls, q_coef: FloatArray, q_squared: bool, dt: FloatArray) -> Process:
         """The position-only model (no platform carries DR states)."""
         n_plat = q_coef.shape[0]
-        return cls(q_coef, q_squared, dt, np.full(n_plat, -1, np.int64), np.zeros((n_plat, 5)))
+        return cls.of(q_coef, q_squared, dt, np.full(n_plat, -1, np.int64), np.zeros((n_plat, 5)))
+
+    @classmethod
+    def of(
+        cls,
+        q_coef: FloatArray,
+        q_squared: bool,
+        dt: FloatArray,
+        dr_idx: IntArray,
+        dr_q: FloatArray,
+    ) -> Process:
+        """The model without dead-reckoning faults."""
+        none = np.zeros(0, np.int64)
+        return cls(q_coef, q_squared, dt, dr_idx, dr_q, none, none.copy(), np.zeros(0))
 
 
 class Observations(NamedTuple):
@@ -83,13 +102,18 @@ class Observations(NamedTuple):
 
 class Robust(NamedTuple):
     """The robust update's settings (paper 002 eq. (18)-(20)): on or off, k0, k1, the MAD
-    sigma's floor and the window of earlier innovations a small epoch pools with."""
+    sigma's floor and the window of earlier innovations a small epoch pools with; the span
+    (s) over which a platform's ranges are judged for a jump of its dead reckoning
+    (:mod:`~coopproc.stages.fusion.dr_faults`; 0: not judged), and whether a jump found is
+    given as process noise (False: found and reported only)."""
 
     robust: bool
     k0: float
     k1: float
     sigma_floor: float
     mad_window: int
+    fault_window: float = 0.0
+    fault_apply: bool = True
 
 
 class Slots(NamedTuple):

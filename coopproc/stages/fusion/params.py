@@ -178,6 +178,14 @@ class FusionParams:
             "002/003 write it)"
         },
     )
+    dr_fault_window_s: float = field(
+        default=5.0,
+        metadata={
+            "help": "state 'dr': the span (s) over which a platform's down-weighted ranges "
+            "are judged as a jump of its dead reckoning, given as process noise (dr_faults.py; "
+            "0: off, and always with state 'position')"
+        },
+    )
     carry_weights: bool = field(
         default=False,
         metadata={
@@ -246,6 +254,8 @@ class FusionParams:
         ):  # fmt: skip
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} = {getattr(self, name)}, expected >= 0")
+        if not self.dr_fault_window_s >= 0:
+            raise ValueError(f"dr_fault_window_s = {self.dr_fault_window_s}, expected >= 0")
         if self.robust_smoother_iterations < 0:
             raise ValueError(
                 f"robust_smoother_iterations = {self.robust_smoother_iterations}, expected >= 0"

@@ -95,7 +95,7 @@ def filter_problem(
         inputs.rec_ptr, inputs.rec_plat, x0, c0, dr,
         dr.rec if dr_states else dr.rec[:0], dr_states,
         Navigation(epochs, *inputs.nav),
-        Process(q_coef, q_squared, dt, dr.idx, dr.q),
+        Process.of(q_coef, q_squared, dt, dr.idx, dr.q),
         Observations(
             obs["ptr"], obs["kind"], obs["a"], obs["b"], obs["anchor"], obs["anchor_table"],
             obs["dz2"], obs["z"], obs["var"],

@@ -139,7 +139,10 @@ def filter_epoch(
     observation count. ``ekf_forward``'s epoch without its robust step."""
     if k > 0:
         nav_at(nav.t, nav.v, nav.ptr, nav.epochs[k], at.cursor, at.now)
-        time_update(x, c, at.now, at.prev, k, dim, proc, f_out)
+        time_update(
+            x, c, at.now, at.prev, k, dim, proc, f_out, proc.jump_k, proc.jump_p,
+            proc.jump_var, proc.jump_k.shape[0],
+        )  # fmt: skip
         copy2(at.prev, at.now)
     lo = obs.ptr[k]
     m = obs.ptr[k + 1] - lo

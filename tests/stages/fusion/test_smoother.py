@@ -285,7 +285,7 @@ def test_mbf_smoother_with_dr_states_equals_dense_extended_rts(seed: int, block:
         )
 
     # with block 1 the checkpoint before epoch k + 1 is epoch k's posterior
-    *_, cp_x1, cp_c1, _, _, _ = forward(1)
+    _, _, _, _, _, cp_x1, cp_c1, *_ = forward(1)
     post_x = cp_x1[1:]  # posteriors of epochs 0 .. K - 2 (the last epoch observes nothing)
     post_c = cp_c1[1:]
     last = n_ep - 2
@@ -301,7 +301,7 @@ def test_mbf_smoother_with_dr_states_equals_dense_extended_rts(seed: int, block:
     ref_var = np.array([np.diag(c) for c in cs_ref[::-1]])
     # the last epoch has no observation: the filter's prediction to it is the dense one
     x_pred, jac, q = _dr_transition(pb, post_x[last], last + 1)
-    _, _, gamma, _, _, cp_x, cp_c, dr_xf, dr_vf, _ = forward(block)
+    _, _, gamma, _, _, cp_x, cp_c, dr_xf, dr_vf, *_ = forward(block)
     assert dr_xf[-1] == pytest.approx(x_pred[n_plat * DIM :], abs=1e-9)
     assert dr_vf[-1] == pytest.approx(np.diag(jac @ post_c[last] @ jac.T + q)[n_plat * DIM :])
     xs, var, dr_xs, dr_vs = mbf_backward(
