@@ -79,6 +79,11 @@ def calibration_facts(output: PipelineOutput) -> dict[str, Any]:
             "platform_nis": {p: _num(v, 3) for p, v in sorted(fcal.platform_nis.items())},
             "drift_scale": {p: _num(v, 3) for p, v in sorted(fcal.drift_scale.items())},
         }
+        if fcal.dr_jumps:  # the forward filter's (dr_faults.py)
+            fusion[method]["dr_jumps"] = [
+                {"platform": p, "time": _num(t, 3), "size_m": _num(size, 3)}
+                for p, t, size in fcal.dr_jumps
+            ]
     platforms = {
         p: {
             "declared_drift_mps": _num(q.declared_drift_mps),
@@ -192,6 +197,12 @@ def calibration_lines(output: PipelineOutput) -> list[str]:
             )
             continue
         lines.append(f"  {platform}: {_dr_figures(q, declared)}{inflated}")
+        jumps = [] if observed is None else [s for p, _, s in observed.dr_jumps if p == platform]
+        if jumps:  # the forward filter's jumps of its dead reckoning (dr_faults.py)
+            lines.append(
+                f"  {platform}: fusion found {len(jumps)} jump(s) of its dead reckoning, "
+                f"{min(jumps):.2f}-{max(jumps):.2f} m (run.json calibration.fusion)"
+            )
         d = states.get(platform)
         if d is not None:  # what the fusion's DR states estimated (dr_states.csv), in the
             # line above's units and sign (counter-clockwise; dr_states.csv is clockwise)

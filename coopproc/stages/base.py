@@ -141,6 +141,8 @@ class PositionCalibration(Protocol):
     def drift_scale(self) -> Mapping[str, float]: ...  # factor on a platform's drift sigma
     @property
     def notes(self) -> tuple[str, ...]: ...
+    @property  # the jumps of a platform's dead reckoning found: (platform, time, size m)
+    def dr_jumps(self) -> tuple[tuple[str, float, float], ...]: ...
 
 
 @dataclass(frozen=True)
