@@ -64,6 +64,7 @@ __all__ = [
     "jumps_table",
     "leaders",
     "spread_jumps",
+    "take_jumps",
 ]
 
 #: ranges kept per platform (a window of 5 s at 1 Hz per pair holds 5 a partner)
@@ -75,9 +76,8 @@ class FaultBuffers(NamedTuple):
     -1 - anchor), the Jacobian on its horizontal position (P, CAPACITY, 2), innovation,
     standardizing sigma with the MAD factor of eq. (20) and without it (m),
     down-weighted; per platform (P,) how many are kept and the next slot, the variance to
-    add at the next time update, the time of its last jump and of its next judging; the
-    jumps given so far (epoch, platform, variance; their count in ``n_jumps[0]``); and
-    work arrays of the judging."""
+    add at the next time update (a jump found, which the filter takes and records), the
+    time of its last jump and of its next judging; and work arrays of the judging."""
 
     t: FloatArray
     partner: IntArray
@@ -91,18 +91,13 @@ class FaultBuffers(NamedTuple):
     pending: FloatArray
     last_jump: FloatArray
     next_judged: FloatArray
-    jump_k: IntArray
-    jump_p: IntArray
-    jump_var: FloatArray
-    n_jumps: IntArray
     work_i: IntArray
     work_f: FloatArray
 
 
 @numba.njit(cache=True)
-def fault_buffers(n_plat: int, n_epochs: int) -> FaultBuffers:
-    """Empty buffers for ``n_plat`` platforms (room for a jump every epoch)."""
-    cap = max(n_epochs, 1)
+def fault_buffers(n_plat: int) -> FaultBuffers:
+    """Empty buffers for ``n_plat`` platforms."""
     return FaultBuffers(
         np.zeros((n_plat, CAPACITY)),
         np.zeros((n_plat, CAPACITY), np.int64),
@@ -116,10 +111,6 @@ def fault_buffers(n_plat: int, n_epochs: int) -> FaultBuffers:
         np.zeros(n_plat),
         np.full(n_plat, -np.inf),
         np.full(n_plat, -np.inf),
-        np.zeros(cap, np.int64),
-        np.zeros(cap, np.int64),
-        np.zeros(cap),
-        np.zeros(1, np.int64),
         np.zeros(CAPACITY, np.int64),
         np.zeros((2, CAPACITY)),
     )
@@ -265,8 +256,8 @@ def judge_epoch(
     """Keep epoch ``k``'s ranges (time ``t``, observations ``lo:lo + m``: their Jacobians in
     ``work``, innovations at the prior ``innov`` (M,), robust factors ``gamma`` (M,),
     standardizing scales ``scale`` (m,)) and judge each
-    platform one of them down-weighted (module doc); a jump found is given at epoch
-    ``k + 1`` (``fb.pending``) and recorded."""
+    platform that is an end of them (module doc); a jump found is left in
+    ``fb.pending`` for the filter to give at epoch ``k + 1`` (:func:`take_jumps`)."""
     for j in range(m):
         kind = obs.kind[lo + j]
         if kind == OBS_POSITION:
@@ -299,15 +290,6 @@ def judge_epoch(
                 fb.last_jump[p] = t
                 fb.kept[p] = 0
                 fb.head[p] = 0
-    for p in range(fb.pending.shape[0]):
-        if fb.pending[p] > 0.0:
-            n = fb.n_jumps[0]
-            if n < fb.jump_k.shape[0]:
-                fb.jump_k[n] = k + 1
-                fb.jump_p[n] = p
-                fb.jump_var[n] = fb.pending[p]
-                fb.n_jumps[0] = n + 1
-            fb.pending[p] = 0.0
 
 
 #: the robust refit spreads a jump over this many fault windows before the epoch it was
@@ -336,6 +318,31 @@ def spread_jumps(proc: Process, epochs: FloatArray, window: float) -> Process:
     return proc._replace(
         jump_k=k_all[order], jump_p=np.concatenate(ps)[order], jump_var=np.concatenate(vs)[order]
     )
+
+
+@numba.njit(cache=True)
+def take_jumps(
+    fb: FaultBuffers, k: int, jump_k: IntArray, jump_p: IntArray, jump_var: FloatArray, n: int
+) -> tuple[IntArray, IntArray, FloatArray, int]:
+    """Append the jumps ``fb.pending`` holds, given at epoch ``k``, to the first ``n`` of
+    ``jump_k``, ``jump_p``, ``jump_var`` (grown by doubling when full), and clear them."""
+    for p in range(fb.pending.shape[0]):
+        if fb.pending[p] > 0.0:
+            if n == jump_k.shape[0]:
+                size = max(2 * n, 16)
+                grown_k = np.zeros(size, np.int64)
+                grown_p = np.zeros(size, np.int64)
+                grown_v = np.zeros(size)
+                grown_k[:n] = jump_k[:n]
+                grown_p[:n] = jump_p[:n]
+                grown_v[:n] = jump_var[:n]
+                jump_k, jump_p, jump_var = grown_k, grown_p, grown_v
+            jump_k[n] = k
+            jump_p[n] = p
+            jump_var[n] = fb.pending[p]
+            n += 1
+            fb.pending[p] = 0.0
+    return jump_k, jump_p, jump_var, n
 
 
 #: the columns of a fusion's jumps table (FusionOutput.dr_jumps)

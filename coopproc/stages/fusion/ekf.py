@@ -45,7 +45,7 @@ from coopproc.estimation.dr_model import DR_STATES, dr_predict
 from coopproc.estimation.robust import MAD_SCALE, igg3_scalar, mad_sigma_nb
 from coopproc.model import FloatArray
 from coopproc.stages.fusion.copies import copy1, copy2
-from coopproc.stages.fusion.dr_faults import fault_buffers, judge_epoch, leaders
+from coopproc.stages.fusion.dr_faults import fault_buffers, judge_epoch, leaders, take_jumps
 from coopproc.stages.fusion.ekf_update import (
     OBS_ANCHOR,
     OBS_POSITION,
@@ -249,13 +249,15 @@ def ekf_forward(
     dr_x = np.empty((dr_rec.shape[0], n - n_pos))
     dr_var = np.empty((dr_rec.shape[0], n - n_pos))
     dr_next = 0
-    faults = fault_buffers(n_plat, n_epochs + proc.jump_k.shape[0])
-    n_given = proc.jump_k.shape[0]
-    for j in range(n_given):  # given (a refit's): kept, none found
-        faults.jump_k[j] = proc.jump_k[j]
-        faults.jump_p[j] = proc.jump_p[j]
-        faults.jump_var[j] = proc.jump_var[j]
-    faults.n_jumps[0] = n_given
+    faults = fault_buffers(n_plat)
+    n_given = proc.jump_k.shape[0]  # given (a refit's): kept, none found
+    jump_k = np.zeros(max(n_given, 16), np.int64)
+    jump_p = np.zeros(max(n_given, 16), np.int64)
+    jump_var = np.zeros(max(n_given, 16))
+    jump_k[:n_given] = proc.jump_k
+    jump_p[:n_given] = proc.jump_p
+    jump_var[:n_given] = proc.jump_var
+    n_jumps = n_given
     judge = robust and fault_window > 0.0 and n_given == 0
     fixed = leaders(obs, n_plat)
     scale = np.ones(max_m)
@@ -269,8 +271,8 @@ def ekf_forward(
         if k > 0:
             nav_at(nav.t, nav.v, nav.ptr, nav.epochs[k], cursor, nav_now)
             time_update(
-                x, c, nav_now, nav_prev, k, dim, proc, f_out, faults.jump_k, faults.jump_p,
-                faults.jump_var, faults.n_jumps[0] if fault_apply else 0,
+                x, c, nav_now, nav_prev, k, dim, proc, f_out, jump_k, jump_p, jump_var,
+                n_jumps if fault_apply else 0,
             )  # fmt: skip
             copy2(nav_prev, nav_now)
         lo = obs.ptr[k]
@@ -311,6 +313,9 @@ def ekf_forward(
                     faults, k, nav.epochs[k], lo, m, obs, work, innov, gamma, scale, unit, fixed,
                     fault_window, k0,
                 )  # fmt: skip
+                jump_k, jump_p, jump_var, n_jumps = take_jumps(
+                    faults, k + 1, jump_k, jump_p, jump_var, n_jumps
+                )
         epoch_update(
             x, c, lo, m, work, gamma, obs.r_var, bool(np.bool_(False)), unused, unused_v,
             unused_v,
@@ -325,8 +330,7 @@ def ekf_forward(
                 dr_x[dr_next, j] = x[n_pos + j]
                 dr_var[dr_next, j] = c[n_pos + j, n_pos + j]
             dr_next += 1
-    n_j = faults.n_jumps[0]
     return (
         xs, var, gamma, innov, innov_var, cp_x, cp_c, dr_x, dr_var, std_innov,
-        faults.jump_k[:n_j].copy(), faults.jump_p[:n_j].copy(), faults.jump_var[:n_j].copy(),
+        jump_k[:n_jumps].copy(), jump_p[:n_jumps].copy(), jump_var[:n_jumps].copy(),
     )  # fmt: skip
