@@ -67,17 +67,19 @@ __all__ = [
     "take_jumps",
 ]
 
-#: ranges kept per platform (a window of 5 s at 1 Hz per pair holds 5 a partner)
+#: ranges kept per platform: a 5 s window at 1 Hz a pair holds 5 a partner, 45 with nine
+#: partners; at higher rates the window is the last CAPACITY ranges (real TIERS, 7 Hz a
+#: pair and six partners: about 1.5 s)
 CAPACITY = 64
 
 
 class FaultBuffers(NamedTuple):
     """Each platform's kept ranges (P, CAPACITY): time, partner code (platform index, or
     -1 - anchor), the Jacobian on its horizontal position (P, CAPACITY, 2), innovation,
-    standardizing sigma with the MAD factor of eq. (20) and without it (m),
-    down-weighted; per platform (P,) how many are kept and the next slot, the variance to
-    add at the next time update (a jump found, which the filter takes and records), the
-    time of its last jump and of its next judging; and work arrays of the judging."""
+    standardizing sigma with the MAD factor of eq. (20) and without it (m); per platform
+    (P,) how many are kept and the next slot, the variance to add at the next time update
+    (a jump found, which the filter takes and records), the time of its last jump and of
+    its next judging; and work arrays of the judging."""
 
     t: FloatArray
     partner: IntArray
@@ -85,7 +87,6 @@ class FaultBuffers(NamedTuple):
     v: FloatArray
     scale: FloatArray
     unit: FloatArray
-    down: np.ndarray
     kept: IntArray
     head: IntArray
     pending: FloatArray
@@ -105,7 +106,6 @@ def fault_buffers(n_plat: int) -> FaultBuffers:
         np.zeros((n_plat, CAPACITY)),
         np.ones((n_plat, CAPACITY)),
         np.ones((n_plat, CAPACITY)),
-        np.zeros((n_plat, CAPACITY), np.bool_),
         np.zeros(n_plat, np.int64),
         np.zeros(n_plat, np.int64),
         np.zeros(n_plat),
@@ -129,7 +129,7 @@ def leaders(obs: Observations, n_plat: int) -> np.ndarray:
 @numba.njit(cache=True)
 def _push(
     fb: FaultBuffers, p: int, t: float, partner: int, ju: float, jn: float, v: float,
-    scale: float, unit: float, down: bool,
+    scale: float, unit: float,
 ) -> None:  # fmt: skip
     h = fb.head[p]
     fb.t[p, h] = t
@@ -139,7 +139,6 @@ def _push(
     fb.v[p, h] = v
     fb.scale[p, h] = scale
     fb.unit[p, h] = unit
-    fb.down[p, h] = down
     fb.head[p] = (h + 1) % CAPACITY
     fb.kept[p] = min(fb.kept[p] + 1, CAPACITY)
 
@@ -246,7 +245,6 @@ def judge_epoch(
     obs: Observations,
     work: EpochWork,
     innov: FloatArray,
-    gamma: FloatArray,
     scale: FloatArray,
     unit: FloatArray,
     fixed: np.ndarray,
@@ -254,25 +252,24 @@ def judge_epoch(
     k0: float,
 ) -> None:
     """Keep epoch ``k``'s ranges (time ``t``, observations ``lo:lo + m``: their Jacobians in
-    ``work``, innovations at the prior ``innov`` (M,), robust factors ``gamma`` (M,),
-    standardizing scales ``scale`` (m,)) and judge each
-    platform that is an end of them (module doc); a jump found is left in
-    ``fb.pending`` for the filter to give at epoch ``k + 1`` (:func:`take_jumps`)."""
+    ``work``, innovations at the prior ``innov`` (M,), standardizing sigmas ``scale`` and
+    ``unit`` (m,), with and without the MAD factor) and judge each platform that is an end
+    of them except the leaders (``fixed``; module doc); a jump found is left in ``fb.pending``
+    for the filter to give at epoch ``k + 1`` (:func:`take_jumps`)."""
     for j in range(m):
         kind = obs.kind[lo + j]
         if kind == OBS_POSITION:
             continue
         a = obs.a[lo + j]
-        down = gamma[lo + j] < 1.0
         ju, jn = work.h_val[j, 0], work.h_val[j, 1]
         if kind == OBS_RANGE:
             b = obs.b[lo + j]
             if not fixed[a]:
-                _push(fb, a, t, b, ju, jn, innov[lo + j], scale[j], unit[j], down)
+                _push(fb, a, t, b, ju, jn, innov[lo + j], scale[j], unit[j])
             if not fixed[b]:
-                _push(fb, b, t, a, -ju, -jn, innov[lo + j], scale[j], unit[j], down)
+                _push(fb, b, t, a, -ju, -jn, innov[lo + j], scale[j], unit[j])
         elif kind == OBS_ANCHOR and not fixed[a]:
-            _push(fb, a, t, -1 - obs.anchor[lo + j], ju, jn, innov[lo + j], scale[j], unit[j], down)
+            _push(fb, a, t, -1 - obs.anchor[lo + j], ju, jn, innov[lo + j], scale[j], unit[j])
     for j in range(m):
         if obs.kind[lo + j] == OBS_POSITION:
             continue

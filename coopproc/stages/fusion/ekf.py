@@ -310,7 +310,7 @@ def ekf_forward(
                 scale[j] = sigma * unit[j]
             if judge and k + 1 < n_epochs:  # a jump is given at the next epoch
                 judge_epoch(
-                    faults, k, nav.epochs[k], lo, m, obs, work, innov, gamma, scale, unit, fixed,
+                    faults, k, nav.epochs[k], lo, m, obs, work, innov, scale, unit, fixed,
                     fault_window, k0,
                 )  # fmt: skip
                 jump_k, jump_p, jump_var, n_jumps = take_jumps(
