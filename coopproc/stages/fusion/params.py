@@ -181,9 +181,9 @@ class FusionParams:
     dr_fault_window_s: float = field(
         default=5.0,
         metadata={
-            "help": "state 'dr': the span (s) over which a platform's down-weighted ranges "
-            "are judged as a jump of its dead reckoning, given as process noise (dr_faults.py; "
-            "0: off, and always with state 'position')"
+            "help": "state 'dr': the span (s) of a platform's ranges judged together for a "
+            "jump of its dead reckoning (a wheel slip), given as process noise (dr_faults.py, "
+            "docs/methods-fusion.md#dr-jumps; 0: off; always off with state 'position')"
         },
     )
     carry_weights: bool = field(
