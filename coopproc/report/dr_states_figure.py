@@ -1,6 +1,9 @@
 """``dr_states``: the fusion's estimate of each follower's dead-reckoning errors over time
 (``dr_states.csv``): per follower a panel of its heading error (deg) and one of its
-odometer scale error (%), one colour per fusion method, the 1-sigma band shaded.
+odometer scale error (%), one colour per fusion method, the 1-sigma band shaded; a grey
+dotted line where the observed fusion found a jump of the follower's dead reckoning
+(run.json ``calibration.fusion.observed.dr_jumps``, a wheel slip, as the terminal reports
+them: docs/methods-fusion.md#dr-jumps).
 
 A figure of :mod:`coopproc.report.figures` (registered there); drawn only for a run whose
 fusion carried DR states (``[fusion] state = "dr"``, the default, and a follower).
@@ -48,6 +51,7 @@ def dr_states_panels(run: RunTables, opts: FigureOptions, _groups: Any = None) -
     names = {"heading_error": "DR heading error (clockwise)", "scale_error": "odometer scale error"}
     titles = [f"Platform {p}: {names[q[0]]}" for p in platforms for q in _QUANTITIES]
     t0 = run.time_origin_s
+    jumps = _jump_times(run.info)
 
     def draw(ax: Axes, i: int) -> None:
         platform = platforms[i // len(_QUANTITIES)]
@@ -59,6 +63,11 @@ def dr_states_panels(run: RunTables, opts: FigureOptions, _groups: Any = None) -
             style = method_style(method).kwargs()
             (line,) = ax.plot(t, value, **style)
             ax.fill_between(t, value - band, value + band, color=line.get_color(), alpha=0.15)
+        for j, at in enumerate(jumps.get(platform, [])):
+            ax.axvline(
+                at - t0, color="0.35", linestyle=":", linewidth=1.0,
+                label="DR jump found (observed)" if j == 0 else None,
+            )  # fmt: skip
         ax.axhline(0.0, color="0.6", linewidth=0.6)
         ax.set_ylabel(label)
 
@@ -67,3 +76,12 @@ def dr_states_panels(run: RunTables, opts: FigureOptions, _groups: Any = None) -
         legend(fig, axes)
 
     return Panels(keys, titles, stack_layout(opts.style), draw, finish, "panels")
+
+
+def _jump_times(info: Any) -> dict[str, list[float]]:
+    """platform -> the times of the jumps the observed fusion found (run.json)."""
+    facts = (info or {}).get("calibration", {}).get("fusion", {}).get("observed", {})
+    out: dict[str, list[float]] = {}
+    for jump in facts.get("dr_jumps", []) if isinstance(facts, dict) else []:
+        out.setdefault(str(jump["platform"]), []).append(float(jump["time"]))
+    return out

@@ -164,3 +164,45 @@ def test_dr_states_figure_has_two_panels_per_follower(sample_run: Path) -> None:
     ydata = axes[1].get_lines()[0].get_ydata()  # DI-Based, the first method in name order
     assert float(np.median(ydata)) == pytest.approx(100 * float(observed["scale_error"].median()))
     fig.clear()
+
+
+def test_dr_states_figure_marks_the_jumps_the_observed_fusion_found(sample_run: Path) -> None:
+    """A jump in run.json's calibration.fusion.observed.dr_jumps is a dotted vertical line
+    in both of its platform's panels (sample_logs has none: two are put in)."""
+    import dataclasses
+
+    from coopproc.report.dr_states_figure import dr_states_panels
+    from coopproc.report.pages import FigureOptions
+
+    run = load_run(sample_run)
+    t0 = run.time_origin_s
+    info = dict(run.info)
+    calibration = dict(info.get("calibration", {}))
+    fusion = dict(calibration.get("fusion", {}))
+    fusion["observed"] = dict(fusion.get("observed", {})) | {
+        "dr_jumps": [
+            {"platform": "C", "time": t0 + 100.0, "size_m": 0.4},
+            {"platform": "C", "time": t0 + 250.0, "size_m": 0.3},
+        ]
+    }
+    fusion["di"] = dict(fusion.get("di", {})) | {
+        "dr_jumps": [{"platform": "A", "time": t0 + 50.0, "size_m": 0.2}]  # not drawn
+    }
+    run = dataclasses.replace(run, info=info | {"calibration": calibration | {"fusion": fusion}})
+    panels = dr_states_panels(run, FigureOptions())
+    assert panels is not None
+    with mpl.rc_context(RC):
+        fig = panels.page(range(len(panels.keys)))
+    axes = fig.get_axes()
+
+    def vertical(ax: object) -> list[float]:
+        return sorted(
+            float(line.get_xdata()[0])
+            for line in ax.get_lines()  # type: ignore[attr-defined]
+            if line.get_linestyle() == ":"
+        )
+
+    assert vertical(axes[0]) == [] and vertical(axes[1]) == []  # A: the observed found none
+    assert vertical(axes[2]) == pytest.approx([100.0, 250.0])
+    assert vertical(axes[3]) == pytest.approx([100.0, 250.0])
+    fig.clear()
