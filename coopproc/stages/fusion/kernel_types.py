@@ -52,7 +52,8 @@ class Process(NamedTuple):
     and random walks ``dr_q`` (P, 5) (:mod:`~coopproc.estimation.dr_model`); and the
     dead-reckoning faults' extra position variance: at epoch ``jump_k[j]`` (sorted)
     platform ``jump_p[j]``'s horizontal axes get ``jump_var[j]`` m^2 each
-    (:mod:`~coopproc.stages.fusion.dr_faults`; none outside the robust refit)."""
+    (:mod:`~coopproc.stages.fusion.dr_faults`: none for the forward pass, which finds them;
+    its jumps for the smoother's re-runs, and the confirmed, spread ones for the refit)."""
 
     q_coef: FloatArray
     q_squared: bool
