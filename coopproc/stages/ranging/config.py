@@ -145,7 +145,8 @@ class NLOSParams:
         default=True,
         metadata={
             "help": "run the distance filters (DI- and RN-Based) forward and backward in time "
-            "and flag NLOS where both runs do (false: forward only, as in real time)"
+            "and flag NLOS where both runs do, or one run at its own detection of an event "
+            "both confirm (false: forward only, as in real time)"
         },
     )
     passthrough_gain: float = field(

@@ -2,7 +2,9 @@
 
 Post-processing has the whole series, so the DI-Based distance filter (paper 000 eq. (8)-(12))
 runs twice: forward, as the paper runs it in real time, and on the time-reversed series (the
-ranges reversed, the DIs reversed and negated). An epoch is NLOS when both runs flag it.
+ranges reversed, the DIs reversed and negated). An epoch is NLOS when both runs flag it,
+or when it lies between a confirmed event's joint epochs and one run's own detection
+(:func:`_trusted_edges`).
 
 Why: on real recordings NLOS often fades in and out over a second or more instead of
 switching. A forward run that holds its estimate (eq. (12)) updates the distance with
@@ -14,13 +16,21 @@ end: its onset is caught there and the event ends where the forward one began. E
 false holds lie after its own detection, so the two do not agree on them; real events are
 seen by both.
 
+Each run is right where it detects, though, and the both-rule loses what one run catches
+alone at its own edge of a confirmed event: where the forward DI run ended an event early
+(a noisy leader's DI, the excess dipping) the backward run flags the rest of it up to its
+own detection at the event's end; where the RN run absorbed a ramp-shaped onset one way,
+the other way's detection covers it. Those epochs are added when the ranges less the
+summed increments step there (:func:`_trusted_edges`).
+
 The combined distance: the mean of the two runs where they agree on the epoch's state, the
-run that sees line of sight where they do not. The DI-Based NLOS estimate (eq. (10)-(12))
-and its running values (paper 000 fig. 10) are the forward run's, kept inside the combined
-events: the backward run only confirms where they are. The RN-Based estimate is the mean of
-the two runs' one-shot estimates (:func:`_one_shot_estimates`): each run estimates once, at
-its own detection (the forward one at the onset, the backward one at the end), so two
-independent single-epoch residuals instead of one.
+run that sees line of sight where they do not, the flagging run's on the added epochs. The
+DI-Based NLOS estimate (eq. (10)-(12)) and its running values (paper 000 fig. 10) are the
+forward run's, kept inside the combined events (held over the epochs the backward run
+added): the backward run confirms and extends where they are. The RN-Based estimate is the
+mean of the two runs' one-shot estimates (:func:`_one_shot_estimates`): each run estimates
+once, at its own detection (the forward one at the onset, the backward one at the end), so
+two independent single-epoch residuals instead of one.
 """
 
 from __future__ import annotations
@@ -28,6 +38,7 @@ from __future__ import annotations
 import numpy as np
 
 from coopproc.model import FloatArray
+from coopproc.stages.ranging.jump import range_jump
 from coopproc.stages.ranging.nlos import (
     DistanceFilterOutput,
     EpochNoise,
@@ -54,6 +65,85 @@ def _runs(flag: np.ndarray) -> list[tuple[int, int]]:
     """[start, end) index ranges of the consecutive True runs of ``flag``."""
     edges = np.diff(np.concatenate(([0], flag.astype(np.int8), [0])))
     return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True))
+
+
+def _events(flag: np.ndarray, ids: np.ndarray) -> list[tuple[int, int]]:
+    """[start, end) ranges of a run's events: its flagged runs, split where its event
+    number changes."""
+    out = []
+    for lo, hi in _runs(flag):
+        cuts = np.flatnonzero(np.diff(ids[lo:hi]) != 0) + 1
+        out += [
+            (lo + a, lo + b)
+            for a, b in zip([0, *cuts.tolist()], [*cuts.tolist(), hi - lo], strict=True)
+        ]
+    return out
+
+
+def _steps_more(
+    time_s: FloatArray,
+    level_m: FloatArray,
+    k: int,
+    other: int,
+    least_m: float,
+    window_s: float,
+    up: bool,
+) -> bool:
+    """True when the level series (:func:`range_jump` on it) steps at epoch ``k`` by at
+    least ``least_m`` and by more than at epoch ``other``: up (an onset) or down (an end)."""
+    sign = 1.0 if up else -1.0
+    a, _ = range_jump(time_s, level_m, k, window_s)
+    b, _ = range_jump(time_s, level_m, other, window_s)
+    if not (np.isfinite(a) and np.isfinite(b)):
+        return False
+    return bool(sign * a >= least_m and sign * a > sign * b)
+
+
+def _trusted_edges(
+    time_s: FloatArray,
+    level_m: FloatArray,
+    both: np.ndarray,
+    fwd: DistanceFilterOutput,
+    rev: DistanceFilterOutput,
+    params: KernelParams,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Epochs added to the jointly flagged ones because one run's detection is trusted
+    there: (forward-only, backward-only) masks.
+
+    A run detects where it sees the residual jump; what it gets wrong is the far side of
+    its event (a false hold after the detection, or an early end where it absorbed a
+    ramp). So a backward event confirmed by the forward run is flagged from the last
+    jointly flagged epoch to its own detection (its last epoch in forward time), and, for
+    the RN method, a confirmed forward event from its detection (its first epoch) to the
+    first jointly flagged epoch. Each extension must be backed by the ranges: the level
+    series (``level_m``, the ranges less the summed increments) steps at the detection by
+    at least ``jump_fraction`` times the run's estimate and by more than where the other
+    run's event ended; otherwise the other run's edge is the real one (a forward false
+    detection that held on into a later event) and the both-rule stands. Only the first
+    joint epoch of a forward event (the last of a backward one) bounds an extension.
+    """
+    fwd_only = np.zeros(both.shape[0], dtype=bool)
+    bwd_only = np.zeros(both.shape[0], dtype=bool)
+    fraction, window = params.jump_fraction, params.jump_window_s
+    if fraction <= 0.0:
+        return fwd_only, bwd_only
+    if params.one_shot:
+        for lo, hi in _events(fwd.nlos_flag.astype(bool), fwd.event):
+            joint = np.flatnonzero(both[lo:hi])
+            if joint.size and joint[0] > 0:
+                k = lo + int(joint[0])
+                least = fraction * abs(float(fwd.nlos_estimate_m[k]))
+                if _steps_more(time_s, level_m, lo, k, least, window, up=True):
+                    fwd_only[lo:k] = True
+    bwd_est = rev.nlos_estimate_m[::-1]
+    for lo, hi in _events(rev.nlos_flag[::-1].astype(bool), rev.event[::-1]):
+        joint = np.flatnonzero(both[lo:hi])
+        if joint.size and lo + int(joint[-1]) + 1 < hi < both.shape[0]:
+            k = lo + int(joint[-1]) + 1
+            least = fraction * abs(float(bwd_est[k]))
+            if _steps_more(time_s, level_m, hi, k, least, window, up=False):
+                bwd_only[k:hi] = True
+    return fwd_only & ~both, bwd_only & ~both & ~fwd_only
 
 
 def _detections(event: np.ndarray, last: bool) -> dict[int, int]:
@@ -131,23 +221,32 @@ def filter_distance_two_way(
         0.5 * (fwd.distance_m + bwd_d),
         np.where(fwd_flag, bwd_d, fwd.distance_m),
     )
-    estimate = np.where(both, fwd.nlos_estimate_m, 0.0)
     event = np.full(time_s.shape[0], -1, dtype=np.int64)
     # a combined event is a run of epochs flagged by both, split where the forward run
     # restarted (event numbers of the forward run change)
-    number = 0
-    for lo, hi in _runs(both):
-        ids = fwd.event[lo:hi]
-        cuts = np.flatnonzero(np.diff(ids) != 0) + 1
-        for a, b in zip([0, *cuts.tolist()], [*cuts.tolist(), hi - lo], strict=True):
-            event[lo + a : lo + b] = number
-            number += 1
+    for number, (lo, hi) in enumerate(_events(both, fwd.event)):
+        event[lo:hi] = number
+    # the ranges less the motion the increments model (the DI summed): line of sight is
+    # a slow drift there, NLOS a level shift, whichever way the platforms move
+    level = range_m - np.cumsum(np.nan_to_num(di_m, nan=0.0, posinf=0.0, neginf=0.0))
+    fwd_only, bwd_only = _trusted_edges(time_s, level, both, fwd, rev, params)
+    distance = np.where(fwd_only, fwd.distance_m, np.where(bwd_only, bwd_d, distance))
+    # the added epochs join the joint event they lead into (forward) or follow (backward)
+    for lo, hi in _runs(fwd_only):
+        event[lo:hi] = event[hi] if hi < event.shape[0] else -1
+    for lo, hi in _runs(bwd_only):
+        event[lo:hi] = event[lo - 1] if lo > 0 else -1
+    flag = both | fwd_only | bwd_only
+    estimate = np.where(flag, fwd.nlos_estimate_m, 0.0)
+    for lo, hi in _runs(bwd_only):
+        # the forward run's estimate, held (eq. (12)) past where it stopped flagging
+        estimate[lo:hi] = estimate[lo - 1] if lo > 0 else 0.0
     if params.one_shot:
         estimate = _one_shot_estimates(time_s, event, fwd, rev, params.window_s)
-    step = np.where(both, fwd.step_estimate_m, np.nan)
+    step = np.where(flag & ~bwd_only, fwd.step_estimate_m, np.nan)
     combined = DistanceFilterOutput(
         distance_m=distance,
-        nlos_flag=both.astype(np.int8),
+        nlos_flag=flag.astype(np.int8),
         nlos_estimate_m=estimate,
         event=event,
         step_estimate_m=step,
