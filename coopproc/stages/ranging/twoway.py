@@ -21,7 +21,9 @@ alone at its own edge of a confirmed event: where the forward DI run ended an ev
 (a noisy leader's DI, the excess dipping) the backward run flags the rest of it up to its
 own detection at the event's end; where the RN run absorbed a ramp-shaped onset one way,
 the other way's detection covers it. Those epochs are added when the ranges less the
-summed increments step there (:func:`_trusted_edges`).
+summed increments step there (:func:`_trusted_edges`). An RN event whose two runs each
+saw one end and lost it before they met is joined up when the level series stays lifted
+between them (:func:`_facing_events`).
 
 The combined distance: the mean of the two runs where they agree on the epoch's state, the
 run that sees line of sight where they do not, the flagging run's on the added epochs. The
@@ -38,7 +40,7 @@ from __future__ import annotations
 import numpy as np
 
 from coopproc.model import FloatArray
-from coopproc.stages.ranging.jump import range_jump
+from coopproc.stages.ranging.jump import JUMP_MIN_POINTS, range_jump
 from coopproc.stages.ranging.nlos import (
     DistanceFilterOutput,
     EpochNoise,
@@ -146,6 +148,78 @@ def _trusted_edges(
     return fwd_only & ~both, bwd_only & ~both & ~fwd_only
 
 
+def _facing_events(
+    time_s: FloatArray,
+    level_m: FloatArray,
+    both: np.ndarray,
+    fwd: DistanceFilterOutput,
+    rev: DistanceFilterOutput,
+    params: KernelParams,
+) -> list[tuple[int, int, int, int]]:
+    """RN events seen from their two ends only: (fa, fb, ba, bb), a forward event [fa, fb)
+    and the backward event [ba, bb) after it, neither overlapping anything jointly flagged,
+    with no epoch between them flagged by either run.
+
+    Each run detected one end and lost the event where the excess dipped, before the two
+    met (``noisy-leader`` seed 13: forward 5 s from the onset, backward 18 s from the end,
+    2 s apart). They are one event when the level series steps up at the forward
+    detection and down at the backward one (by ``jump_fraction`` of each run's estimate)
+    and stays lifted by as much between the two (:func:`_lift`): two separate events
+    have line of sight there.
+    """
+    fraction, window = params.jump_fraction, params.jump_window_s
+    if fraction <= 0.0 or not params.one_shot:
+        return []
+    n = both.shape[0]
+    bwd_flag = rev.nlos_flag[::-1].astype(bool)
+    fwd_flag = fwd.nlos_flag.astype(bool)
+    bwd_est = rev.nlos_estimate_m[::-1]
+    alone_b = [e for e in _events(bwd_flag, rev.event[::-1]) if not both[e[0] : e[1]].any()]
+    out = []
+    for fa, fb in _events(fwd_flag, fwd.event):
+        if fa == 0 or both[fa:fb].any():
+            continue
+        later = [e for e in alone_b if e[0] >= fb]
+        if not later:
+            continue
+        ba, bb = later[0]
+        if bb >= n or (fwd_flag[fb:ba] | bwd_flag[fb:ba]).any():
+            continue
+        least_f = fraction * abs(float(fwd.nlos_estimate_m[fa]))
+        least_b = fraction * abs(float(bwd_est[bb - 1]))
+        j_fa = range_jump(time_s, level_m, fa, window)[0]
+        j_bb = range_jump(time_s, level_m, bb, window)[0]
+        lift = _lift(time_s, level_m, fa, bb, fb, ba, window)
+        if j_fa >= least_f and -j_bb >= least_b and lift >= min(least_f, least_b):
+            out.append((fa, fb, ba, bb))
+    return out
+
+
+def _lift(
+    time_s: FloatArray, level_m: FloatArray, a: int, b: int, lo: int, hi: int, window_s: float
+) -> float:
+    """How far the level series lies above its line-of-sight course over epochs [lo, hi):
+    the mean of ``level_m`` there less the line fitted to the epochs within ``window_s``
+    (and at least :data:`JUMP_MIN_POINTS`) before ``a`` and from ``b`` on. NaN when a side
+    has fewer than 2 finite values."""
+    n = time_s.shape[0]
+    before = np.arange(a)
+    before = before[(time_s[a] - time_s[before] <= window_s) | (before >= a - JUMP_MIN_POINTS)]
+    after = np.arange(b, n)
+    after = after[(time_s[after] - time_s[b] < window_s) | (after < b + JUMP_MIN_POINTS)]
+    sides = np.concatenate((before, after))
+    sides = sides[np.isfinite(level_m[sides])]
+    if np.count_nonzero(sides < a) < 2 or np.count_nonzero(sides >= b) < 2:
+        return float("nan")
+    gap = np.arange(lo, hi)
+    gap = gap[np.isfinite(level_m[gap])]
+    if not gap.size:
+        return float("nan")
+    slope, intercept = np.polyfit(time_s[sides] - time_s[a], level_m[sides], 1)
+    course = intercept + slope * (time_s[gap] - time_s[a])
+    return float(np.mean(level_m[gap] - course))
+
+
 def _detections(event: np.ndarray, last: bool) -> dict[int, int]:
     """Event number -> the index of its first (``last``: final) epoch."""
     ids = event if not last else event[::-1]
@@ -237,12 +311,27 @@ def filter_distance_two_way(
     for lo, hi in _runs(bwd_only):
         event[lo:hi] = event[lo - 1] if lo > 0 else -1
     flag = both | fwd_only | bwd_only
+    facing = _facing_events(time_s, level, both, fwd, rev, params)
+    for fa, fb, ba, bb in facing:
+        flag[fa:bb] = True
+        event[fa:bb] = event.max() + 1
+        distance[fa:fb] = fwd.distance_m[fa:fb]
+        distance[ba:bb] = bwd_d[ba:bb]
+    if facing:
+        # event numbers in time order again
+        ids, first = np.unique(event[event >= 0], return_index=True)
+        rank = np.empty(ids.shape[0], dtype=np.int64)
+        rank[np.argsort(first)] = np.arange(ids.shape[0])
+        event[event >= 0] = rank[np.searchsorted(ids, event[event >= 0])]
     estimate = np.where(flag, fwd.nlos_estimate_m, 0.0)
     for lo, hi in _runs(bwd_only):
         # the forward run's estimate, held (eq. (12)) past where it stopped flagging
         estimate[lo:hi] = estimate[lo - 1] if lo > 0 else 0.0
     if params.one_shot:
         estimate = _one_shot_estimates(time_s, event, fwd, rev, params.window_s)
+        for _fa, fb, ba, _bb in facing:
+            # where neither run flagged it: the ranges less the event's estimate
+            distance[fb:ba] = range_m[fb:ba] - estimate[fb:ba]
     step = np.where(flag & ~bwd_only, fwd.step_estimate_m, np.nan)
     combined = DistanceFilterOutput(
         distance_m=distance,
