@@ -53,6 +53,17 @@ def test_di_fused_with_wheel_slips(tmp_path: Path) -> None:
     assert "jump(s) of its dead reckoning" in run.stderr
 
 
+def test_di_fused_on_the_handcart(tmp_path: Path) -> None:
+    # handcart seed 0: the backward DI run took a 0.9 m event's end at a bend of the track
+    # for a dead-reckoning fault, so only the forward run saw it and the both-rule dropped
+    # it (DI-fused 1.12 x); a DI event one run alone saw is kept when the ranges less the
+    # summed increments confirm it (stages/ranging/onerun.py lone_events): 1.04 x now
+    run = simulate_and_run(tmp_path, "handcart", 0)
+    ratio = _ratios(run.position_metrics)
+    assert list(ratio.index) == ["cart"]
+    assert ratio.max() <= 1.1, ratio.to_dict()
+
+
 @pytest.mark.slow  # a 2 h simulated session (about 25 s)
 def test_di_fused_on_a_2_hour_paper_experiment(tmp_path: Path) -> None:
     # seed 1 at 2 h: 1.13 x (A) before, 0.98 x now
@@ -66,10 +77,11 @@ def test_di_fused_on_a_2_hour_paper_experiment(tmp_path: Path) -> None:
 def test_di_fused_on_the_real_sessions(tmp_path: Path) -> None:
     if not REAL.is_dir():
         pytest.skip(f"no shared real sessions {REAL}")
-    # measured DI-fused / observed-fused, worst platform: miluv1 1.09 (1.24 before),
-    # tuc 1.00, plaza2 1.00; TIERS tb3 1.11 (the target is missed there by 1 %: held
-    # as a regression bound; hanyang_los has no fusion, a tag only)
-    bound = {"miluv1": 1.1, "tuc": 1.1, "plaza2": 1.1, "tiers": 1.12}
+    # measured DI-fused / observed-fused, worst platform: miluv1 1.01 (1.24 before),
+    # tuc 1.00, plaza2 1.00; TIERS tb3 1.06 (1.11 before a DI event one run alone saw
+    # was kept on the level series, stages/ranging/onerun.py; hanyang_los has no fusion,
+    # a tag only)
+    bound = {"miluv1": 1.1, "tuc": 1.1, "plaza2": 1.1, "tiers": 1.1}
     for name, limit in bound.items():
         out = tmp_path / name
         args = ["run", str(REAL / name), "-o", str(out), "--no-figures"]

@@ -4,7 +4,7 @@ Post-processing has the whole series, so the DI-Based distance filter (paper 000
 runs twice: forward, as the paper runs it in real time, and on the time-reversed series (the
 ranges reversed, the DIs reversed and negated). An epoch is NLOS when both runs flag it,
 or when it lies between a confirmed event's joint epochs and one run's own detection
-(:func:`_trusted_edges`).
+(:func:`~coopproc.stages.ranging.onerun.trusted_edges`).
 
 Why: on real recordings NLOS often fades in and out over a second or more instead of
 switching. A forward run that holds its estimate (eq. (12)) updates the distance with
@@ -21,9 +21,9 @@ alone at its own edge of a confirmed event: where the forward DI run ended an ev
 (a noisy leader's DI, the excess dipping) the backward run flags the rest of it up to its
 own detection at the event's end; where the RN run absorbed a ramp-shaped onset one way,
 the other way's detection covers it. Those epochs are added when the ranges less the
-summed increments step there (:func:`_trusted_edges`). An RN event whose two runs each
-saw one end and lost it before they met is joined up when the level series stays lifted
-between them (:func:`_facing_events`).
+summed increments step there; an RN event whose two runs each saw one end and lost it
+before they met is joined up, and a DI event one run alone saw is kept, when that level
+series says so (:mod:`coopproc.stages.ranging.onerun`).
 
 The combined distance: the mean of the two runs where they agree on the epoch's state, the
 run that sees line of sight where they do not, the flagging run's on the added epochs. The
@@ -40,12 +40,18 @@ from __future__ import annotations
 import numpy as np
 
 from coopproc.model import FloatArray
-from coopproc.stages.ranging.jump import JUMP_MIN_POINTS, range_jump
 from coopproc.stages.ranging.nlos import (
     DistanceFilterOutput,
     EpochNoise,
     KernelParams,
     filter_distance,
+)
+from coopproc.stages.ranging.onerun import (
+    events,
+    facing_events,
+    lone_events,
+    runs,
+    trusted_edges,
 )
 
 __all__ = ["filter_distance_two_way", "reverse_increments"]
@@ -61,163 +67,6 @@ def reverse_increments(values: FloatArray, negate: bool) -> FloatArray:
     out = np.full(values.shape[0], np.nan)
     out[1:] = values[:0:-1]
     return -out if negate else out
-
-
-def _runs(flag: np.ndarray) -> list[tuple[int, int]]:
-    """[start, end) index ranges of the consecutive True runs of ``flag``."""
-    edges = np.diff(np.concatenate(([0], flag.astype(np.int8), [0])))
-    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True))
-
-
-def _events(flag: np.ndarray, ids: np.ndarray) -> list[tuple[int, int]]:
-    """[start, end) ranges of a run's events: its flagged runs, split where its event
-    number changes."""
-    out = []
-    for lo, hi in _runs(flag):
-        cuts = np.flatnonzero(np.diff(ids[lo:hi]) != 0) + 1
-        out += [
-            (lo + a, lo + b)
-            for a, b in zip([0, *cuts.tolist()], [*cuts.tolist(), hi - lo], strict=True)
-        ]
-    return out
-
-
-def _steps_more(
-    time_s: FloatArray,
-    level_m: FloatArray,
-    k: int,
-    other: int,
-    least_m: float,
-    window_s: float,
-    up: bool,
-) -> bool:
-    """True when the level series (:func:`range_jump` on it) steps at epoch ``k`` by at
-    least ``least_m`` and by more than at epoch ``other``: up (an onset) or down (an end)."""
-    sign = 1.0 if up else -1.0
-    a, _ = range_jump(time_s, level_m, k, window_s)
-    b, _ = range_jump(time_s, level_m, other, window_s)
-    if not (np.isfinite(a) and np.isfinite(b)):
-        return False
-    return bool(sign * a >= least_m and sign * a > sign * b)
-
-
-def _trusted_edges(
-    time_s: FloatArray,
-    level_m: FloatArray,
-    both: np.ndarray,
-    fwd: DistanceFilterOutput,
-    rev: DistanceFilterOutput,
-    params: KernelParams,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Epochs added to the jointly flagged ones because one run's detection is trusted
-    there: (forward-only, backward-only) masks.
-
-    A run detects where it sees the residual jump; what it gets wrong is the far side of
-    its event (a false hold after the detection, or an early end where it absorbed a
-    ramp). So a backward event confirmed by the forward run is flagged from the last
-    jointly flagged epoch to its own detection (its last epoch in forward time), and, for
-    the RN method, a confirmed forward event from its detection (its first epoch) to the
-    first jointly flagged epoch. Each extension must be backed by the ranges: the level
-    series (``level_m``, the ranges less the summed increments) steps at the detection by
-    at least ``jump_fraction`` times the run's estimate and by more than where the other
-    run's event ended; otherwise the other run's edge is the real one (a forward false
-    detection that held on into a later event) and the both-rule stands. Only the first
-    joint epoch of a forward event (the last of a backward one) bounds an extension.
-    """
-    fwd_only = np.zeros(both.shape[0], dtype=bool)
-    bwd_only = np.zeros(both.shape[0], dtype=bool)
-    fraction, window = params.jump_fraction, params.jump_window_s
-    if fraction <= 0.0:
-        return fwd_only, bwd_only
-    if params.one_shot:
-        for lo, hi in _events(fwd.nlos_flag.astype(bool), fwd.event):
-            joint = np.flatnonzero(both[lo:hi])
-            if joint.size and joint[0] > 0:
-                k = lo + int(joint[0])
-                least = fraction * abs(float(fwd.nlos_estimate_m[k]))
-                if _steps_more(time_s, level_m, lo, k, least, window, up=True):
-                    fwd_only[lo:k] = True
-    bwd_est = rev.nlos_estimate_m[::-1]
-    for lo, hi in _events(rev.nlos_flag[::-1].astype(bool), rev.event[::-1]):
-        joint = np.flatnonzero(both[lo:hi])
-        if joint.size and lo + int(joint[-1]) + 1 < hi < both.shape[0]:
-            k = lo + int(joint[-1]) + 1
-            least = fraction * abs(float(bwd_est[k]))
-            if _steps_more(time_s, level_m, hi, k, least, window, up=False):
-                bwd_only[k:hi] = True
-    return fwd_only & ~both, bwd_only & ~both & ~fwd_only
-
-
-def _facing_events(
-    time_s: FloatArray,
-    level_m: FloatArray,
-    both: np.ndarray,
-    fwd: DistanceFilterOutput,
-    rev: DistanceFilterOutput,
-    params: KernelParams,
-) -> list[tuple[int, int, int, int]]:
-    """RN events seen from their two ends only: (fa, fb, ba, bb), a forward event [fa, fb)
-    and the backward event [ba, bb) after it, neither overlapping anything jointly flagged,
-    with no epoch between them flagged by either run.
-
-    Each run detected one end and lost the event where the excess dipped, before the two
-    met (``noisy-leader`` seed 13: forward 5 s from the onset, backward 18 s from the end,
-    2 s apart). They are one event when the level series steps up at the forward
-    detection and down at the backward one (by ``jump_fraction`` of each run's estimate)
-    and stays lifted by as much between the two (:func:`_lift`): two separate events
-    have line of sight there.
-    """
-    fraction, window = params.jump_fraction, params.jump_window_s
-    if fraction <= 0.0 or not params.one_shot:
-        return []
-    n = both.shape[0]
-    bwd_flag = rev.nlos_flag[::-1].astype(bool)
-    fwd_flag = fwd.nlos_flag.astype(bool)
-    bwd_est = rev.nlos_estimate_m[::-1]
-    alone_b = [e for e in _events(bwd_flag, rev.event[::-1]) if not both[e[0] : e[1]].any()]
-    out = []
-    for fa, fb in _events(fwd_flag, fwd.event):
-        if fa == 0 or both[fa:fb].any():
-            continue
-        later = [e for e in alone_b if e[0] >= fb]
-        if not later:
-            continue
-        ba, bb = later[0]
-        if bb >= n or (fwd_flag[fb:ba] | bwd_flag[fb:ba]).any():
-            continue
-        least_f = fraction * abs(float(fwd.nlos_estimate_m[fa]))
-        least_b = fraction * abs(float(bwd_est[bb - 1]))
-        j_fa = range_jump(time_s, level_m, fa, window)[0]
-        j_bb = range_jump(time_s, level_m, bb, window)[0]
-        lift = _lift(time_s, level_m, fa, bb, fb, ba, window)
-        if j_fa >= least_f and -j_bb >= least_b and lift >= min(least_f, least_b):
-            out.append((fa, fb, ba, bb))
-    return out
-
-
-def _lift(
-    time_s: FloatArray, level_m: FloatArray, a: int, b: int, lo: int, hi: int, window_s: float
-) -> float:
-    """How far the level series lies above its line-of-sight course over epochs [lo, hi):
-    the mean of ``level_m`` there less the line fitted to the epochs within ``window_s``
-    (and at least :data:`JUMP_MIN_POINTS`) before ``a`` and from ``b`` on. NaN when a side
-    has fewer than 2 finite values."""
-    n = time_s.shape[0]
-    before = np.arange(a)
-    before = before[(time_s[a] - time_s[before] <= window_s) | (before >= a - JUMP_MIN_POINTS)]
-    after = np.arange(b, n)
-    after = after[(time_s[after] - time_s[b] < window_s) | (after < b + JUMP_MIN_POINTS)]
-    sides = np.concatenate((before, after))
-    sides = sides[np.isfinite(level_m[sides])]
-    if np.count_nonzero(sides < a) < 2 or np.count_nonzero(sides >= b) < 2:
-        return float("nan")
-    gap = np.arange(lo, hi)
-    gap = gap[np.isfinite(level_m[gap])]
-    if not gap.size:
-        return float("nan")
-    slope, intercept = np.polyfit(time_s[sides] - time_s[a], level_m[sides], 1)
-    course = intercept + slope * (time_s[gap] - time_s[a])
-    return float(np.mean(level_m[gap] - course))
 
 
 def _detections(event: np.ndarray, last: bool) -> dict[int, int]:
@@ -252,7 +101,7 @@ def _one_shot_estimates(
     bwd_est = rev.nlos_estimate_m[::-1]
     fwd_first = _detections(fwd.event, last=False)
     bwd_last = _detections(bwd_event, last=True)
-    for lo, hi in _runs(event >= 0):
+    for lo, hi in runs(event >= 0):
         cuts = np.flatnonzero(np.diff(event[lo:hi]) != 0) + 1
         for a, b in zip([0, *cuts.tolist()], [*cuts.tolist(), hi - lo], strict=True):
             first, last = lo + a, lo + b - 1
@@ -298,41 +147,67 @@ def filter_distance_two_way(
     event = np.full(time_s.shape[0], -1, dtype=np.int64)
     # a combined event is a run of epochs flagged by both, split where the forward run
     # restarted (event numbers of the forward run change)
-    for number, (lo, hi) in enumerate(_events(both, fwd.event)):
+    for number, (lo, hi) in enumerate(events(both, fwd.event)):
         event[lo:hi] = number
     # the ranges less the motion the increments model (the DI summed): line of sight is
     # a slow drift there, NLOS a level shift, whichever way the platforms move
     level = range_m - np.cumsum(np.nan_to_num(di_m, nan=0.0, posinf=0.0, neginf=0.0))
-    fwd_only, bwd_only = _trusted_edges(time_s, level, both, fwd, rev, params)
+    fwd_only, bwd_only = trusted_edges(time_s, level, both, fwd, rev, params)
     distance = np.where(fwd_only, fwd.distance_m, np.where(bwd_only, bwd_d, distance))
     # the added epochs join the joint event they lead into (forward) or follow (backward)
-    for lo, hi in _runs(fwd_only):
+    for lo, hi in runs(fwd_only):
         event[lo:hi] = event[hi] if hi < event.shape[0] else -1
-    for lo, hi in _runs(bwd_only):
+    for lo, hi in runs(bwd_only):
         event[lo:hi] = event[lo - 1] if lo > 0 else -1
     flag = both | fwd_only | bwd_only
-    facing = _facing_events(time_s, level, both, fwd, rev, params)
+    facing = facing_events(time_s, level, both, fwd, rev, params)
     for fa, fb, ba, bb in facing:
         flag[fa:bb] = True
         event[fa:bb] = event.max() + 1
         distance[fa:fb] = fwd.distance_m[fa:fb]
         distance[ba:bb] = bwd_d[ba:bb]
-    if facing:
+    sigma = noise.detect_sigma_m if noise is not None else None
+    if sigma is None:
+        sigma = (
+            np.full(time_s.shape[0], params.detect_sigma_m)
+            if params.detect_sigma_m > 0
+            else fwd.sigma_m
+        )
+    gamma = params.gamma_sigma * np.asarray(sigma, dtype=np.float64)
+    bwd_est = rev.nlos_estimate_m[::-1]
+    fwd_alone = lone_events(
+        time_s, level, flag, (fwd_flag, fwd.event, fwd.nlos_estimate_m), bwd_flag, gamma, params
+    )
+    bwd_alone = lone_events(
+        time_s, level, flag, (bwd_flag, rev.event[::-1], bwd_est), fwd_flag, gamma, params
+    )
+    for a, b in fwd_alone:
+        distance[a:b] = fwd.distance_m[a:b]
+    for a, b in bwd_alone:
+        distance[a:b] = bwd_d[a:b]
+    for a, b in fwd_alone + bwd_alone:
+        flag[a:b] = True
+        event[a:b] = event.max() + 1
+    if facing or fwd_alone or bwd_alone:
         # event numbers in time order again
         ids, first = np.unique(event[event >= 0], return_index=True)
         rank = np.empty(ids.shape[0], dtype=np.int64)
         rank[np.argsort(first)] = np.arange(ids.shape[0])
         event[event >= 0] = rank[np.searchsorted(ids, event[event >= 0])]
     estimate = np.where(flag, fwd.nlos_estimate_m, 0.0)
-    for lo, hi in _runs(bwd_only):
+    for lo, hi in runs(bwd_only):
         # the forward run's estimate, held (eq. (12)) past where it stopped flagging
         estimate[lo:hi] = estimate[lo - 1] if lo > 0 else 0.0
+    for a, b in bwd_alone:
+        estimate[a:b] = bwd_est[a]  # the backward run's final one (its last epoch run)
     if params.one_shot:
         estimate = _one_shot_estimates(time_s, event, fwd, rev, params.window_s)
         for _fa, fb, ba, _bb in facing:
             # where neither run flagged it: the ranges less the event's estimate
             distance[fb:ba] = range_m[fb:ba] - estimate[fb:ba]
     step = np.where(flag & ~bwd_only, fwd.step_estimate_m, np.nan)
+    for a, b in bwd_alone:
+        step[a:b] = np.nan
     combined = DistanceFilterOutput(
         distance_m=distance,
         nlos_flag=flag.astype(np.int8),
