@@ -5,9 +5,8 @@ The both-rule of :mod:`coopproc.stages.ranging.twoway` (an epoch is NLOS where t
 and the backward run both flag it) drops what one run caught alone. Each run is right where
 it detects; it errs on the far side of its event. The evidence here is the *level series*,
 the ranges less the summed increments: line of sight is a slow drift there, NLOS a level
-shift, whichever way the platforms move. Three cases: a confirmed event's edge one run
-alone flags (:func:`trusted_edges`), an RN event seen from its two ends only
-(:func:`facing_events`), a DI event one run alone saw (:func:`lone_events`).
+shift, whichever way the platforms move. Two cases: a confirmed event's edge one run
+alone flags (:func:`trusted_edges`), a DI event one run alone saw (:func:`lone_events`).
 """
 
 from __future__ import annotations
@@ -18,7 +17,7 @@ from coopproc.model import FloatArray
 from coopproc.stages.ranging.jump import JUMP_MIN_POINTS, range_jump
 from coopproc.stages.ranging.nlos import DistanceFilterOutput, KernelParams
 
-__all__ = ["LONE_EVIDENCE", "events", "facing_events", "lone_events", "runs", "trusted_edges"]
+__all__ = ["LONE_EVIDENCE", "events", "lone_events", "runs", "trusted_edges"]
 
 
 def runs(flag: np.ndarray) -> list[tuple[int, int]]:
@@ -106,51 +105,16 @@ def trusted_edges(
     return fwd_only & ~both, bwd_only & ~both & ~fwd_only
 
 
-def facing_events(
-    time_s: FloatArray,
-    level_m: FloatArray,
-    both: np.ndarray,
-    fwd: DistanceFilterOutput,
-    rev: DistanceFilterOutput,
-    params: KernelParams,
-) -> list[tuple[int, int, int, int]]:
-    """RN events seen from their two ends only: (fa, fb, ba, bb), a forward event [fa, fb)
-    and the backward event [ba, bb) after it, neither overlapping anything jointly flagged,
-    with no epoch between them flagged by either run.
-
-    Each run detected one end and lost the event where the excess dipped, before the two
-    met (``noisy-leader`` seed 13: forward 5 s from the onset, backward 18 s from the end,
-    2 s apart). They are one event when the level series steps up at the forward
-    detection and down at the backward one (by ``jump_fraction`` of each run's estimate)
-    and stays lifted by as much between the two (:func:`_lift`): two separate events
-    have line of sight there.
-    """
-    fraction, window = params.jump_fraction, params.jump_window_s
-    if fraction <= 0.0 or not params.one_shot:
-        return []
-    n = both.shape[0]
-    bwd_flag = rev.nlos_flag[::-1].astype(bool)
-    fwd_flag = fwd.nlos_flag.astype(bool)
-    bwd_est = rev.nlos_estimate_m[::-1]
-    alone_b = [e for e in events(bwd_flag, rev.event[::-1]) if not both[e[0] : e[1]].any()]
-    out = []
-    for fa, fb in events(fwd_flag, fwd.event):
-        if fa == 0 or both[fa:fb].any():
-            continue
-        later = [e for e in alone_b if e[0] >= fb]
-        if not later:
-            continue
-        ba, bb = later[0]
-        if bb >= n or (fwd_flag[fb:ba] | bwd_flag[fb:ba]).any():
-            continue
-        least_f = fraction * abs(float(fwd.nlos_estimate_m[fa]))
-        least_b = fraction * abs(float(bwd_est[bb - 1]))
-        j_fa = range_jump(time_s, level_m, fa, window)[0]
-        j_bb = range_jump(time_s, level_m, bb, window)[0]
-        lift = _lift(time_s, level_m, fa, bb, fb, ba, window)
-        if j_fa >= least_f and -j_bb >= least_b and lift >= min(least_f, least_b):
-            out.append((fa, fb, ba, bb))
-    return out
+#: A DI event one run alone saw (the other saw line of sight throughout) is kept when the
+#: level series steps up at its start and down at its end, and lies above its
+#: line-of-sight course between, each by at least this many gamma_max (eq. (9)) of the
+#: pair. Measured on real TIERS (2026-12-07): with half the run's estimate alone a 36 s
+#: tb4-tb7 hold of 0.16 m passed (64 % of that pair's line-of-sight epochs flagged), at
+#: 1.0 and 1.25 a tb3-tb4 event flagged 33 % of its line-of-sight epochs; 1.5 and 2.0
+#: give the same TIERS result (false alarms as without lone events); the simulated
+#: handcart's missed 0.9 m event is kept at 1.5 (DI-fused 1.12 -> 1.04 x observed-fused),
+#: less well at 2.0 (1.09 x).
+LONE_EVIDENCE = 1.5
 
 
 def _lift(
@@ -176,18 +140,6 @@ def _lift(
     slope, intercept = np.polyfit(time_s[sides] - time_s[a], level_m[sides], 1)
     course = intercept + slope * (time_s[gap] - time_s[a])
     return float(np.mean(level_m[gap] - course))
-
-
-#: A DI event one run alone saw (the other saw line of sight throughout) is kept when the
-#: level series steps up at its start and down at its end, and lies above its
-#: line-of-sight course between, each by at least this many gamma_max (eq. (9)) of the
-#: pair. Measured on real TIERS (2026-12-07): with half the run's estimate alone a 36 s
-#: tb4-tb7 hold of 0.16 m passed (64 % of that pair's line-of-sight epochs flagged), at
-#: 1.0 and 1.25 a tb3-tb4 event flagged 33 % of its line-of-sight epochs; 1.5 and 2.0
-#: give the same TIERS result (false alarms as without lone events); the simulated
-#: handcart's missed 0.9 m event is kept at 1.5 (DI-fused 1.12 -> 1.04 x observed-fused),
-#: less well at 2.0 (1.09 x).
-LONE_EVIDENCE = 1.5
 
 
 def lone_events(

@@ -21,9 +21,8 @@ alone at its own edge of a confirmed event: where the forward DI run ended an ev
 (a noisy leader's DI, the excess dipping) the backward run flags the rest of it up to its
 own detection at the event's end; where the RN run absorbed a ramp-shaped onset one way,
 the other way's detection covers it. Those epochs are added when the ranges less the
-summed increments step there; an RN event whose two runs each saw one end and lost it
-before they met is joined up, and a DI event one run alone saw is kept, when that level
-series says so (:mod:`coopproc.stages.ranging.onerun`).
+summed increments step there, and a DI event one run alone saw is kept when that level
+series confirms it (:mod:`coopproc.stages.ranging.onerun`).
 
 The combined distance: the mean of the two runs where they agree on the epoch's state, the
 run that sees line of sight where they do not, the flagging run's on the added epochs. The
@@ -48,7 +47,6 @@ from coopproc.stages.ranging.nlos import (
 )
 from coopproc.stages.ranging.onerun import (
     events,
-    facing_events,
     lone_events,
     runs,
     trusted_edges,
@@ -160,12 +158,6 @@ def filter_distance_two_way(
     for lo, hi in runs(bwd_only):
         event[lo:hi] = event[lo - 1] if lo > 0 else -1
     flag = both | fwd_only | bwd_only
-    facing = facing_events(time_s, level, both, fwd, rev, params)
-    for fa, fb, ba, bb in facing:
-        flag[fa:bb] = True
-        event[fa:bb] = event.max() + 1
-        distance[fa:fb] = fwd.distance_m[fa:fb]
-        distance[ba:bb] = bwd_d[ba:bb]
     sigma = noise.detect_sigma_m if noise is not None else None
     if sigma is None:
         sigma = (
@@ -188,7 +180,7 @@ def filter_distance_two_way(
     for a, b in fwd_alone + bwd_alone:
         flag[a:b] = True
         event[a:b] = event.max() + 1
-    if facing or fwd_alone or bwd_alone:
+    if fwd_alone or bwd_alone:
         # event numbers in time order again
         ids, first = np.unique(event[event >= 0], return_index=True)
         rank = np.empty(ids.shape[0], dtype=np.int64)
@@ -202,9 +194,6 @@ def filter_distance_two_way(
         estimate[a:b] = bwd_est[a]  # the backward run's final one (its last epoch run)
     if params.one_shot:
         estimate = _one_shot_estimates(time_s, event, fwd, rev, params.window_s)
-        for _fa, fb, ba, _bb in facing:
-            # where neither run flagged it: the ranges less the event's estimate
-            distance[fb:ba] = range_m[fb:ba] - estimate[fb:ba]
     step = np.where(flag & ~bwd_only, fwd.step_estimate_m, np.nan)
     for a, b in bwd_alone:
         step[a:b] = np.nan

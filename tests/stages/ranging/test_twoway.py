@@ -38,9 +38,6 @@ def _ratio(ranges: pd.DataFrame, pair: str, method: str) -> float:
         ("noisy-leader", 3, "di", 0.65),
         # the RN runs each caught a different part of the event: 0.79 x before, 0.51 now
         ("paper-experiment", 13, "rn", 0.62),
-        # an event seen from its two ends only (forward 5 s from the onset, backward 18 s
-        # from the end, 2 s apart, _facing_events): 0.84 x before, 0.52 now
-        ("noisy-leader", 13, "rn", 0.62),
     ],
 )
 def test_a_run_is_trusted_where_it_detects(
