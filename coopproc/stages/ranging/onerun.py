@@ -117,10 +117,8 @@ def trusted_edges(
 LONE_EVIDENCE = 1.5
 
 
-def _lift(
-    time_s: FloatArray, level_m: FloatArray, a: int, b: int, lo: int, hi: int, window_s: float
-) -> float:
-    """How far the level series lies above its line-of-sight course over epochs [lo, hi):
+def _lift(time_s: FloatArray, level_m: FloatArray, a: int, b: int, window_s: float) -> float:
+    """How far the level series lies above its line-of-sight course over epochs [a, b):
     the mean of ``level_m`` there less the line fitted to the epochs within ``window_s``
     (and at least :data:`JUMP_MIN_POINTS`) before ``a`` and from ``b`` on. NaN when a side
     has fewer than 2 finite values."""
@@ -133,7 +131,7 @@ def _lift(
     sides = sides[np.isfinite(level_m[sides])]
     if np.count_nonzero(sides < a) < 2 or np.count_nonzero(sides >= b) < 2:
         return float("nan")
-    gap = np.arange(lo, hi)
+    gap = np.arange(a, b)
     gap = gap[np.isfinite(level_m[gap])]
     if not gap.size:
         return float("nan")
@@ -175,7 +173,7 @@ def lone_events(
         least = max(fraction * abs(float(own_est[a])), LONE_EVIDENCE * float(gamma_m[a]))
         j_a = range_jump(time_s, level_m, a, window)[0]
         j_b = range_jump(time_s, level_m, b, window)[0]
-        lift = _lift(time_s, level_m, a, b, a, b, window)
+        lift = _lift(time_s, level_m, a, b, window)
         if j_a >= least and -j_b >= least and lift >= least:
             out.append((a, b))
     return out

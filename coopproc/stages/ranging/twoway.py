@@ -99,19 +99,17 @@ def _one_shot_estimates(
     bwd_est = rev.nlos_estimate_m[::-1]
     fwd_first = _detections(fwd.event, last=False)
     bwd_last = _detections(bwd_event, last=True)
-    for lo, hi in runs(event >= 0):
-        cuts = np.flatnonzero(np.diff(event[lo:hi]) != 0) + 1
-        for a, b in zip([0, *cuts.tolist()], [*cuts.tolist(), hi - lo], strict=True):
-            first, last = lo + a, lo + b - 1
-            parts = []
-            j = fwd_first.get(int(fwd.event[first]), -1)
-            if j >= 0 and time_s[first] - time_s[j] <= near_s:
-                parts.append(float(fwd.nlos_estimate_m[first]))
-            j = bwd_last.get(int(bwd_event[last]), -1)
-            if j >= 0 and time_s[j] - time_s[last] <= near_s:
-                parts.append(float(bwd_est[last]))
-            value = float(np.mean(parts)) if parts else float(fwd.nlos_estimate_m[first])
-            out[first : last + 1] = value
+    for first, end in events(event >= 0, event):
+        last = end - 1
+        parts = []
+        j = fwd_first.get(int(fwd.event[first]), -1)
+        if j >= 0 and time_s[first] - time_s[j] <= near_s:
+            parts.append(float(fwd.nlos_estimate_m[first]))
+        j = bwd_last.get(int(bwd_event[last]), -1)
+        if j >= 0 and time_s[j] - time_s[last] <= near_s:
+            parts.append(float(bwd_est[last]))
+        value = float(np.mean(parts)) if parts else float(fwd.nlos_estimate_m[first])
+        out[first:end] = value
     return out
 
 
@@ -133,6 +131,7 @@ def filter_distance_two_way(
         params,
         None if noise is None else noise.reversed(),
     )
+    n = time_s.shape[0]
     bwd_d = rev.distance_m[::-1]
     bwd_flag = rev.nlos_flag[::-1].astype(bool)
     fwd_flag = fwd.nlos_flag.astype(bool)
@@ -142,7 +141,7 @@ def filter_distance_two_way(
         0.5 * (fwd.distance_m + bwd_d),
         np.where(fwd_flag, bwd_d, fwd.distance_m),
     )
-    event = np.full(time_s.shape[0], -1, dtype=np.int64)
+    event = np.full(n, -1, dtype=np.int64)
     # a combined event is a run of epochs flagged by both, split where the forward run
     # restarted (event numbers of the forward run change)
     for number, (lo, hi) in enumerate(events(both, fwd.event)):
@@ -154,18 +153,13 @@ def filter_distance_two_way(
     distance = np.where(fwd_only, fwd.distance_m, np.where(bwd_only, bwd_d, distance))
     # the added epochs join the joint event they lead into (forward) or follow (backward)
     for lo, hi in runs(fwd_only):
-        event[lo:hi] = event[hi] if hi < event.shape[0] else -1
+        event[lo:hi] = event[hi] if hi < n else -1
     for lo, hi in runs(bwd_only):
         event[lo:hi] = event[lo - 1] if lo > 0 else -1
     flag = both | fwd_only | bwd_only
-    sigma = noise.detect_sigma_m if noise is not None else None
-    if sigma is None:
-        sigma = (
-            np.full(time_s.shape[0], params.detect_sigma_m)
-            if params.detect_sigma_m > 0
-            else fwd.sigma_m
-        )
-    gamma = params.gamma_sigma * np.asarray(sigma, dtype=np.float64)
+    # gamma_max of eq. (9) per epoch, as the kernel takes it (nlos_kernel.py)
+    detect = noise.detect_sigma_m if noise is not None else np.full(n, params.detect_sigma_m)
+    gamma = params.gamma_sigma * np.where(detect > 0.0, detect, fwd.sigma_m)
     bwd_est = rev.nlos_estimate_m[::-1]
     fwd_alone = lone_events(
         time_s, level, flag, (fwd_flag, fwd.event, fwd.nlos_estimate_m), bwd_flag, gamma, params
