@@ -6,7 +6,7 @@ and the backward run both flag it) drops what one run caught alone. Each run is 
 it detects; it errs on the far side of its event. The evidence here is the *level series*,
 the ranges less the summed increments: line of sight is a slow drift there, NLOS a level
 shift, whichever way the platforms move. Two cases: a confirmed event's edge one run
-alone flags (:func:`trusted_edges`), an event one run alone saw (:func:`lone_events`).
+alone flags (:func:`trusted_edges`), a DI event one run alone saw (:func:`lone_events`).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from coopproc.model import FloatArray
 from coopproc.stages.ranging.jump import JUMP_MIN_POINTS, range_jump
 from coopproc.stages.ranging.nlos import DistanceFilterOutput, KernelParams
 
-__all__ = ["LONE_EVIDENCE", "LONE_EVIDENCE_RN", "events", "lone_events", "runs", "trusted_edges"]
+__all__ = ["LONE_EVIDENCE", "events", "lone_events", "runs", "trusted_edges"]
 
 
 def runs(flag: np.ndarray) -> list[tuple[int, int]]:
@@ -116,17 +116,6 @@ def trusted_edges(
 #: less well at 2.0 (1.09 x).
 LONE_EVIDENCE = 1.5
 
-#: The same floor for an RN-Based event one run alone saw, in the RN run's own gamma_max
-#: (lower than DI's: no DI smoothing variance in it). Measured on the simulator
-#: (2026-12-07, the lone RN candidates of paper-experiment and noisy-leader seeds 0-13,
-#: dr-faults 0-3, paper-table1 0-1): the five that are a whole true event have their
-#: smallest of the three figures at 0.79-1.46 gamma_max; the others (a single epoch, a
-#: false hold of a 120 s window, dr-faults' wheel slips, whose level does not step back
-#: down as far) at most 0.67. Lone RN events were left out before for want of this floor:
-#: with half the estimate alone they took wheel slips for NLOS (dr-faults RN-fused
-#: 1.08-1.24 x worse), at DI's 1.5 none passed.
-LONE_EVIDENCE_RN = 0.75
-
 
 def _lift(time_s: FloatArray, level_m: FloatArray, a: int, b: int, window_s: float) -> float:
     """How far the level series lies above its line-of-sight course over epochs [a, b):
@@ -160,7 +149,7 @@ def lone_events(
     gamma_m: FloatArray,
     params: KernelParams,
 ) -> list[tuple[int, int]]:
-    """[a, b) of the events of one run (``own``: its flags, event numbers and estimates
+    """[a, b) of the DI events of one run (``own``: its flags, event numbers and estimates
     in forward time) that nothing of the other run overlaps, kept by the level series.
 
     The both-rule drops them: one run caught the event, the other took it for a
@@ -169,21 +158,19 @@ def lone_events(
     A false hold has no step back down where it ends and a held estimate no lift; a
     wheel slip moves the level once and for good. So the level series must step up at
     ``a`` and down at ``b`` (:func:`range_jump`) and lie above its course between
-    (:func:`_lift`), each by at least :data:`LONE_EVIDENCE` gamma_max
-    (:data:`LONE_EVIDENCE_RN` for RN-Based, ``params.one_shot``) and by ``jump_fraction``
-    of the run's estimate.
+    (:func:`_lift`), each by at least :data:`LONE_EVIDENCE` gamma_max and by
+    ``jump_fraction`` of the run's estimate.
     """
     fraction, window = params.jump_fraction, params.jump_window_s
-    if fraction <= 0.0:
+    if fraction <= 0.0 or params.one_shot:
         return []
-    floor = LONE_EVIDENCE_RN if params.one_shot else LONE_EVIDENCE
     own_flag, own_event, own_est = own
     n = flag.shape[0]
     out = []
     for a, b in events(own_flag, own_event):
         if a == 0 or b >= n or other_flag[a:b].any() or flag[a:b].any():
             continue
-        least = max(fraction * abs(float(own_est[a])), floor * float(gamma_m[a]))
+        least = max(fraction * abs(float(own_est[a])), LONE_EVIDENCE * float(gamma_m[a]))
         j_a = range_jump(time_s, level_m, a, window)[0]
         j_b = range_jump(time_s, level_m, b, window)[0]
         lift = _lift(time_s, level_m, a, b, window)

@@ -38,10 +38,6 @@ def _ratio(ranges: pd.DataFrame, pair: str, method: str) -> float:
         ("noisy-leader", 3, "di", 0.65),
         # the RN runs each caught a different part of the event: 0.79 x before, 0.51 now
         ("paper-experiment", 13, "rn", 0.62),
-        # the backward RN run alone caught the 20 s event at 108380 s (the forward run took
-        # its ramp-shaped onset in); the level series steps up, down and lies above its
-        # course by 0.96-1.31 gamma_max: kept (onerun.LONE_EVIDENCE_RN), 0.74 x before, 0.56
-        ("paper-experiment", 3, "rn", 0.65),
     ],
 )
 def test_a_run_is_trusted_where_it_detects(
