@@ -117,10 +117,10 @@ def test_figures_the_data_cannot_give_say_what_is_missing() -> None:
 
 
 def test_the_check_holds_at_every_length(declared) -> None:
-    """The estimate is the recording's first hour's (CHECK_SPAN_S): a navigation that
-    drifts far beyond its declared figure only after the first hour (a heading error
-    accumulated over a day) leaves the figure as declared, and the first hour's answer is
-    the same whether the recording stops there or goes on."""
+    """The estimate is the recording's first ten minutes' (CHECK_SPAN_S): a navigation
+    that drifts far beyond its declared figure only after them (a heading error
+    accumulated over a day) leaves the figure as declared, and their answer is the same
+    whether the recording stops there or goes on."""
     from coopproc.run.declared import CHECK_SPAN_S, first_span
 
     session, fused = declared
@@ -132,7 +132,7 @@ def test_the_check_holds_at_every_length(declared) -> None:
     # A declares 5 m/s; its first 60 s alone still contradict that
     sixty = check_drifts(session, session, cut, FusionParams())[0]
     assert set(sixty.contradicted) == {"A"}
-    # a "fused" solution that, after the first hour, runs away from A's navigation at
+    # a "fused" solution that, after the checked span, runs away from A's navigation at
     # 1 m/s: were the whole recording checked, A's 5 m/s would no longer be contradicted
     dt = float(np.median(np.diff(fused["A"].time_s)))
     late = np.arange(1, int(2 * CHECK_SPAN_S / dt)) * dt + float(fused["A"].time_s[-1])
@@ -145,9 +145,9 @@ def test_the_check_holds_at_every_length(declared) -> None:
     for p in nav:
         tn = np.concatenate([nav[p].time_s, late])
         en = np.concatenate([nav[p].enu_m, np.repeat(nav[p].enu_m[-1:], late.shape[0], axis=0)])
-        away = np.clip(tn - t0 - CHECK_SPAN_S, 0.0, None) * 1.0  # 1 m/s after the first hour
+        away = np.clip(tn - t0 - CHECK_SPAN_S, 0.0, None) * 1.0  # 1 m/s after the checked span
         en[:, 0] += away * (p == "A")
         nav[p] = Trajectory(p, tn, en)
     long_session = dataclasses.replace(session, nav=nav)
     whole = check_drifts(long_session, long_session, longer, FusionParams())[0]
-    assert set(whole.contradicted) == {"A"}  # judged on the first hour: as before
+    assert set(whole.contradicted) == {"A"}  # judged on the first ten minutes: as before
