@@ -189,7 +189,7 @@ def calibration_lines(output: PipelineOutput) -> list[str]:
     for platform, q in sorted(output.dr_quality.items()):
         declared = f" [{q.declared_drift_mps:.4f}]" if math.isfinite(q.declared_drift_mps) else ""
         scale = observed.drift_scale.get(platform) if observed is not None else None
-        inflated = f", fusion drift x{scale:.1f}" if scale else ""
+        inflated = f", fusion drift x{scale:.3g}" if scale else ""  # 0.03125: x0.0312, not x0.0
         if q.leader:  # its fix positions it in the fusion: e ~ 0 whatever it is
             lines.append(
                 f"  {platform}: leader, dead reckoning not checked (the fusion takes its own "
