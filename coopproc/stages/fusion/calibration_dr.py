@@ -66,11 +66,14 @@ IGG-III factors alone the scores were not monotone on ``paper-experiment``). A s
 with fewer than two pairs of :data:`CV_MIN_ROWS` ranges keeps 1. The factor is the
 followers' (their dead reckoning's noise), so it is chosen once, on the observed ranges.
 
-Which fusions take it: the observed ranges' fusion chooses it, the RN-Based set (the
-observed ranges less RN's NLOS estimates) takes it, and a smoothed set (DI-Based, the
-median baseline: :attr:`~coopproc.stages.base.RangeStage.smoothed`) keeps the [fusion]
-figures. A smoothed range is smoothed with the same dead reckoning, so its errors are
-correlated with it and from epoch to epoch; fused with the tight factor, DI's own errors
+Which fusions take it: the observed ranges' fusion chooses it and every processed set
+takes it; a smoothed set (DI-Based, the median baseline:
+:attr:`~coopproc.stages.base.RangeStage.smoothed`) kept the [fusion] figures until
+2026-12-02 and still does with ``[fusion] dr_noise_cv_smoothed = false``
+(docs/methods-fusion.md#di-dr-factor: on the figures the DI fusion followed the DI ranges'
+lasting errors, 2.9 x observed-fused on ``paper-experiment`` seed 2 at 15 min). Why it
+was kept apart first: a smoothed range is smoothed with the same dead reckoning, so its
+errors are correlated with it and from epoch to epoch; fused with the tight factor, DI's own errors
 show (``paper-experiment`` seed 2, C: DI-fused 0.048 m with the factor, 0.034 m with the
 figures, against 0.038 m observed-fused), and a CV of its own for the DI ranges picks
 1/16 (fooled by that correlation) with the same 0.048 m. Tried and not kept: the DI
