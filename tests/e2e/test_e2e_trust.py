@@ -270,3 +270,28 @@ def test_the_summary_gives_the_fusion_drift_factor_it_used(
     factors = [float(f) for f in re.findall(r"fusion drift x(\S+)", run.stderr)]
     assert len(factors) == 2  # the followers A and C
     assert all(f > 0.0 for f in factors), factors
+
+
+@pytest.mark.slow  # the real TIERS run (real_runs)
+def test_real_tiers_sustained_spans(real_runs: Callable[[str], tuple[Path, Path]]) -> None:
+    """Issue 30.8's sustained spans (truth/nlos.csv spans of 3+ epochs and a mean of 3+
+    sigma: 23; benchmarks/tiers_spans.py): what DI and RN overlap, and that neither has an
+    event off the truth spans. Measured 2026-12-07: DI 4, RN 13 (the issue's target for DI,
+    14, is not met: docs/methods-ranging.md#real-tiers-sustained-spans-issue-308); the
+    bounds guard against losing them."""
+    session, out = real_runs("tiers")
+    truth = pd.read_csv(session / "truth" / "nlos.csv")
+    spans = truth[(truth["epochs"] >= 3) & (truth["mean"] >= 3 * 0.121)]
+    assert len(spans) == 23
+    events = pd.read_csv(out / "nlos_events.csv")
+
+    def overlaps(rows: pd.DataFrame, pair: str, start: float, end: float) -> bool:
+        same = rows[rows["pair"] == pair]
+        return bool(((same["start"] <= end) & (same["end"] >= start)).any())
+
+    for method, least in (("di", 4), ("rn", 12)):
+        mine = events[events["method"] == method]
+        found = sum(overlaps(mine, s.pair, s.start, s.end) for s in spans.itertuples())
+        assert found >= least, (method, found)
+        stray = [e for e in mine.itertuples() if not overlaps(truth, e.pair, e.start, e.end)]
+        assert not stray, (method, stray)
