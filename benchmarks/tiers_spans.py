@@ -27,6 +27,12 @@ def sustained_spans(session: Path) -> pd.DataFrame:
     return truth[(truth["epochs"] >= 3) & (truth["mean"] >= 3.0 * sigma)].reset_index(drop=True)
 
 
+def overlaps(rows: pd.DataFrame, pair: str, start: float, end: float) -> bool:
+    """True when a row of ``rows`` (pair, start, end) on ``pair`` overlaps [start, end]."""
+    same = rows[rows["pair"] == pair]
+    return bool(((same["start"] <= end) & (same["end"] >= start)).any())
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("out", type=Path, help="the output directory of coopproc run")
@@ -45,20 +51,8 @@ def main() -> None:
     )
     for method in ("di", "rn"):
         mine = events[events["method"] == method]
-        hit = [
-            bool(
-                (
-                    (mine["pair"] == s.pair) & (mine["start"] <= s.end) & (mine["end"] >= s.start)
-                ).any()
-            )
-            for s in spans.itertuples()
-        ]
-        stray = sum(
-            not (
-                (truth["pair"] == e.pair) & (truth["start"] <= e.end) & (truth["end"] >= e.start)
-            ).any()
-            for e in mine.itertuples()
-        )
+        hit = [overlaps(mine, s.pair, s.start, s.end) for s in spans.itertuples()]
+        stray = sum(not overlaps(truth, e.pair, e.start, e.end) for e in mine.itertuples())
         hits = pd.Series(hit)
         print(
             f"{method:<24}{int(hits.sum()):>6} / {len(spans):<2}{int(hits[on_tb4].sum()):>8}"
