@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from coopproc.model import FloatArray
-from coopproc.stages.ranging.jump import JUMP_MIN_POINTS, range_jump
+from coopproc.stages.ranging.jump import JUMP_MIN_POINTS, level_step
 from coopproc.stages.ranging.nlos import DistanceFilterOutput, KernelParams
 
 __all__ = ["LONE_EVIDENCE", "events", "lone_events", "runs", "trusted_edges"]
@@ -48,11 +48,12 @@ def _steps_more(
     window_s: float,
     up: bool,
 ) -> bool:
-    """True when the level series (:func:`range_jump` on it) steps at epoch ``k`` by at
-    least ``least_m`` and by more than at epoch ``other``: up (an onset) or down (an end)."""
+    """True when the level series (:func:`~coopproc.stages.ranging.jump.level_step` on it:
+    one range cannot make the step) steps at epoch ``k`` by at least ``least_m`` and by
+    more than at epoch ``other``: up (an onset) or down (an end)."""
     sign = 1.0 if up else -1.0
-    a, _ = range_jump(time_s, level_m, k, window_s)
-    b, _ = range_jump(time_s, level_m, other, window_s)
+    a, _ = level_step(time_s, level_m, k, window_s)
+    b, _ = level_step(time_s, level_m, other, window_s)
     if not (np.isfinite(a) and np.isfinite(b)):
         return False
     return bool(sign * a >= least_m and sign * a > sign * b)
@@ -77,8 +78,12 @@ def trusted_edges(
     first jointly flagged epoch. Each extension must be backed by the ranges: the level
     series (``level_m``, the ranges less the summed increments) steps at the detection by
     at least ``jump_fraction`` times the run's estimate and by more than where the other
-    run's event ended; otherwise the other run's edge is the real one (a forward false
-    detection that held on into a later event) and the both-rule stands. Only the first
+    run's event ended (:func:`_steps_more`, one range cannot make that step), and lies
+    above its line-of-sight course outside the run's event by as much over the extension
+    (:func:`_lift`); otherwise the other run's edge is the real one (a forward false
+    detection that held on into a later event, a hold that one long range started: real
+    MiLUV at 0.8 Hz with a twice-drifting dead reckoning, a 46 s hold of 0.47 m on line
+    of sight behind one range 1.4 m long) and the both-rule stands. Only the first
     joint epoch of a forward event (the last of a backward one) bounds an extension.
     """
     fwd_only = np.zeros(both.shape[0], dtype=bool)
@@ -92,7 +97,9 @@ def trusted_edges(
             if joint.size and joint[0] > 0:
                 k = lo + int(joint[0])
                 least = fraction * abs(float(fwd.nlos_estimate_m[k]))
-                if _steps_more(time_s, level_m, lo, k, least, window, up=True):
+                if _steps_more(time_s, level_m, lo, k, least, window, up=True) and (
+                    _lift(time_s, level_m, lo, hi, window, over=(lo, k)) >= least
+                ):
                     fwd_only[lo:k] = True
     bwd_est = rev.nlos_estimate_m[::-1]
     for lo, hi in events(rev.nlos_flag[::-1].astype(bool), rev.event[::-1]):
@@ -100,7 +107,9 @@ def trusted_edges(
         if joint.size and lo + int(joint[-1]) + 1 < hi < both.shape[0]:
             k = lo + int(joint[-1]) + 1
             least = fraction * abs(float(bwd_est[k]))
-            if _steps_more(time_s, level_m, hi, k, least, window, up=False):
+            if _steps_more(time_s, level_m, hi, k, least, window, up=False) and (
+                _lift(time_s, level_m, lo, hi, window, over=(k, hi)) >= least
+            ):
                 bwd_only[k:hi] = True
     return fwd_only & ~both, bwd_only & ~both & ~fwd_only
 
@@ -117,12 +126,22 @@ def trusted_edges(
 LONE_EVIDENCE = 1.5
 
 
-def _lift(time_s: FloatArray, level_m: FloatArray, a: int, b: int, window_s: float) -> float:
+def _lift(
+    time_s: FloatArray,
+    level_m: FloatArray,
+    a: int,
+    b: int,
+    window_s: float,
+    over: tuple[int, int] | None = None,
+) -> float:
     """How far the level series lies above its line-of-sight course over epochs [a, b):
     the mean of ``level_m`` there less the line fitted to the epochs within ``window_s``
     (and at least :data:`JUMP_MIN_POINTS`) before ``a`` and from ``b`` on. NaN when a side
-    has fewer than 2 finite values."""
+    has fewer than 2 finite values. ``over``: the epochs [c, d) inside [a, b) averaged
+    instead (an extension of an event, against the course outside the whole event)."""
     n = time_s.shape[0]
+    if b >= n:  # no epoch after [a, b): no course
+        return float("nan")
     before = np.arange(a)
     before = before[(time_s[a] - time_s[before] <= window_s) | (before >= a - JUMP_MIN_POINTS)]
     after = np.arange(b, n)
@@ -131,7 +150,7 @@ def _lift(time_s: FloatArray, level_m: FloatArray, a: int, b: int, window_s: flo
     sides = sides[np.isfinite(level_m[sides])]
     if np.count_nonzero(sides < a) < 2 or np.count_nonzero(sides >= b) < 2:
         return float("nan")
-    gap = np.arange(a, b)
+    gap = np.arange(a, b) if over is None else np.arange(over[0], over[1])
     gap = gap[np.isfinite(level_m[gap])]
     if not gap.size:
         return float("nan")
@@ -157,8 +176,9 @@ def lone_events(
     motion as a step, docs/methods-ranging.md#range-step-test-range_jump) or absorbed it.
     A false hold has no step back down where it ends and a held estimate no lift; a
     wheel slip moves the level once and for good. So the level series must step up at
-    ``a`` and down at ``b`` (:func:`range_jump`) and lie above its course between
-    (:func:`_lift`), each by at least :data:`LONE_EVIDENCE` gamma_max and by
+    ``a`` and down at ``b`` (:func:`~coopproc.stages.ranging.jump.level_step`) and lie
+    above its course between (:func:`_lift`), each by at least :data:`LONE_EVIDENCE`
+    gamma_max and by
     ``jump_fraction`` of the run's estimate.
     """
     fraction, window = params.jump_fraction, params.jump_window_s
@@ -171,8 +191,8 @@ def lone_events(
         if a == 0 or b >= n or other_flag[a:b].any() or flag[a:b].any():
             continue
         least = max(fraction * abs(float(own_est[a])), LONE_EVIDENCE * float(gamma_m[a]))
-        j_a = range_jump(time_s, level_m, a, window)[0]
-        j_b = range_jump(time_s, level_m, b, window)[0]
+        j_a = level_step(time_s, level_m, a, window)[0]
+        j_b = level_step(time_s, level_m, b, window)[0]
         lift = _lift(time_s, level_m, a, b, window)
         if j_a >= least and -j_b >= least and lift >= least:
             out.append((a, b))
