@@ -23,6 +23,7 @@ import dataclasses
 import functools
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Set as AbstractSet
 from typing import Any, Literal
 
 import numpy as np
@@ -125,6 +126,7 @@ def run_pipeline(
     dr_base = base if dr_rows is None else base[dr_rows].reset_index(drop=True)
     sigma_by_row = row_sigma(session, base)
     range_sets = {"observed": session.ranges.frame[["time", "from", "to", "range", "sigma"]]}
+    unsmoothed: set[str] = set()  # a smoothed method's range set that is not (fusion_values)
     columns: dict[str, FloatArray] = {}
     range_products: list[RangeProduct] = []
     products: dict[str, PositionProduct] = {}
@@ -143,13 +145,25 @@ def run_pipeline(
                 range_products.append(product)
                 for method in step.methods:
                     columns[method] = product.values[method]
-                    range_sets[method] = ranges_for(base, columns[method], sigma_by_row)
+                    fused = product.fusion_values.get(method)
+                    if fused is not None:  # its fusion's input: not smoothed over time
+                        unsmoothed.add(method)
+                    range_sets[method] = ranges_for(
+                        base, columns[method] if fused is None else fused, sigma_by_row
+                    )
                 cp_product = _drop_spent(steps[done:], range_sets, products, cp_product)
                 continue
             results = run_concurrently(
                 [
                     functools.partial(
-                        _run_position_step, s, session, dr_session, range_sets, products, config
+                        _run_position_step,
+                        s,
+                        session,
+                        dr_session,
+                        range_sets,
+                        products,
+                        config,
+                        unsmoothed,
                     )
                     for s in group
                 ],
@@ -295,6 +309,7 @@ def _run_position_step(
     range_sets: Mapping[str, pd.DataFrame],
     products: Mapping[str, PositionProduct],
     config: RunConfig,
+    unsmoothed: AbstractSet[str] = frozenset(),
 ) -> PositionProduct:
     stage = POSITION_STAGES[step.stage]
     assert step.range_set is not None
@@ -312,7 +327,9 @@ def _run_position_step(
         config.run.positions_at,
         observed=observed,
         want_cp="cp" in step.outputs,
-        smoothed=producer is not None and step.range_set in producer.smoothed,
+        smoothed=producer is not None
+        and step.range_set in producer.smoothed
+        and step.range_set not in unsmoothed,
     )
     return stage.run(position_input, config.params_for(stage.section))
 

@@ -151,4 +151,9 @@ def widen(product: RangeProduct, rows: np.ndarray) -> RangeProduct:
         for m, (f, e) in product.nlos.items()
     }
     outlier = None if product.outlier is None else spread(np.asarray(product.outlier), 0)
-    return dataclasses.replace(product, values=values, nlos=nlos, outlier=outlier)
+    fusion_values = {
+        m: spread(np.asarray(v, dtype=np.float64), np.nan) for m, v in product.fusion_values.items()
+    }
+    return dataclasses.replace(
+        product, values=values, nlos=nlos, outlier=outlier, fusion_values=fusion_values
+    )

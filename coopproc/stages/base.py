@@ -200,6 +200,10 @@ class RangeProduct:
     calibration: Mapping[tuple[str, str], RangeCalibration] = field(default_factory=dict)
     #: 1 at the rows whose range the processor rejected as a gross outlier, or None
     outlier: NDArray[np.int64] | None = None
+    #: method -> the distances its fusion takes instead of ``values`` (every row), for a
+    #: method whose output is smoothed over time but whose fusion takes the observed
+    #: ranges less its NLOS estimates (not smoothed: ``[ranging.di] fusion_input``)
+    fusion_values: Mapping[str, FloatArray] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -252,7 +256,8 @@ class PositionInput:
     #: True: also give the solution at the range epochs as ``cp`` (a range processor
     #: needs the cooperative solution)
     want_cp: bool = False
-    #: True: the range set's ranges are smoothed over time (:attr:`RangeStage.smoothed`)
+    #: True: the range set's ranges are smoothed over time (:attr:`RangeStage.smoothed`,
+    #: unless the product gives its fusion other values: ``RangeProduct.fusion_values``)
     smoothed: bool = False
 
 

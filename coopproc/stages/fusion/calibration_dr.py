@@ -67,8 +67,8 @@ with fewer than two pairs of :data:`CV_MIN_ROWS` ranges keeps 1. The factor is t
 followers' (their dead reckoning's noise), so it is chosen once, on the observed ranges.
 
 Which fusions take it: the observed ranges' fusion chooses it and every processed set
-takes it; a smoothed set (DI-Based, the median baseline:
-:attr:`~coopproc.stages.base.RangeStage.smoothed`) kept the [fusion] figures until
+takes it; a smoothed set (DI-Based with ``[ranging.di] fusion_input = "distance"``, the
+median baseline: :attr:`~coopproc.stages.base.RangeStage.smoothed`) kept the [fusion] figures until
 2026-12-02 and still does with ``[fusion] dr_noise_cv_smoothed = false``
 (docs/methods-fusion.md#di-dr-factor: on the figures the DI fusion followed the DI ranges'
 lasting errors, 2.9 x observed-fused on ``paper-experiment`` seed 2 at 15 min). Why it

@@ -116,6 +116,14 @@ class DISmoothingParams:
     cp_guard_after_s: float = field(
         default=15.0, metadata={"help": "... until this long after it, s"}
     )
+    fusion_input: Literal["corrected", "distance"] = field(
+        default="corrected",
+        metadata={
+            "help": "what the DI range set's fusion takes: corrected = the observed ranges "
+            "less the DI-Based NLOS estimates (the fusion smooths with the dead reckoning "
+            "itself); distance = the DI filter's distance, as paper 000 fuses it"
+        },
+    )
     deviation_rw: float = field(
         default=1e-4,
         metadata={
@@ -135,6 +143,10 @@ class DISmoothingParams:
             raise ValueError("cp_guard_before_s and cp_guard_after_s must be >= 0")
         if self.deviation_rw < 0:
             raise ValueError(f"deviation_rw must be >= 0, found {self.deviation_rw}")
+        if self.fusion_input not in ("corrected", "distance"):
+            raise ValueError(
+                f"fusion_input = {self.fusion_input!r}, expected 'corrected' or 'distance'"
+            )
 
 
 def di_literal(pos1_m: FloatArray, pos2_m: FloatArray) -> FloatArray:

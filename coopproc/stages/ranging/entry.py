@@ -41,6 +41,14 @@ def ranging_stage(inp: RangeInput, params: RangingConfig, methods: tuple[str, ..
         )
     if out.rn_nlos is not None:
         nlos["rn"] = out.rn_nlos
+    fusion_values = {}
+    if "di" in methods and params.di.fusion_input == "corrected":
+        # the DI range set's fusion takes the observed ranges less the DI-Based NLOS
+        # estimates, not the distance smoothed with the dead reckoning the fusion
+        # carries itself (docs/methods-ranging.md#di-fusion-input)
+        flag, estimate = nlos["di"]
+        observed = table["observed"].to_numpy(dtype=np.float64)
+        fusion_values["di"] = observed - np.where(flag == 1, estimate, 0.0)
     return RangeProduct(
         values={m: table[m].to_numpy(dtype=np.float64) for m in methods},
         nlos=nlos,
@@ -50,6 +58,7 @@ def ranging_stage(inp: RangeInput, params: RangingConfig, methods: tuple[str, ..
         sigma=out.sigma,
         calibration={k: v for k, v in out.calibration.items() if k[1] in methods},
         outlier=table["outlier"].to_numpy(dtype=np.int64),
+        fusion_values=fusion_values,
     )
 
 
