@@ -17,7 +17,19 @@ removes the platforms' motion (z is the range error plus the slowly accumulated 
 A gross error stands out in both; a jittering dead reckoning makes spikes in z alone (on
 the real `tuc` session, two line-of-sight ranges of 4 and 12 cm error were called outliers
 by z alone), a sharp turn near a pair's closest approach bends the ranges alone. Without a
-DI (a tag's pairs) the ranges alone decide. On a series an epoch is far when
+DI (a tag's pairs) the ranges alone decide. Where the ranges alone cannot tell (a pair
+moving metres between its epochs: real MiLUV's quadrotor at 0.8 Hz per anchor, 1.3 m), a
+second witness of the motion can: ``z'_k = L_k - sum_{j<=k} I'_j`` with I' the DI of the
+cooperative solution fused without the pair's own ranges (leave_out.py), whose errors are
+the other pairs' and the fusion's, not this dead reckoning's jitter; an epoch far in both
+z and z' is an outlier too. Measured through ``coopproc run`` (2026-12-07, each new one
+against the reference): real MiLUV 6 (it had none), ranges 0.67-1.40 m long; real TIERS
+1 more (1.16 m); none on `tuc`, `plaza2`, `sample_logs` and the 11 simulated comparison
+sessions, whose outputs are byte-identical. On MiLUV's twins (benchmarks/twins.py, seeds
+1-9) DI-fused / observed-fused went from 0.95-1.27 to 0.94-1.23 (docs/methods-ranging.md
+#gross-outliers-outlierspy-rangingoutliers). Where the cooperative solution is the
+navigation itself (no fusion, the tests' shortcut) I' is I and only the first rule
+applies. On a series an epoch is far when
 
     |z_k - med_k| > max(k_sigma * s_k, min_m)
 
@@ -116,12 +128,17 @@ def _far(z: FloatArray, params: OutlierParams) -> tuple[NDArray[np.bool_], NDArr
 
 
 def gross_outliers(
-    range_m: FloatArray, di_m: FloatArray | None, params: OutlierParams
+    range_m: FloatArray,
+    di_m: FloatArray | None,
+    params: OutlierParams,
+    cp_di_m: FloatArray | None = None,
 ) -> NDArray[np.bool_]:
     """True at the range epochs that are gross outliers (see the module docstring).
 
     ``di_m``: the pair's dead-reckoning DI at each epoch (NaN where none; row 0 unused), or
-    None. Non-finite ranges are never outliers (the readers refuse them).
+    None. ``cp_di_m``: its DI from the cooperative solution fused without the pair's own
+    ranges, or None (or the same as ``di_m``: no second witness). Non-finite ranges are
+    never outliers (the readers refuse them).
     """
     n = range_m.shape[0]
     out = np.zeros(n, dtype=bool)
@@ -129,10 +146,16 @@ def gross_outliers(
         return out
     rng = np.asarray(range_m, dtype=np.float64)
     far, beyond_motion = _far(rng, params)
-    if di_m is not None and far.any():
+    if di_m is not None:
         far_z, beyond_z = _far(rng - accumulated(di_m), params)
         far &= far_z
         beyond_motion &= beyond_z
+        if cp_di_m is not None and not np.allclose(di_m, cp_di_m, atol=1e-9, equal_nan=True):
+            # the two motion-compensated series, each motion removed by a witness the
+            # pair's own ranges did not make, agree on the epoch (module doc)
+            far_c, beyond_c = _far(rng - accumulated(cp_di_m), params)
+            far |= far_z & far_c
+            beyond_motion |= beyond_z & beyond_c & far_z & far_c
     if not far.any():
         return out
     # runs of consecutive far epochs: only the short ones are outliers

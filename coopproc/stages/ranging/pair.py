@@ -205,7 +205,8 @@ def prepare_pair(
     dt = np.diff(t)
     step_s = float(np.median(dt[dt > 0])) if np.any(dt > 0) else 1.0
     adaptive_n = max(round(config.nlos.adaptive_window_s / step_s), 1)
-    outlier = gross_outliers(obs, di_dr, config.outliers)
+    di_cp = range_increments(cp_a, cp_b)
+    outlier = gross_outliers(obs, di_dr, config.outliers, di_cp)
     initial = _initial_sigma(np.where(outlier, np.nan, obs), di_dr, config)
 
     tm = np.empty_like(t)
@@ -233,7 +234,7 @@ def prepare_pair(
         nav_m=(dr_a, dr_b),
         cp_m=(cp_a, cp_b),
         di_dr_m=di_dr,
-        di_cp_m=range_increments(cp_a, cp_b),
+        di_cp_m=di_cp,
         di_ref_m=range_increments(ref_a, ref_b),
         var_m2=var,
         reference_m=slant_ranges(ref_a - ref_b),

@@ -44,3 +44,33 @@ def test_without_dead_reckoning_the_range_itself_is_tested() -> None:
     found = gross_outliers(obs, None, OutlierParams())
     assert np.flatnonzero(found).tolist() == [77]
     assert not gross_outliers(obs, None, OutlierParams(enabled=False)).any()
+
+
+def _fast(seed: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A pair moving metres between its epochs (real MiLUV's quadrotor, 0.8 Hz): ranges,
+    the dead reckoning's DI and the cooperative solution's, each with its own noise."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(240, dtype=float)
+    true = 3.0 + 1.2 * np.abs(np.sin(t / 2.0)) + 0.5 * np.sin(t / 7.0)
+    dr = np.full(t.shape[0], np.nan)
+    cp = np.full(t.shape[0], np.nan)
+    dr[1:] = np.diff(true) + rng.normal(0.0, 0.03, t.shape[0] - 1)
+    cp[1:] = np.diff(true) + rng.normal(0.0, 0.03, t.shape[0] - 1)
+    return true + rng.normal(0.0, 0.08, t.shape[0]), dr, cp
+
+
+def test_two_witnesses_of_the_motion_find_what_the_ranges_alone_cannot() -> None:
+    obs, dr, cp = _fast()
+    obs[150] += 1.4  # one range 1.4 m long while the ranges move by up to 1.2 m an epoch
+    assert not gross_outliers(obs, dr, OutlierParams())[150]  # the ranges' motion gate
+    found = gross_outliers(obs, dr, OutlierParams(), cp)
+    assert np.flatnonzero(found).tolist() == [150]
+    # the dead reckoning as its own witness (no fusion: the CP DI is the DR DI) adds none
+    assert not gross_outliers(obs, dr, OutlierParams(), dr)[150]
+
+
+def test_a_dead_reckoning_jump_is_not_an_outlier() -> None:
+    obs, dr, cp = _fast()
+    dr[90] += 1.5  # the DI jumps (a wheel slip), the ranges and the CP DI do not
+    dr[91] -= 1.5
+    assert not gross_outliers(obs, dr, OutlierParams(), cp).any()
