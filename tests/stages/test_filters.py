@@ -19,7 +19,14 @@ from coopproc.estimation.robust import (
 )
 from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_RANGE, ekf_forward
 from coopproc.stages.fusion.ekf_update import _observe
-from coopproc.stages.fusion.kernel_types import Navigation, Observations, Process, Robust, Slots
+from coopproc.stages.fusion.kernel_types import (
+    Navigation,
+    Observations,
+    Process,
+    Reads,
+    Robust,
+    Slots,
+)
 
 
 @pytest.mark.parametrize(("k0", "k1"), [(3.0, 4.0), (2.5, 4.5), (3.5, 3.8)])
@@ -146,6 +153,7 @@ def test_compiled_epoch_update_equals_batch_ekf_update() -> None:
         2, Robust(False, 3.0, 4.0, 1.0, 0),
         Slots(np.array([0, 2], dtype=np.int64), np.array([0, 1])), 16,
         np.zeros(0, dtype=np.int64), np.zeros(0),
+        Reads(np.array([0, 2], dtype=np.int64), np.array([0, 1]), np.zeros(0, np.int64)),
     )  # fmt: skip
     # the checkpoint before epoch 0 is the prior; the recorded slots are both platforms
     assert cp_x[0] == pytest.approx(x0) and cp_c[0] == pytest.approx(c0)

@@ -41,10 +41,11 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from coopproc.estimation.dr_model import DR_STATES, dr_predict
+from coopproc.estimation.dr_model import DR_STATES, PEND, dr_predict, fold_noise
 from coopproc.estimation.robust import MAD_SCALE, igg3_scalar, mad_sigma_nb
 from coopproc.model import FloatArray
 from coopproc.stages.fusion.copies import copy1, copy2
+from coopproc.stages.fusion.deferred import touch_all, touch_epoch
 from coopproc.stages.fusion.dr_faults import fault_buffers, judge_epoch, leaders, take_jumps
 from coopproc.stages.fusion.ekf_update import (
     OBS_ANCHOR,
@@ -60,6 +61,7 @@ from coopproc.stages.fusion.kernel_types import (
     Navigation,
     Observations,
     Process,
+    Reads,
     Robust,
     Slots,
 )
@@ -99,14 +101,17 @@ def time_update(
     k: int,
     dim: int,
     proc: Process,
-    f_out: FloatArray,
+    pend: FloatArray,
     jump_k: IntArray,
     jump_p: IntArray,
     jump_var: FloatArray,
     n_jumps: int,
 ) -> None:
     """Paper 002 eq. (12)-(13): X += u_k, C += Q_k, in place; with DR states
-    (:mod:`~coopproc.estimation.dr_model`) X = f(X, u_k), C = F C F^T + Q_k.
+    (:mod:`~coopproc.estimation.dr_model`) X = f(X, u_k) and C = F C F^T + Q_k deferred:
+    F multiplied into the follower's pending G (``pend[p]``), the DR states' noise added
+    to its pending noise as G^-1 Q G^-T, the positions' to C as it is (G's position
+    columns are I's).
 
     u_k is each platform's dead-reckoning increment ``nav_now[p] - nav_prev[p]`` (its
     navigation at epochs k and k - 1, :func:`nav_at`); the position process noise per
@@ -116,7 +121,6 @@ def time_update(
     for it); ``dr_q[p]``: the heading, heading-rate and scale random walks' variance per
     second, then the position's and the heading's variance per metre travelled (the
     odometer's noise grows with the distance, :mod:`~coopproc.estimation.dr_model`);
-    ``f_out[p]``: E's epoch entries (:func:`~coopproc.estimation.dr_model.dr_predict`).
     The first ``n_jumps`` of ``jump_k`` (ascending), ``jump_p``, ``jump_var``: a dead
     reckoning's jump, variance added to each horizontal axis of platform ``jump_p[j]``
     at epoch ``jump_k[j]`` (:mod:`~coopproc.stages.fusion.dr_faults`; ``proc``'s own
@@ -147,15 +151,16 @@ def time_update(
             i0 = p * dim
             ue = nav_now[p, 0] - nav_prev[p, 0]
             un = nav_now[p, 1] - nav_prev[p, 1]
-            dr_predict(x, c, i0, e, ue, un, dt[k], f_out[p])
+            dr_predict(x, i0, e, ue, un, dt[k], pend[p])
             for ax in range(2, dim):  # up: the increment as it is
                 x[i0 + ax] += nav_now[p, ax] - nav_prev[p, ax]
             travel = np.sqrt(ue * ue + un * un)
             for ax in range(dim):
                 c[i0 + ax, i0 + ax] += qp + dr_q[p, DR_STATES] * travel
-            for j in range(DR_STATES):
-                c[e + j, e + j] += dr_q[p, j] * dt[k]
-            c[e, e] += dr_q[p, DR_STATES + 1] * travel
+            fold_noise(
+                pend[p], dr_q[p, 0] * dt[k] + dr_q[p, DR_STATES + 1] * travel,
+                dr_q[p, 1] * dt[k], dr_q[p, 2] * dt[k],
+            )  # fmt: skip
             continue
         for ax in range(dim):
             i = p * dim + ax
@@ -176,6 +181,7 @@ def ekf_forward(
     block: int,
     dr_rec: IntArray,
     gamma_in: FloatArray,
+    reads: Reads,
 ) -> tuple[
     FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
     FloatArray, FloatArray, FloatArray, IntArray, IntArray, FloatArray,
@@ -244,8 +250,12 @@ def ekf_forward(
     cursor = np.full(n_plat, -1, dtype=np.int64)
     nav_prev = np.zeros((n_plat, dim))
     nav_now = np.zeros((n_plat, dim))
-    f_out = np.zeros((n_plat, 4))
+    pend = np.zeros((n_plat, PEND))  # pending DR transitions (dr_model, "Deferred")
+    no_log = np.zeros(0, np.int64)
+    no_log_g = np.zeros((0, PEND))
     n_pos = n_plat * dim
+    followers = np.flatnonzero(proc.dr_idx >= 0)
+    every_next = 0
     dr_x = np.empty((dr_rec.shape[0], n - n_pos))
     dr_var = np.empty((dr_rec.shape[0], n - n_pos))
     dr_next = 0
@@ -265,18 +275,27 @@ def ekf_forward(
     if n_epochs > 0:
         nav_at(nav.t, nav.v, nav.ptr, nav.epochs[0], cursor, nav_prev)
     for k in range(n_epochs):
-        if block > 0 and k % block == 0:
+        if block > 0 and k % block == 0:  # a checkpoint holds the true covariance
+            touch_all(c, pend, proc.dr_idx, followers, dim, no_log, no_log_g, 0)
             copy1(cp_x[k // block], x)
             copy2(cp_c[k // block], c)
         if k > 0:
             nav_at(nav.t, nav.v, nav.ptr, nav.epochs[k], cursor, nav_now)
             time_update(
-                x, c, nav_now, nav_prev, k, dim, proc, f_out, jump_k, jump_p, jump_var,
+                x, c, nav_now, nav_prev, k, dim, proc, pend, jump_k, jump_p, jump_var,
                 n_jumps if fault_apply else 0,
             )  # fmt: skip
             copy2(nav_prev, nav_now)
         lo = obs.ptr[k]
         m = obs.ptr[k + 1] - lo
+        dr_now = dr_next < dr_rec.shape[0] and dr_rec[dr_next] == k
+        every = every_next < reads.every.shape[0] and reads.every[every_next] == k
+        if every:
+            every_next += 1
+        touch_epoch(
+            c, pend, proc.dr_idx, followers, dim, obs, lo, m, reads.plat, reads.ptr[k],
+            reads.ptr[k + 1], every, no_log, no_log_g, 0,
+        )  # fmt: skip
         epoch_innovations(x, c, lo, m, obs, dim, work)
         for j in range(m):
             innov[lo + j] = v[j]
@@ -318,14 +337,14 @@ def ekf_forward(
                 )
         epoch_update(
             x, c, lo, m, work, gamma, obs.r_var, bool(np.bool_(False)), unused, unused_v,
-            unused_v,
+            unused_v, pend, proc.dr_idx, followers, dim,
         )  # fmt: skip
         for r in range(rec_ptr[k], rec_ptr[k + 1]):
             p = rec_plat[r]
             for ax in range(dim):
                 xs[r, ax] = x[p * dim + ax]
                 var[r, ax] = c[p * dim + ax, p * dim + ax]
-        if dr_next < dr_rec.shape[0] and dr_rec[dr_next] == k:
+        if dr_now:
             for j in range(n - n_pos):
                 dr_x[dr_next, j] = x[n_pos + j]
                 dr_var[dr_next, j] = c[n_pos + j, n_pos + j]

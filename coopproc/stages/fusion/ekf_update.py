@@ -17,6 +17,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from coopproc.estimation.dr_model import pending_gain
 from coopproc.estimation.range_model import range_unit
 from coopproc.model import FloatArray
 from coopproc.stages.fusion.kernel_types import EpochWork, IntArray, Observations
@@ -112,8 +113,18 @@ def epoch_update(
     gains: FloatArray,
     y: FloatArray,
     s_out: FloatArray,
+    pend: FloatArray,
+    dr_idx: IntArray,
+    followers: IntArray,
+    dim: int,
 ) -> None:
     """Batch update eq. (15)-(17) of one epoch as corrected scalar updates, in place.
+
+    ``pend``: each platform's pending DR transition (:mod:`~coopproc.estimation.dr_model`,
+    "Deferred transitions"; ``dr_idx`` its DR states' index, ``followers`` the platforms
+    that have them): the observations read only
+    platforms with none (:mod:`~coopproc.stages.fusion.deferred`), C's update is the
+    stored covariance's, and a follower with one pending takes the true gain G C h / s.
 
     With ``keep``, scalar update j's gain C h / s (row j of ``gains``), its corrected
     innovation (``y[j]``) and variance s (``s_out[j]``) are kept for the smoother.
@@ -146,6 +157,10 @@ def epoch_update(
             s_var += h_val[j, p] * ph[h_idx[j, p]]
         for i in range(n):
             x[i] += ph[i] / s_var * vj
+        for f in range(followers.shape[0]):
+            p = followers[f]
+            if pend[p, 0] != 0.0:
+                pending_gain(x, ph, p * dim, dr_idx[p], pend[p], vj / s_var)
         # C -= (C h)(C h)^T / s, eq. (17): (ph_i ph_j) / s is the same number for (i, j)
         # and (j, i), so C stays symmetric bit for bit and is never re-symmetrized
         inv_s = 1.0 / s_var

@@ -255,7 +255,7 @@ def _solve(
         smoothed = mbf_backward(
             cp_x, cp_c, pb.nav, pb.proc, pb.kernel_obs, gamma, params.dims, pb.slots,
             pb.block, smoothed_sigma and refits == 0,
-            dr_rec=pb.dr_rec if refits == 0 else pb.dr_rec[:0],
+            dr_rec=pb.dr_rec if refits == 0 else pb.dr_rec[:0], reads=pb.reads,
         )  # fmt: skip
         spread = False
         for _ in range(refits):
@@ -286,11 +286,20 @@ def _solve(
             # the last smoothed states go before the next pass takes as much again
             del smoothed, refit, resid_m, std_s
             refit_checkpoints(
-                first, cp_x, cp_c, pb.nav, pb.proc, pb.kernel_obs, gamma, params.dims, pb.block
+                first,
+                cp_x,
+                cp_c,
+                pb.nav,
+                pb.proc,
+                pb.kernel_obs,
+                gamma,
+                params.dims,
+                pb.block,
+                pb.reads,
             )
             smoothed = mbf_backward(
                 cp_x, cp_c, pb.nav, pb.proc, pb.kernel_obs, gamma, params.dims, pb.slots,
-                pb.block, smoothed_sigma, dr_rec=pb.dr_rec,
+                pb.block, smoothed_sigma, dr_rec=pb.dr_rec, reads=pb.reads,
             )  # fmt: skip
     else:
         smoothed = filtered
@@ -331,7 +340,7 @@ def _forward(
     )
     out = ekf_forward(
         pb.x0, pb.c0, pb.nav, pb.proc, pb.kernel_obs, params.dims, rob, forward_slots,
-        pb.block, pb.dr_rec, np.zeros(0),
+        pb.block, pb.dr_rec, np.zeros(0), pb.reads,
     )  # fmt: skip
     xs_f, var_f, gamma, innov, innov_var, cp_x, cp_c, dr_xf, dr_vf, std_innov = out[:10]
     jump_k, jump_p, jump_var = out[10:]

@@ -26,6 +26,7 @@ __all__ = [
     "Navigation",
     "Observations",
     "Process",
+    "Reads",
     "Robust",
     "Slots",
     "Smoothed",
@@ -123,6 +124,20 @@ class Slots(NamedTuple):
 
     ptr: IntArray
     plat: IntArray
+
+
+class Reads(NamedTuple):
+    """What the filter reads of each epoch besides its observations, CSR by epoch as
+    :class:`Slots`: the platforms ``plat[ptr[k]:ptr[k + 1]]`` (the recorded slots of any
+    pass: the forward pass, the smoother, the refit), and the epochs ``every`` (ascending)
+    at which every follower's DR states are (the DR report grid). A follower's pending
+    transition is applied where it is read (:mod:`~coopproc.stages.fusion.deferred`); one
+    schedule for every pass of a fusion, whatever each records, keeps them the same
+    arithmetic, bit for bit."""
+
+    ptr: IntArray
+    plat: IntArray
+    every: IntArray
 
 
 class EpochWork(NamedTuple):

@@ -21,7 +21,7 @@ from coopproc.model import FloatArray, Session
 from coopproc.stages.fusion.dr_states import DrLayout, dr_layout
 from coopproc.stages.fusion.ekf import block_size
 from coopproc.stages.fusion.inputs import FusionInputs
-from coopproc.stages.fusion.kernel_types import Navigation, Observations, Process, Slots
+from coopproc.stages.fusion.kernel_types import Navigation, Observations, Process, Reads, Slots
 from coopproc.stages.fusion.params import FusionParams
 
 __all__ = ["FilterProblem", "filter_problem"]
@@ -50,6 +50,7 @@ class FilterProblem:
     proc: Process
     kernel_obs: Observations
     slots: Slots
+    reads: Reads  # where the followers' pending transitions are applied (deferred.py)
     block: int  # the smoother's checkpoint block (0: no smoother pass)
     record_forward: bool  # the forward pass records its states at the slots
 
@@ -101,6 +102,8 @@ def filter_problem(
             obs["dz2"], obs["z"], obs["var"],
         ),
         Slots(inputs.rec_ptr, inputs.rec_plat),
+        # every pass of the fusion reads the same (whatever it records): the same bits
+        Reads(inputs.rec_ptr, inputs.rec_plat, dr.rec),
         block_size(epochs.shape[0]) if smooth else 0,
         # the forward states are read for the forward trajectories, or as the solution
         # when no smoother pass follows; else the smoother records its own and the forward

@@ -11,7 +11,9 @@ with the equivalent modified Bryson-Frazier form (Bierman 1977), which for our m
 - backward adjoints, starting from lambda = 0, Lambda = 0 after the last epoch; the time
   update leaves them unchanged where F = I, and maps them by lambda <- F^T lambda,
   Lambda <- F^T Lambda F where a follower carries DR states (F = I + E, O(n) per
-  follower: :func:`~coopproc.estimation.dr_model.adjoint_step`); each scalar update
+  follower, taken where the forward filter applied it: a follower's epochs' F multiplied
+  into one G when it is next read, :mod:`~coopproc.stages.fusion.deferred`,
+  :func:`~coopproc.estimation.dr_model.adjoint_touch`); each scalar update
   j (gain g = C h / s, corrected innovation y, variance s = h C h^T + R / gamma,
   eq. (15)-(17)), taken in reverse order, maps them by
   lambda <- (I - g h^T)^T lambda - h y / s,
@@ -29,7 +31,7 @@ variances a block keeps only the recorded platforms' rows of C_k, all the states
 Lambda is kept symmetric bit for bit (the few entries that two updates reach in two
 orders are averaged with their mirror), so Lambda g, the O(n^2) part of each backward
 step, sums contiguous rows (vectorized), and the transition's columns are copies of its
-rows (:func:`~coopproc.estimation.dr_model.adjoint_step`). The tests check the result
+rows (:func:`~coopproc.estimation.dr_model.adjoint_touch`). The tests check the result
 against the dense RTS recursion.
 
 The re-run of block b - 1 does not depend on the backward pass over block b, so on a
@@ -47,7 +49,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numba
 import numpy as np
 
-from coopproc.estimation.dr_model import adjoint_step
+from coopproc.estimation.dr_model import adjoint_touch
 from coopproc.model import FloatArray
 from coopproc.stages.fusion.ekf import max_epoch_obs
 from coopproc.stages.fusion.kernel_types import (
@@ -57,6 +59,7 @@ from coopproc.stages.fusion.kernel_types import (
     Navigation,
     Observations,
     Process,
+    Reads,
     Slots,
     Smoothed,
 )
@@ -83,7 +86,16 @@ def _backward_block(
     recorded slots of its epochs (into ``out``), and the adjoints carried to the block
     before (in ``adj``)."""
     rec_ptr, rec_plat = slots
-    bx, bc, b_rows, b_idx, b_val, b_cnt, b_gain, b_y, b_s, b_f, b_dr_rows, _ = buf
+    bx, bc, b_rows, b_idx, b_val, b_cnt = (
+        buf.bx,
+        buf.bc,
+        buf.b_rows,
+        buf.b_idx,
+        buf.b_val,
+        buf.b_cnt,
+    )
+    b_gain, b_y, b_s, b_dr_rows = buf.b_gain, buf.b_y, buf.b_s, buf.b_dr_rows
+    b_tptr, b_tplat, b_tg, b_end = buf.b_tptr, buf.b_tplat, buf.b_tg, buf.b_end
     dr_idx, dt = proc.dr_idx, proc.dt
     lam, lam_t, lam_g, col = adj
     xs, var, dr_xs, dr_var = out
@@ -98,6 +110,10 @@ def _backward_block(
     n_dr = n - n_pos
     dr_base = np.searchsorted(dr_rec, first)
     dr_next = np.searchsorted(dr_rec, last) - 1
+    if last < n_epochs:  # back through what the forward pass applied before checkpoint b + 1
+        for p in range(n_plat - 1, -1, -1):
+            if b_end[p, 0] != 0.0:
+                adjoint_touch(lam, lam_t, p * dim, dr_idx[p], b_end[p])
     for k in range(last - 1, first - 1, -1):
         xf = bx[k - first]
         if dr_next >= dr_base and dr_rec[dr_next] == k:  # the DR states, as the positions
@@ -178,12 +194,11 @@ def _backward_block(
                     sym = 0.5 * (lam_t[r_, c_] + lam_t[c_, r_])
                     lam_t[r_, c_] = sym
                     lam_t[c_, r_] = sym
-        if k > 0:  # back through the transition into epoch k: F^T lambda, F^T Lambda F
-            for p in range(n_plat):
-                e = dr_idx[p]
-                if e >= 0:
-                    f = b_f[k - first, p]
-                    adjoint_step(lam, lam_t, p * dim, e, f[0], f[1], f[2], f[3], dt[k])
+        # back through the transitions epoch k applied (its touches, in reverse): G^T lambda,
+        # G^T Lambda G (dr_model: "Deferred transitions")
+        for t in range(b_tptr[k - first + 1] - 1, b_tptr[k - first] - 1, -1):
+            p = b_tplat[t]
+            adjoint_touch(lam, lam_t, p * dim, dr_idx[p], b_tg[t])
 
 
 def _cpu_count() -> int:
@@ -206,6 +221,7 @@ def mbf_backward(
     with_var: bool = True,
     threads: int | None = None,
     dr_rec: IntArray | None = None,
+    reads: Reads | None = None,
 ) -> Smoothed:
     """Smoothed states and variances (R, dim) at the recorded slots (see the module doc).
 
@@ -217,7 +233,9 @@ def mbf_backward(
     process may use two cores or more); the result is the same, bit for bit.
     ``dr_rec``: the epochs the DR states are reported at, as given to ``ekf_forward``
     (None: none); the smoothed DR states and their variances there are returned after
-    the positions' (always with variances: a few per second).
+    the positions' (always with variances: a few per second). ``reads``: the forward
+    pass's (:func:`~coopproc.stages.fusion.ekf.ekf_forward`; None: ``slots`` and
+    ``dr_rec``), where the followers' pending DR transitions are applied.
     """
     n_epochs = proc.dt.shape[0]
     n = cp_x.shape[1]
@@ -226,6 +244,8 @@ def mbf_backward(
     n_plat = nav.ptr.shape[0] - 1
     if dr_rec is None:
         dr_rec = np.zeros(0, dtype=np.int64)
+    if reads is None:
+        reads = Reads(slots.ptr, slots.plat, dr_rec)
     n_dr = n - n_plat * dim
     out = Smoothed(
         xs=np.empty((n_rec, dim)),
@@ -240,9 +260,17 @@ def mbf_backward(
         return out
     max_m = max_epoch_obs(obs.ptr)
     most, most_rec, most_dr = block_extent(obs.ptr, slots.ptr, dr_rec, n_blocks, block, n_epochs)
+    _, most_read, most_every = block_extent(
+        obs.ptr, reads.ptr, reads.every, n_blocks, block, n_epochs
+    )
+    # the touches of a block: at most both ends of every observation, every platform read
+    # and every platform at the epochs all are read
+    touches = 2 * most + most_read + most_every * n_plat
     pipelined = (threads if threads is not None else min(_cpu_count(), 2)) >= 2 and n_blocks > 1
     buffers = [
-        BlockBuffers.allocate(block, n, dim, most, most_rec, max_m, with_var, n_plat, most_dr)
+        BlockBuffers.allocate(
+            block, n, dim, most, most_rec, max_m, with_var, n_plat, most_dr, touches
+        )
         for _ in range(2 if pipelined else 1)
     ]
     at = NavCursor.allocate(n_plat, dim)
@@ -250,7 +278,21 @@ def mbf_backward(
     def rerun(b: int) -> None:
         buf = buffers[b % len(buffers)]
         rerun_block(
-            b, cp_x, cp_c, nav, proc, obs, gamma, dim, slots, block, with_var, dr_rec, at, buf
+            b,
+            cp_x,
+            cp_c,
+            nav,
+            proc,
+            obs,
+            gamma,
+            dim,
+            slots,
+            block,
+            with_var,
+            dr_rec,
+            at,
+            buf,
+            reads,
         )
 
     def backward(b: int) -> None:

@@ -7,7 +7,14 @@ import pytest
 
 from coopproc.estimation.kalman import rts_step
 from coopproc.stages.fusion.ekf import OBS_ANCHOR, OBS_POSITION, OBS_RANGE, ekf_forward, nav_at
-from coopproc.stages.fusion.kernel_types import Navigation, Observations, Process, Robust, Slots
+from coopproc.stages.fusion.kernel_types import (
+    Navigation,
+    Observations,
+    Process,
+    Reads,
+    Robust,
+    Slots,
+)
 from coopproc.stages.fusion.smoother import mbf_backward
 
 DIM = 2
@@ -82,7 +89,7 @@ def _problem(seed: int, n_plat: int = 3, n_ep: int = 60) -> dict[str, np.ndarray
 def _forward(pb: dict[str, np.ndarray], rec: Slots, block: int):
     return ekf_forward(
         pb["x0"], pb["c0"], *_kernel(pb), DIM, ROBUST, rec, block, np.zeros(0, np.int64),
-        np.zeros(0),
+        np.zeros(0), Reads(rec.ptr, rec.plat, np.zeros(0, np.int64)),
     )  # fmt: skip
 
 
@@ -281,7 +288,16 @@ def test_mbf_smoother_with_dr_states_equals_dense_extended_rts(seed: int, block:
 
     def forward(block_: int) -> tuple[np.ndarray, ...]:
         return ekf_forward(  # type: ignore[no-any-return]
-            pb["x0"], pb["c0"], *_kernel(pb), DIM, ROBUST, rec, block_, dr_rec, np.zeros(0)
+            pb["x0"],
+            pb["c0"],
+            *_kernel(pb),
+            DIM,
+            ROBUST,
+            rec,
+            block_,
+            dr_rec,
+            np.zeros(0),
+            Reads(rec.ptr, rec.plat, dr_rec),
         )
 
     # with block 1 the checkpoint before epoch k + 1 is epoch k's posterior
@@ -314,3 +330,66 @@ def test_mbf_smoother_with_dr_states_equals_dense_extended_rts(seed: int, block:
     assert dr_vs[:-1] == pytest.approx(ref_var[:, n_pos:], rel=1e-6, abs=1e-12)
     # the heading states moved off their prior: the test exercises the coupling
     assert np.abs(dr_xs[:, 0] - pb["x0"][n_pos]).max() > 1e-3
+
+
+@pytest.mark.parametrize(("seed", "block"), [(0, 7), (1, 1), (4, 200), (5, 16)])
+def test_deferred_dr_transitions_equal_the_eager_filter(seed: int, block: int) -> None:
+    """A follower's transitions are applied when it is next read (dr_model, "Deferred
+    transitions"): recording only the platforms each epoch observes, and the DR states
+    every 9th epoch, gives the states and variances of the filter that applies every
+    transition at once (every slot recorded: every follower read at every epoch), forward
+    and smoothed; the heading states move, so a wrong gain or adjoint would show."""
+    n_plat = 4
+    pb = _with_dr(_problem(seed, n_plat, n_ep=90), (1, 2, 3))
+    n_ep = pb["dt"].shape[0]
+    every = _all_slots(n_ep, n_plat)
+    # each platform recorded at the epochs an observation reads it (1 or 2 of 4 a range)
+    counts, plats = [], []
+    for k in range(n_ep):
+        lo, hi = pb["ptr"][k], pb["ptr"][k + 1]
+        seen = sorted(
+            set(pb["a"][lo:hi].tolist())
+            | set(pb["b"][lo:hi][pb["kind"][lo:hi] == OBS_RANGE].tolist())
+        )
+        counts.append(len(seen))
+        plats.extend(seen)
+    sparse = Slots(
+        np.concatenate(([0], np.cumsum(counts))).astype(np.int64), np.array(plats, np.int64)
+    )
+    pick = np.array(
+        [
+            every.ptr[k] + p
+            for k in range(n_ep)
+            for p in plats[sum(counts[:k]) : sum(counts[: k + 1])]
+        ]
+    )
+    dr_all = np.arange(n_ep, dtype=np.int64)
+    dr_sparse = dr_all[::9].copy()
+
+    def run(slots: Slots, dr_rec: np.ndarray) -> tuple[np.ndarray, ...]:
+        out = ekf_forward(
+            pb["x0"],
+            pb["c0"],
+            *_kernel(pb),
+            DIM,
+            ROBUST,
+            slots,
+            block,
+            dr_rec,
+            np.zeros(0),
+            Reads(slots.ptr, slots.plat, dr_rec),
+        )
+        xf, vf, gamma, _, _, cp_x, cp_c, dr_xf, dr_vf = out[:9]
+        xs, var, dr_xs, dr_vs = mbf_backward(
+            cp_x, cp_c, *_kernel(pb), gamma, DIM, slots, block, dr_rec=dr_rec
+        )
+        return xf, vf, dr_xf, dr_vf, xs, var, dr_xs, dr_vs, gamma
+
+    eager = run(every, dr_all)
+    lazy = run(sparse, dr_sparse)
+    assert lazy[8] == pytest.approx(eager[8], abs=1e-9)  # the same robust factors
+    for i in (0, 1, 4, 5):  # the recorded slots, forward and smoothed
+        assert lazy[i] == pytest.approx(eager[i][pick], rel=1e-8, abs=1e-10)
+    for i in (2, 3, 6, 7):  # the DR states where both record them
+        assert lazy[i] == pytest.approx(eager[i][dr_sparse], rel=1e-8, abs=1e-12)
+    assert np.abs(lazy[6][:, 0] - pb["x0"][n_plat * DIM]).max() > 1e-3
