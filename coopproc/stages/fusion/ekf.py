@@ -292,10 +292,11 @@ def ekf_forward(
         every = every_next < reads.every.shape[0] and reads.every[every_next] == k
         if every:
             every_next += 1
-        touch_epoch(
-            c, pend, proc.dr_idx, followers, dim, obs, lo, m, reads.plat, reads.ptr[k],
-            reads.ptr[k + 1], every, no_log, no_log_g, 0,
-        )  # fmt: skip
+        if followers.shape[0] > 0:
+            touch_epoch(
+                c, pend, proc.dr_idx, followers, dim, obs, lo, m, reads.plat, reads.ptr[k],
+                reads.ptr[k + 1], every, no_log, no_log_g, 0,
+            )  # fmt: skip
         epoch_innovations(x, c, lo, m, obs, dim, work)
         for j in range(m):
             innov[lo + j] = v[j]

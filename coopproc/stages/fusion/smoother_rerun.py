@@ -170,10 +170,11 @@ def filter_epoch(
         copy2(at.prev, at.now)
     lo = obs.ptr[k]
     m = obs.ptr[k + 1] - lo
-    n_log = touch_epoch(
-        c, pend, proc.dr_idx, followers, dim, obs, lo, m, reads.plat, reads.ptr[k],
-        reads.ptr[k + 1], every, log_plat, log_g, n_log,
-    )  # fmt: skip
+    if followers.shape[0] > 0:
+        n_log = touch_epoch(
+            c, pend, proc.dr_idx, followers, dim, obs, lo, m, reads.plat, reads.ptr[k],
+            reads.ptr[k + 1], every, log_plat, log_g, n_log,
+        )  # fmt: skip
     epoch_innovations(x, c, lo, m, obs, dim, work)
     epoch_update(
         x, c, lo, m, work, gamma, obs.r_var, keep, gains, y, s_out, pend, proc.dr_idx,
