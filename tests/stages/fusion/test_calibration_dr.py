@@ -62,6 +62,38 @@ def test_a_fusion_without_dr_states_has_the_same_positions(sample: tuple) -> Non
     assert with_dr.observations.equals(without.observations)
 
 
+def test_a_refit_that_changes_no_factor_does_not_smooth_again(
+    sample: tuple, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # where the robust refit keeps every factor, the smoother's second pass would be the
+    # first's: without DR states or sigmas it is not run; with them it is, the same bits
+    import coopproc.stages.fusion.fuse as fuse_mod
+
+    session, ranges = sample
+    params = FusionParams()
+    real = fuse_mod.smoothed_gammas
+
+    def keep(obs, *args):  # type: ignore[no-untyped-def]
+        refit, resid, std = real(obs, *args)
+        return args[5].copy(), resid, std  # the factors as they were (args[5]: gamma)
+
+    calls: list[bool] = []
+    smoother = fuse_mod.mbf_backward
+
+    def count(*args, **kwargs):  # type: ignore[no-untyped-def]
+        calls.append(True)
+        return smoother(*args, **kwargs)
+
+    monkeypatch.setattr(fuse_mod, "smoothed_gammas", keep)
+    monkeypatch.setattr(fuse_mod, "mbf_backward", count)
+    once = fuse(session, ranges, params, smoothed_sigma=False, forward=False, dr_states=False)
+    assert len(calls) == 1
+    again = fuse(session, ranges, params, smoothed_sigma=False, forward=False)
+    assert len(calls) == 3  # the DR states asked: the second pass runs
+    for pid, track in again.smoothed.items():
+        assert np.array_equal(track.enu_m, once.smoothed[pid].enu_m)
+
+
 def test_the_cv_factor_through_run(tmp_path: Path) -> None:
     out = tmp_path / "out"
     res = CliRunner().invoke(main, ["run", str(SAMPLE), "-o", str(out), "--no-figures"])
