@@ -74,7 +74,7 @@ def test_a_refit_that_changes_no_factor_does_not_smooth_again(
     real = fuse_mod.smoothed_gammas
 
     def keep(obs, *args):  # type: ignore[no-untyped-def]
-        refit, resid, std = real(obs, *args)
+        _, resid, std = real(obs, *args)
         return args[5].copy(), resid, std  # the factors as they were (args[5]: gamma)
 
     calls: list[bool] = []
