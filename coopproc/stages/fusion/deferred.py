@@ -26,7 +26,16 @@ from coopproc.model import FloatArray
 from coopproc.stages.fusion.ekf_update import OBS_RANGE
 from coopproc.stages.fusion.kernel_types import IntArray, Observations
 
-__all__ = ["touch_all", "touch_epoch"]
+__all__ = ["reads_all", "touch_all", "touch_epoch"]
+
+
+@numba.njit(cache=True, nogil=True)
+def reads_all(every: IntArray, at: int, k: int) -> tuple[bool, int]:
+    """Whether epoch k reads every follower (``every``: the ascending epochs that do, a
+    pass's cursor ``at`` into it, the first not yet passed), and the cursor after k."""
+    if at < every.shape[0] and every[at] == k:
+        return True, at + 1
+    return False, at
 
 
 @numba.njit(cache=True, nogil=True, inline="always")

@@ -45,7 +45,7 @@ from coopproc.estimation.dr_model import DR_STATES, PEND, dr_predict, fold_noise
 from coopproc.estimation.robust import MAD_SCALE, igg3_scalar, mad_sigma_nb
 from coopproc.model import FloatArray
 from coopproc.stages.fusion.copies import copy1, copy2
-from coopproc.stages.fusion.deferred import touch_all, touch_epoch
+from coopproc.stages.fusion.deferred import reads_all, touch_all, touch_epoch
 from coopproc.stages.fusion.dr_faults import fault_buffers, judge_epoch, leaders, take_jumps
 from coopproc.stages.fusion.ekf_update import (
     OBS_ANCHOR,
@@ -289,9 +289,7 @@ def ekf_forward(
         lo = obs.ptr[k]
         m = obs.ptr[k + 1] - lo
         dr_now = dr_next < dr_rec.shape[0] and dr_rec[dr_next] == k
-        every = every_next < reads.every.shape[0] and reads.every[every_next] == k
-        if every:
-            every_next += 1
+        every, every_next = reads_all(reads.every, every_next, k)
         if followers.shape[0] > 0:
             touch_epoch(
                 c, pend, proc.dr_idx, followers, dim, obs, lo, m, reads.plat, reads.ptr[k],

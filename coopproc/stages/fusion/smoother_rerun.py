@@ -21,7 +21,7 @@ import numpy as np
 from coopproc.estimation.dr_model import PEND
 from coopproc.model import FloatArray
 from coopproc.stages.fusion.copies import copy1, copy2
-from coopproc.stages.fusion.deferred import touch_all, touch_epoch
+from coopproc.stages.fusion.deferred import reads_all, touch_all, touch_epoch
 from coopproc.stages.fusion.ekf import (
     epoch_buffers,
     epoch_innovations,
@@ -221,7 +221,7 @@ def rerun_block(
     h_idx, h_val, h_cnt = buf.work.h_idx, buf.work.h_val, buf.work.h_cnt
     pend = np.zeros((nav.ptr.shape[0] - 1, PEND))  # a checkpoint has nothing pending
     followers = np.flatnonzero(proc.dr_idx >= 0)
-    every_next = np.searchsorted(reads.every, first)
+    every_next = int(np.searchsorted(reads.every, first))
     n_log = 0
     # the navigation at the epoch before the block (the cursor searches back)
     nav_at(nav.t, nav.v, nav.ptr, nav.epochs[max(first - 1, 0)], at.cursor, at.prev)
@@ -229,9 +229,7 @@ def rerun_block(
         lo = obs_ptr[k] - base
         hi = obs_ptr[k + 1] - base
         buf.b_tptr[k - first] = n_log
-        every = every_next < reads.every.shape[0] and reads.every[every_next] == k
-        if every:
-            every_next += 1
+        every, every_next = reads_all(reads.every, every_next, k)
         m, n_log = filter_epoch(
             k, x, c, at, pend, nav, proc, obs, gamma, dim, buf.work, bool(np.bool_(True)),
             buf.b_gain[lo:hi], buf.b_y[lo:hi], buf.b_s[lo:hi], reads, followers, every,
@@ -297,7 +295,7 @@ def refit_checkpoints(
     )
     pend = np.zeros((n_plat, PEND))
     followers = np.flatnonzero(proc.dr_idx >= 0)
-    every_next = np.searchsorted(reads.every, first)
+    every_next = int(np.searchsorted(reads.every, first))
     no_log = np.zeros(0, np.int64)
     no_log_g = np.zeros((0, PEND))
     nav_at(nav.t, nav.v, nav.ptr, nav.epochs[max(first - 1, 0)], at.cursor, at.prev)
@@ -306,9 +304,7 @@ def refit_checkpoints(
             touch_all(c, pend, proc.dr_idx, followers, dim, no_log, no_log_g, 0)
             copy1(cp_x[k // block], x)
             copy2(cp_c[k // block], c)
-        every = every_next < reads.every.shape[0] and reads.every[every_next] == k
-        if every:
-            every_next += 1
+        every, every_next = reads_all(reads.every, every_next, k)
         filter_epoch(
             k, x, c, at, pend, nav, proc, obs, gamma, dim, work, bool(np.bool_(False)),
             unused, unused_v, unused_v, reads, followers, every, no_log, no_log_g, 0,
