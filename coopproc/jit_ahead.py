@@ -49,6 +49,7 @@ AHEAD: tuple[tuple[str, str, str], ...] = (
      "i1[1] f8[1]) coopproc.stages.ranging.nlos_types.FilterSettings(f8 f8 f8 b1 f8 b1 f8 "
      "f8 f8 f8 i8 i8 i8 f8 i8 b1 f8 f8 f8)"),
     ("coopproc.stages.ranging.di", "_smooth_kernel", "f8[1] f8[1] f8[1] f8[1] f8[1] f8 f8"),
+    ("coopproc.stages.ranging.jump", "level_step", "f8[1] f8[1] i8 f8"),
     ("coopproc.run.positions_table", "_found_merged", "f8[1] f8[1]"),
     ("coopproc.report.track_kernels", "run_starts", "i1[1]r i1[1]r"),
     ("coopproc.report.track_kernels", "error_norms", "f8[2] f8[2]"),

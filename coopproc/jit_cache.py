@@ -48,6 +48,8 @@ RUN_KERNELS: tuple[tuple[str, str, float], ...] = (
     ("coopproc.stages.fusion.smoother", "_backward_block", 3.9),
     ("coopproc.stages.ranging.di", "_smooth_kernel", 1.0),
     ("coopproc.stages.ranging.nlos_kernel", "filter_kernel", 6.3),
+    # the two-run combination's level-step test (onerun.py), measured alone 2026-12-07
+    ("coopproc.stages.ranging.jump", "level_step", 3.2),
     ("coopproc.run.positions_table", "_found_merged", 0.6),
     ("coopproc.report.track_kernels", "run_starts", 0.5),
     ("coopproc.report.track_kernels", "error_norms", 1.2),
