@@ -69,6 +69,23 @@ __all__ = ["mbf_backward"]
 
 
 @numba.njit(cache=True, nogil=True)
+def _lambda_times(lam_t: FloatArray, v: FloatArray, out: FloatArray) -> None:
+    """``out`` = Lambda v, as sum over ll ascending of Lambda[ll, :] v[ll]: each entry's
+    sum in the order of a dot product of Lambda's column with v (so the same bits), but
+    as row-by-row multiply-adds that vectorize, where a dot product's strict order of
+    additions runs one at a time (the DR states' variances at 20 platforms: n_dr n^2 per
+    reported second)."""
+    n = out.shape[0]
+    for i in range(n):
+        out[i] = 0.0
+    for ll in range(n):
+        vl = v[ll]
+        row = lam_t[ll]
+        for i in range(n):
+            out[i] += row[i] * vl
+
+
+@numba.njit(cache=True, nogil=True)
 def _backward_block(
     b: int,
     obs_ptr: IntArray,
@@ -123,12 +140,10 @@ def _backward_block(
                 for jj in range(n):
                     acc -= c_row[jj] * lam[jj]
                 dr_xs[dr_next, j] = acc
+                _lambda_times(lam_t, c_row, col)
                 quad = 0.0
                 for jj in range(n):
-                    s = 0.0
-                    for ll in range(n):
-                        s += lam_t[ll, jj] * c_row[ll]
-                    quad += c_row[jj] * s
+                    quad += c_row[jj] * col[jj]
                 dr_var[dr_next, j] = c_row[n_pos + j] - quad
             dr_next -= 1
         for r in range(rec_ptr[k], rec_ptr[k + 1]):  # X_k - C_k lambda, C_k - C_k L C_k
@@ -143,11 +158,7 @@ def _backward_block(
                 if not with_var:
                     continue
                 cf = bc[k - first]
-                for jj in range(n):
-                    s = 0.0
-                    for ll in range(n):
-                        s += lam_t[ll, jj] * cf[ll, i]
-                    col[jj] = s
+                _lambda_times(lam_t, cf[:, i], col)
                 quad = 0.0
                 for jj in range(n):
                     quad += cf[i, jj] * col[jj]
