@@ -5,22 +5,27 @@ with the epoch pointers ``ptr``.
 
 A leader's own navigation enters as a fix of its position (``[fusion] leader_fix``):
 
-- ``"epoch"`` (default): at every epoch. With staggered polling the epochs are the range
-  times (45 per second for 10 platforms, 190 for 20), so a 10 Hz GNSS/INS fix is repeated
-  4.5-19 times and weighs that much more than its sigma says: the leader is pinned to its
+- ``"epoch"``: at every epoch. With staggered polling the epochs are the range times (45
+  per second for 10 platforms, 190 for 20), so a 10 Hz GNSS/INS fix is repeated 4.5-19
+  times and weighs that much more than its sigma says: the leader is pinned to its
   navigation, and two of every three scalar updates are the leader's;
-- ``"nav"``: once per navigation sample, at the first epoch at or after each nav time (and
-  at the first epoch); where the nav is at least as fast as the ranges this is every epoch.
+- ``"pooled"`` (default): the same information in one update per nav sample: at the
+  first epoch at or after each nav time (and at the first epoch), with variance
+  sigma^2 / m, m the epochs from there to the next such epoch (the fixes ``"epoch"``
+  applies there; :func:`pooled_counts`). Where the nav is at least as fast as the ranges
+  every epoch has its fix and m = 1: ``"epoch"`` bit for bit;
+- ``"nav"``: once per navigation sample as ``"pooled"`` places it, with its own sigma.
 
 Either way only at the epochs inside the leader's navigation span (issue 29, module
 :mod:`~coopproc.stages.fusion.nav_span`): "the first epoch" is the first one inside it.
 
-``"nav"`` is the consistent model and about 3x cheaper with many pairs, but the drift
-self-calibration (NIS per platform, :mod:`coopproc.stages.fusion.calibration`) was tuned
-with a pinned leader: with ``"nav"`` part of each follower's innovation is attributed to the
-leader's uncertainty, its drift is inflated less, and on the ``dr-faults`` scenario the
-followers' mean errors grow from 0.14-0.16 m to 0.22-0.33 m (sample_logs: 0.2 % better).
-So ``"epoch"`` stays the default until that calibration accounts for it.
+``"nav"`` is the consistent model, but the drift self-calibration (NIS per platform,
+:mod:`coopproc.stages.fusion.calibration`) was tuned with a pinned leader: with ``"nav"``
+part of each follower's innovation is attributed to the leader's uncertainty, its drift
+is inflated less, and on the ``dr-faults`` scenario the followers' mean errors grow from
+0.14-0.16 m to 0.22-0.33 m (sample_logs: 0.2 % better). ``"pooled"`` keeps the pinned
+leader at a third of the scalar updates with many pairs (docs/methods-fusion.md, "The
+leader's fix").
 """
 
 from __future__ import annotations
@@ -55,6 +60,14 @@ def leader_fix_epochs(
         out[j, at[at < k_hi[j]]] = True
         out[j, k_lo[j]] = True  # the first epoch inside its span
     return out
+
+
+def pooled_counts(fixes: np.ndarray, k_hi: int) -> np.ndarray:
+    """For ``leader_fix = "pooled"``: each fix epoch of one leader (``fixes``, K bool, as
+    ``"nav"`` places them) with the number of epochs it stands for, from it up to the next
+    fix epoch (the last: up to ``k_hi``, the end of the leader's span): the fixes that
+    ``"epoch"`` would apply there, pooled into one (int64, one per fix epoch)."""
+    return np.diff(np.append(np.flatnonzero(fixes), k_hi))  # every fix epoch is < k_hi
 
 
 def nav_sigma(session: Session, pid: str, times: FloatArray, default_m: float) -> FloatArray:
@@ -155,6 +168,7 @@ def build_observations(
     n_ep = epochs.shape[0]
     leaders = [pid for pid in moving if session.platforms[pid].role == "leader"]
     fixes = leader_fix_epochs(session, leaders, epochs, params.leader_fix == "epoch")
+    _, k_hi = epoch_bounds(session, leaders, epochs)
     n_fix = fixes.sum(axis=0).astype(np.int64) * dim  # leader fix values per epoch
     counts = np.bincount(ep_idx, minlength=n_ep) + n_fix
     ptr = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
@@ -186,6 +200,8 @@ def build_observations(
         ks = np.flatnonzero(fixes[j])
         sig = nav_sigma(session, pid, epochs[ks], params.leader_sigma_m)
         own = nav_points(session, pid, epochs[ks], range(dim))
+        if params.leader_fix == "pooled":  # the information of the epochs it stands for
+            sig = sig / np.sqrt(pooled_counts(fixes[j], int(k_hi[j])))[:, None]
         for axis in range(dim):
             slot = ptr[ks] + earlier[j, ks] * dim + axis
             obs["a"][slot] = index[pid]

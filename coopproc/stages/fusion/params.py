@@ -86,10 +86,12 @@ class FusionParams:
         metadata={"help": "successive range times closer than this (s) form one epoch"},
     )
     leader_fix: str = field(
-        default="epoch",
+        default="pooled",
         metadata={
-            "help": "when a leader's own fix is an observation: 'epoch' (every range epoch) "
-            "or 'nav' (once per nav sample; cheaper with many pairs, see docs/methods-fusion.md)"
+            "help": "when a leader's own fix is an observation: 'pooled' (once per nav "
+            "sample, with the information of the range epochs it stands for), 'epoch' "
+            "(at every range epoch) or 'nav' (once per nav sample, its own sigma); "
+            "docs/methods-fusion.md"
         },
     )
     state: str = field(
@@ -264,8 +266,10 @@ class FusionParams:
             raise ValueError(f"cp_folds = {self.cp_folds}, expected >= 0")
         if not self.dr_states_every_s > 0:
             raise ValueError(f"dr_states_every_s = {self.dr_states_every_s}, expected > 0")
-        if self.leader_fix not in ("epoch", "nav"):
-            raise ValueError(f"leader_fix = {self.leader_fix!r}, expected 'epoch' or 'nav'")
+        if self.leader_fix not in ("epoch", "nav", "pooled"):
+            raise ValueError(
+                f"leader_fix = {self.leader_fix!r}, expected 'epoch', 'nav' or 'pooled'"
+            )
         if self.mad_window < 0:
             raise ValueError(f"mad_window = {self.mad_window}, expected >= 0")
         if self.mad_floor < 0 or self.epoch_merge_s < 0 or self.drift_correlation_s < 0:
