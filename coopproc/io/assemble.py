@@ -39,7 +39,11 @@ def to_session_time(raw: RawTrajectory, base: str, gps_week: int | None) -> RawT
         return raw
     if base == "gps_tow":
         assert gps_week is not None
-        t = raw.time_s - gps_week * timeconv.SECONDS_PER_WEEK
+        # absolute GPST seconds (~1.3e9) hold float64 steps of 2.4e-7 s: the time of week
+        # keeps the microsecond, not that step (a .pos "06:00:00.200" is 108000.2, not
+        # 108000.20000004768), so the same session read from an MCAP file, whose stamps
+        # are nanoseconds, has the same times
+        t = np.round(raw.time_s - gps_week * timeconv.SECONDS_PER_WEEK, 6)
     elif base == "unix":
         t = timeconv.gpst_to_unix(raw.time_s)
     else:

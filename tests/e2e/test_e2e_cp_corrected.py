@@ -56,8 +56,14 @@ def test_corrected_cp_keeps_the_di_smoothing_over_two_hours(tmp_path: Path) -> N
     assert sim.exit_code == 0, sim.output
     config = tmp_path / "corrected.toml"  # the default's CP, DR DI as recorded
     config.write_text('[fusion]\ncp_state = "corrected"\n[ranging.di]\ndr_states = false\n')
-    paper = tmp_path / "position.toml"  # paper 000's CP, the default before 2026-12-03
-    paper.write_text('[fusion]\ncp_state = "position"\n[ranging.di]\ndr_states = false\n')
+    # paper 000's CP with the leader's fix at every epoch, the default before 2026-12-03
+    # (with the pooled fix, the default since 2026-12-07, that CP puts no pair in a
+    # ranges-only window here: DI 4 of 4, 2 false, 0.0376 m; the corrected CP's figures
+    # are those below either way)
+    paper = tmp_path / "position.toml"
+    paper.write_text(
+        '[fusion]\ncp_state = "position"\nleader_fix = "epoch"\n[ranging.di]\ndr_states = false\n'
+    )
     plain = _run(session, tmp_path / "plain", paper)
     fixed = _run(session, tmp_path / "fixed", config)
     # measured 2026-12-03: position 3 pairs with ranges-only windows, DI 4 of 4 events,
