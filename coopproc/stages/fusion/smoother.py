@@ -68,13 +68,13 @@ from coopproc.stages.fusion.smoother_rerun import BlockBuffers, block_extent, re
 __all__ = ["mbf_backward"]
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _lambda_times(lam_t: FloatArray, v: FloatArray, out: FloatArray) -> None:
     """``out`` = Lambda v, as sum over ll ascending of Lambda[ll, :] v[ll]: each entry's
     sum in the order of a dot product of Lambda's column with v (so the same bits), but
     as row-by-row multiply-adds that vectorize, where a dot product's strict order of
     additions runs one at a time (the DR states' variances at 20 platforms: n_dr n^2 per
-    reported second)."""
+    reported second; each update's Lambda g)."""
     n = out.shape[0]
     for i in range(n):
         out[i] = 0.0
@@ -173,14 +173,7 @@ def _backward_block(
             shift = g_lam + b_y[j] / b_s[j]
             for p in range(cnt):
                 lam[b_idx[j, p]] -= b_val[j, p] * shift
-            # Lambda g: lam_g[i] = sum over jj of Lambda[i, jj] g[jj], jj ascending
-            for i in range(n):
-                lam_g[i] = 0.0
-            for jj in range(n):
-                gj = g[jj]
-                row_t = lam_t[jj]
-                for i in range(n):
-                    lam_g[i] += row_t[i] * gj
+            _lambda_times(lam_t, g, lam_g)  # Lambda g
             g_lam_g = 0.0
             for i in range(n):
                 g_lam_g += g[i] * lam_g[i]
