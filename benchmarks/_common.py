@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import atexit
 import os
+import re
 import shutil
 import statistics
 import subprocess
@@ -26,7 +27,7 @@ import tempfile
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -143,6 +144,10 @@ class CliRun:
     #: fusion workers), sampled every :data:`TREE_SAMPLE_S`; 0 where /proc has no
     #: smaps_rollup (not Linux)
     peak_tree_bytes: int = 0
+    #: per phase of the run (its "run: <phase> done in" lines, in order), the largest
+    #: PSS sum sampled while it ran (from the previous phase's line to its own; the
+    #: first phase from the fork: imports and start-up are in it); empty without samples
+    phase_peak_bytes: dict[str, int] = field(default_factory=dict)
 
     @property
     def peak_bytes(self) -> int:
@@ -189,13 +194,17 @@ class _TreeSampler:
     def __init__(self, pid: int) -> None:
         self.pid = pid
         self.peak = 0
+        #: (perf_counter, PSS sum) of every sample
+        self.samples: list[tuple[float, int]] = []
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
 
     def _run(self) -> None:
         while not self._stop.is_set():
-            self.peak = max(self.peak, sum(_pss_bytes(p) for p in _descendants(self.pid)))
+            pss = sum(_pss_bytes(p) for p in _descendants(self.pid))
+            self.samples.append((time.perf_counter(), pss))
+            self.peak = max(self.peak, pss)
             self._stop.wait(TREE_SAMPLE_S)
 
     def stop(self) -> int:
@@ -222,13 +231,43 @@ def run_cli(args: Sequence[str], env: dict[str, str] | None = None) -> CliRun:
     )
     assert proc.stderr is not None
     sampler = _TreeSampler(proc.pid) if os.path.exists("/proc/self/smaps_rollup") else None
-    err = proc.stderr.read()  # until the child closes it (it exits)
+    lines, ends = [], []
+    for line in proc.stderr:  # until the child closes it (it exits); stderr is line-buffered
+        lines.append(line)
+        done = _PHASE_DONE.match(line)
+        if done:
+            ends.append((done.group(1), time.perf_counter()))
     tree = sampler.stop() if sampler is not None else 0
     _, status, usage = os.wait4(proc.pid, 0)
     seconds = time.perf_counter() - start
     proc.returncode = os.waitstatus_to_exitcode(status)
     proc.stderr.close()
-    return CliRun(seconds, int(usage.ru_maxrss) * 1024, proc.returncode, err, tree)
+    phases = _phase_peaks(sampler.samples, start, ends) if sampler is not None else {}
+    return CliRun(
+        seconds, int(usage.ru_maxrss) * 1024, proc.returncode, "".join(lines), tree, phases
+    )
+
+
+#: A phase's progress line on stderr (coopproc.run.progress): ``run: <phase> done in``.
+_PHASE_DONE = re.compile(r"^run: (.+?) done in ")
+
+
+def _phase_peaks(
+    samples: Sequence[tuple[float, int]], start: float, ends: Sequence[tuple[str, float]]
+) -> dict[str, int]:
+    """Per phase (``ends``: its label and when its line arrived), the largest sample
+    taken since the line before (the first: since ``start``); a phase without a sample
+    in its span (shorter than the sampling interval) gets the sample nearest its end."""
+    out: dict[str, int] = {}
+    begin = start
+    for label, end in ends:
+        inside = [pss for t, pss in samples if begin < t <= end]
+        if not inside and samples:
+            inside = [min(samples, key=lambda s: abs(s[0] - end))[1]]
+        if inside:
+            out[label] = max(out.get(label, 0), max(inside))
+        begin = end
+    return out
 
 
 def count_lines(path: Path) -> int:

@@ -70,6 +70,8 @@ class Result:
     rss: list[int] = field(default_factory=list)
     tree: list[int] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
+    #: per run, each phase's peak PSS sum (_common.CliRun.phase_peak_bytes)
+    phase_peaks: list[dict[str, int]] = field(default_factory=list)
     load: str = ""
     #: what each run did (_work.py), one per run
     works: list[Work] = field(default_factory=list)
@@ -143,6 +145,7 @@ def run_one(
         r.seconds.append(res.seconds)
         r.rss.append(res.peak_rss_bytes)
         r.tree.append(res.peak_tree_bytes)
+        r.phase_peaks.append(res.phase_peak_bytes)
         r.works.append(read_work(out, session, can))
     info = json.loads((out / "run.json").read_text())
     r.timings = {k: float(v) for k, v in info.get("timings_s", {}).items()}
@@ -188,20 +191,30 @@ def print_tables(results: list[Result]) -> None:
     for r in results:
         labels += [k for k in r.timings if k not in labels]
     print()
-    print("phase (run.json timings_s): seconds, rows/s")
-    head = "".join(f"{r.name:>22}" for r in results)
+    print("phase (run.json timings_s): seconds, rows/s, peak GB")
+    head = "".join(f"{r.name:>30}" for r in results)
     print(f"{'phase':<26}{head}")
     for label in labels:
         cells = ""
         for r in results:
             s = r.timings.get(label)
             if s is None:
-                cells += f"{'-':>22}"
+                cells += f"{'-':>30}"
             else:
                 rate = phase_rows(label, r) / s if s > 0 else float("inf")
-                cells += f"{s:>8.2f} s {rate:>10,.0f}/s"
+                peak = phase_peak(r, label)
+                shown = f"{peak / GB:>6.2f} GB" if peak is not None else f"{'-':>9}"
+                cells += f"{s:>8.2f} s {rate:>10,.0f}/s{shown}"
         print(f"{label[:25]:<26}{cells}")
-    print("(rows: reading = input rows, writing tables = output CSV rows, else ranges)")
+    print("(rows: reading = input rows, writing tables = output CSV rows, else ranges;")
+    print(" peak GB: the largest PSS sum of the process tree sampled while the phase ran,")
+    print(" median over the runs; the first phase includes the start-up)")
+
+
+def phase_peak(r: Result, label: str) -> float | None:
+    """The median over the runs of ``label``'s peak PSS sum (None: never sampled)."""
+    peaks = [run[label] for run in r.phase_peaks if label in run]
+    return statistics.median(peaks) if peaks else None
 
 
 def exponents(results: list[Result]) -> list[tuple[str, float, float]]:
@@ -343,6 +356,7 @@ def main() -> None:
                 "peak_rss_bytes": r.rss,
                 "peak_tree_pss_bytes": r.tree,
                 "timings_s": r.timings,
+                "phase_peak_pss_bytes": r.phase_peaks,
                 "load": r.load,
                 "work": [w.as_dict() for w in r.works],
                 "not_comparable": r.incomplete,
