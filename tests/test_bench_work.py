@@ -145,3 +145,14 @@ def test_smoothable_pairs_from_the_true_dr_error(
     assert smoothable_pairs(tmp_path) == {"P00-P01": smooth}
     # the threshold is the ranging stage's rule: at a gain limit of 0.05 nothing smooths
     assert smoothable_pairs(tmp_path, passthrough_gain=0.05) == {"P00-P01": False}
+
+
+def test_a_phase_peak_is_the_largest_sample_between_its_line_and_the_one_before() -> None:
+    from _common import _phase_peaks
+
+    samples = [(0.5, 10), (1.0, 50), (1.5, 20), (2.5, 70), (3.0, 30), (3.05, 40)]
+    ends = [("read", 1.2), ("fusion", 3.0), ("html", 3.02), ("read", 3.1)]
+    # read: samples in (0, 1.2]; fusion: (1.2, 3.0]; html: none in (3.0, 3.02], so the
+    # sample nearest its end (3.0 s: 30); a label seen twice keeps its larger peak
+    assert _phase_peaks(samples, 0.0, ends) == {"read": 50, "fusion": 70, "html": 30}
+    assert _phase_peaks([], 0.0, ends) == {}
