@@ -15,7 +15,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
-from _common import target
+from _common import _phase_peaks, target
 from _work import MIN_RECALL, overlaps, read_work, smoothable_pairs, verdict
 
 PAIRS = ("P00-P01", "P00-P02", "P01-P02")
@@ -148,8 +148,6 @@ def test_smoothable_pairs_from_the_true_dr_error(
 
 
 def test_a_phase_peak_is_the_largest_sample_between_its_line_and_the_one_before() -> None:
-    from _common import _phase_peaks
-
     samples = [(0.5, 10), (1.0, 50), (1.5, 20), (2.5, 70), (3.0, 30), (3.05, 40)]
     ends = [("read", 1.2), ("fusion", 3.0), ("html", 3.02), ("read", 3.1)]
     # read: samples in (0, 1.2]; fusion: (1.2, 3.0]; html: none in (3.0, 3.02], so the
