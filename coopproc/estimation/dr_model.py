@@ -62,6 +62,7 @@ __all__ = [
     "DR_STATES",
     "PEND",
     "adjoint_touch",
+    "adjoint_touch_vector",
     "dr_predict",
     "fold_noise",
     "pending_gain",
@@ -233,6 +234,16 @@ def _block_row(m: FloatArray, r: int, i0: int, e: int, g: FloatArray) -> tuple[f
 
 
 @numba.njit(cache=True, nogil=True)
+def adjoint_touch_vector(lam: FloatArray, i0: int, e: int, g: FloatArray) -> None:
+    """lambda <- G^T lambda of :func:`adjoint_touch` alone: the smoother pass that forms
+    no variance carries lambda only (:mod:`~coopproc.stages.fusion.smoother`)."""
+    a_et, a_ew, a_es, a_nt, a_nw, a_ns, a_tw = g[1], g[2], g[3], g[4], g[5], g[6], g[7]
+    lam[e + 1] += a_ew * lam[i0] + a_nw * lam[i0 + 1] + a_tw * lam[e]
+    lam[e] += a_et * lam[i0] + a_nt * lam[i0 + 1]
+    lam[e + 2] += a_es * lam[i0] + a_ns * lam[i0 + 1]
+
+
+@numba.njit(cache=True, nogil=True)
 def adjoint_touch(lam: FloatArray, lam_t: FloatArray, i0: int, e: int, g: FloatArray) -> None:
     """The smoother's step back through one follower's touch (G = I + A of ``g``, as
     :func:`touch` applied it), in place: lambda <- G^T lambda and Lambda <- G^T Lambda G,
@@ -245,10 +256,8 @@ def adjoint_touch(lam: FloatArray, lam_t: FloatArray, i0: int, e: int, g: FloatA
     of every other row are N's rows B (Lambda symmetric); the B x B block takes A's rows
     too, N[a, b] + sum_i N[a, i] A[i, b], averaged with its transpose.
     """
+    adjoint_touch_vector(lam, i0, e, g)
     a_et, a_ew, a_es, a_nt, a_nw, a_ns, a_tw = g[1], g[2], g[3], g[4], g[5], g[6], g[7]
-    lam[e + 1] += a_ew * lam[i0] + a_nw * lam[i0 + 1] + a_tw * lam[e]
-    lam[e] += a_et * lam[i0] + a_nt * lam[i0 + 1]
-    lam[e + 2] += a_es * lam[i0] + a_ns * lam[i0 + 1]
     n = lam_t.shape[0]
     for j in range(n):  # rows: G^T M
         m_e = lam_t[e, j]

@@ -34,11 +34,14 @@ step, sums contiguous rows (vectorized), and the transition's columns are copies
 rows (:func:`~coopproc.estimation.dr_model.adjoint_touch`). The tests check the result
 against the dense RTS recursion.
 
-The re-run of block b - 1 does not depend on the backward pass over block b, so on a
-machine with two cores or more the two run at once (:func:`mbf_backward` hands the re-runs
-to a second thread; both compiled loops release the GIL): a smoother pass costs about the
-larger of the two instead of their sum (issue 11), with the same arithmetic, so the same
-bits.
+The re-runs do not depend on the backward pass nor on each other (each starts from its
+checkpoint), so on a machine with two cores or more :func:`mbf_backward` runs two re-runs
+at once in worker threads while the backward pass takes the block after them (the
+compiled loops release the GIL): the re-runs, four fifths of a pass's work with the DR
+states, take about half their time, with the same arithmetic, so the same bits. (Until
+2026-12-08 one worker ran the re-runs one after the other beside the backward pass, issue
+11: a pass cost the re-runs' time.) A pass that forms no variance (no smoothed sigmas, no
+DR states reported) carries lambda only: the states need nothing of Lambda.
 """
 
 from __future__ import annotations
@@ -49,7 +52,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numba
 import numpy as np
 
-from coopproc.estimation.dr_model import adjoint_touch
+from coopproc.estimation.dr_model import adjoint_touch, adjoint_touch_vector
 from coopproc.model import FloatArray
 from coopproc.stages.fusion.ekf import max_epoch_obs
 from coopproc.stages.fusion.kernel_types import (
@@ -93,6 +96,7 @@ def _backward_block(
     dim: int,
     block: int,
     with_var: bool,
+    with_lam: bool,
     buf: BlockBuffers,
     proc: Process,
     dr_rec: IntArray,
@@ -101,7 +105,8 @@ def _backward_block(
 ) -> None:
     """The backward pass over block ``b`` (re-run into the given buffers): the smoothed
     recorded slots of its epochs (into ``out``), and the adjoints carried to the block
-    before (in ``adj``)."""
+    before (in ``adj``). ``with_lam``: carry Lambda too (False: lambda only, no variance
+    asked: :func:`mbf_backward`)."""
     rec_ptr, rec_plat = slots
     bx, bc, b_rows, b_idx, b_val, b_cnt = (
         buf.bx,
@@ -130,7 +135,10 @@ def _backward_block(
     if last < n_epochs:  # back through what the forward pass applied before checkpoint b + 1
         for p in range(n_plat - 1, -1, -1):
             if b_end[p, 0] != 0.0:
-                adjoint_touch(lam, lam_t, p * dim, dr_idx[p], b_end[p])
+                if with_lam:
+                    adjoint_touch(lam, lam_t, p * dim, dr_idx[p], b_end[p])
+                else:
+                    adjoint_touch_vector(lam, p * dim, dr_idx[p], b_end[p])
     for k in range(last - 1, first - 1, -1):
         xf = bx[k - first]
         if dr_next >= dr_base and dr_rec[dr_next] == k:  # the DR states, as the positions
@@ -173,6 +181,8 @@ def _backward_block(
             shift = g_lam + b_y[j] / b_s[j]
             for p in range(cnt):
                 lam[b_idx[j, p]] -= b_val[j, p] * shift
+            if not with_lam:  # lambda's step needs nothing of Lambda
+                continue
             _lambda_times(lam_t, g, lam_g)  # Lambda g
             g_lam_g = 0.0
             for i in range(n):
@@ -202,7 +212,10 @@ def _backward_block(
         # G^T Lambda G (dr_model: "Deferred transitions")
         for t in range(b_tptr[k - first + 1] - 1, b_tptr[k - first] - 1, -1):
             p = b_tplat[t]
-            adjoint_touch(lam, lam_t, p * dim, dr_idx[p], b_tg[t])
+            if with_lam:
+                adjoint_touch(lam, lam_t, p * dim, dr_idx[p], b_tg[t])
+            else:
+                adjoint_touch_vector(lam, p * dim, dr_idx[p], b_tg[t])
 
 
 def _cpu_count() -> int:
@@ -232,9 +245,10 @@ def mbf_backward(
     ``cp_x``, ``cp_c``, ``gamma`` come from :func:`~coopproc.stages.fusion.ekf.ekf_forward`
     run with the same inputs and ``block``. ``with_var=False`` gives no variances, an empty
     (0, dim) array (they cost n^2 per recorded value, more than the states; the run's
-    tables do not use them). ``threads``: 2 re-runs the next block in a second thread
-    while the backward pass takes this one, 1 does both in turn (None: 2 when this
-    process may use two cores or more); the result is the same, bit for bit.
+    tables do not use them). ``threads``: the re-runs run at once (2: two worker
+    threads re-run the next blocks while the backward pass takes this one; 1: re-run
+    and backward pass in turn; None: 2 when this process may use two cores or more);
+    the result is the same, bit for bit.
     ``dr_rec``: the epochs the DR states are reported at, as given to ``ekf_forward``
     (None: none); the smoothed DR states and their variances there are returned after
     the positions' (always with variances: a few per second). ``reads``: the forward
@@ -259,7 +273,11 @@ def mbf_backward(
     )
     # Lambda, symmetric bit for bit (module doc), so its rows are its columns: Lambda g
     # is a sum of contiguous rows, vectorized (the name from when the transpose was kept)
-    adj = Adjoints(lam=np.zeros(n), lam_t=np.zeros((n, n)), lam_g=np.zeros(n), col=np.zeros(n))
+    # Lambda only where a variance is formed: the states need lambda alone (X_k - C_k
+    # lambda), so a pass without variances skips Lambda's O(n^2) per scalar update
+    with_lam = bool(np.bool_(with_var or dr_rec.shape[0] > 0))  # a run-time bool (ekf_update)
+    m = n if with_lam else 1
+    adj = Adjoints(lam=np.zeros(n), lam_t=np.zeros((m, m)), lam_g=np.zeros(n), col=np.zeros(n))
     if n_blocks == 0:
         return out
     max_m = max_epoch_obs(obs.ptr)
@@ -270,17 +288,20 @@ def mbf_backward(
     # the touches of a block: at most both ends of every observation, every platform read
     # and every platform at the epochs all are read
     touches = 2 * most + most_read + most_every * n_plat
-    pipelined = (threads if threads is not None else min(_cpu_count(), 2)) >= 2 and n_blocks > 1
+    lanes = threads if threads is not None else min(_cpu_count(), 2)
+    pipelined = lanes >= 2 and n_blocks > 1
+    # pipelined: ``lanes`` re-runs at once (each into a buffer and with a navigation cursor
+    # of its own) while the backward pass reads the buffer before them
+    n_buf = lanes + 1 if pipelined else 1
     buffers = [
         BlockBuffers.allocate(
             block, n, dim, most, most_rec, max_m, with_var, n_plat, most_dr, touches
         )
-        for _ in range(2 if pipelined else 1)
+        for _ in range(n_buf)
     ]
-    at = NavCursor.allocate(n_plat, dim)
+    cursors = [NavCursor.allocate(n_plat, dim) for _ in range(n_buf)]
 
     def rerun(b: int) -> None:
-        buf = buffers[b % len(buffers)]
         rerun_block(
             b,
             cp_x,
@@ -294,27 +315,30 @@ def mbf_backward(
             block,
             with_var,
             dr_rec,
-            at,
-            buf,
+            cursors[b % n_buf],
+            buffers[b % n_buf],
             reads,
         )
 
     def backward(b: int) -> None:
-        buf = buffers[b % len(buffers)]
-        _backward_block(b, obs.ptr, slots, dim, block, with_var, buf, proc, dr_rec, adj, out)
+        buf = buffers[b % n_buf]
+        _backward_block(
+            b, obs.ptr, slots, dim, block, with_var, with_lam, buf, proc, dr_rec, adj, out
+        )
 
     if not pipelined:
         for b in range(n_blocks - 1, -1, -1):
             rerun(b)
             backward(b)
         return out
-    # the re-runs go one after the other (they share the navigation cursor), each into the
-    # buffers the backward pass is not reading
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="smoother") as pool:
-        rerun(n_blocks - 1)
-        for b in range(n_blocks - 1, -1, -1):
-            ahead = pool.submit(rerun, b - 1) if b > 0 else None
+    # the re-runs are independent (each starts from its checkpoint); the re-run of
+    # b - lanes takes the buffer of b + 1, whose backward pass is done
+    with ThreadPoolExecutor(max_workers=lanes, thread_name_prefix="smoother") as pool:
+        last = n_blocks - 1
+        ahead = {b: pool.submit(rerun, b) for b in range(last, max(last - lanes, -1), -1)}
+        for b in range(last, -1, -1):
+            if b - lanes >= 0:
+                ahead[b - lanes] = pool.submit(rerun, b - lanes)
+            ahead.pop(b).result()
             backward(b)
-            if ahead is not None:
-                ahead.result()
     return out

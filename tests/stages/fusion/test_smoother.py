@@ -198,22 +198,52 @@ def test_nav_at_is_np_interp_bit_for_bit() -> None:
 
 @pytest.mark.parametrize("with_var", [True, False])
 def test_pipelined_smoother_is_the_sequential_one_bit_for_bit(with_var: bool) -> None:
-    """The re-run of the next block in a second thread changes no bit of the result."""
+    """Re-runs in two or three worker threads beside the backward pass change no bit of
+    the result."""
     n_plat = 3
     pb = _problem(6, n_plat)
     n_ep = pb["dt"].shape[0]
     rec = _all_slots(n_ep, n_plat)
     _, _, gamma, _, _, cp_x, cp_c, *_ = _forward(pb, rec, 5)
-    assert cp_x.shape[0] >= 3  # several blocks, so the pipeline has work to overlap
+    # blocks enough for every buffer to be reused by a later block's re-run
+    assert cp_x.shape[0] >= 8
     results = []
-    for threads in (1, 2):
+    for threads in (1, 2, 3):
         smoothed = mbf_backward(
             cp_x, cp_c, *_kernel(pb), gamma, DIM, rec, 5, with_var, threads=threads
         )
         results.append(smoothed)
-    for one, two in zip(results[0], results[1], strict=True):
-        assert one.tobytes() == two.tobytes()
+    for other in results[1:]:
+        for one, two in zip(results[0], other, strict=True):
+            assert one.tobytes() == two.tobytes()
     assert np.isfinite(results[0][0]).all() and results[0][0].shape == (rec[1].shape[0], DIM)
+
+
+def test_a_pass_without_variances_gives_the_states_of_one_with_them() -> None:
+    """Without variances the backward pass carries lambda alone (no Lambda): the smoothed
+    states are those of the pass that forms the variances, bit for bit, and differ from
+    the filtered ones (the smoother did something)."""
+    n_plat = 3
+    pb = _problem(6, n_plat)
+    rec = _all_slots(pb["dt"].shape[0], n_plat)
+    xs_f, _, gamma, _, _, cp_x, cp_c, *_ = _forward(pb, rec, 5)
+    full = mbf_backward(cp_x, cp_c, *_kernel(pb), gamma, DIM, rec, 5, True, threads=1)
+    states = mbf_backward(cp_x, cp_c, *_kernel(pb), gamma, DIM, rec, 5, False, threads=1)
+    assert states.var.shape == (0, DIM) and full.var.shape == full.xs.shape
+    assert states.xs.tobytes() == full.xs.tobytes()
+    assert np.abs(states.xs - xs_f).max() > 1e-3
+    # with DR states: the followers' transitions step lambda alone too (adjoint_touch_vector)
+    pb = _with_dr(pb, (0, 2))
+    dr_rec = np.arange(pb["dt"].shape[0], dtype=np.int64)
+    reads = Reads(rec.ptr, rec.plat, dr_rec)
+    _, _, gamma, _, _, cp_x, cp_c, *_ = ekf_forward(
+        pb["x0"], pb["c0"], *_kernel(pb), DIM, ROBUST, rec, 5, dr_rec, np.zeros(0), reads
+    )
+    kernel = (cp_x, cp_c, *_kernel(pb), gamma, DIM, rec, 5, False)
+    with_dr = mbf_backward(*kernel, threads=1, dr_rec=dr_rec, reads=reads)
+    alone = mbf_backward(*kernel, threads=2, dr_rec=dr_rec[:0], reads=reads)
+    assert with_dr.dr_var.shape[0] == dr_rec.shape[0] and alone.dr_var.shape[0] == 0
+    assert alone.xs.tobytes() == with_dr.xs.tobytes()
 
 
 def _with_dr(pb: dict[str, np.ndarray], dr_plats: tuple[int, ...]) -> dict[str, np.ndarray]:
